@@ -1,0 +1,1 @@
+"""The EDDIE variant: point-to-point links, controller-held position, annotated maps."""

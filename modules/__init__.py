@@ -1,0 +1,1 @@
+"""The Sidewalk modules: vocabulary, runtime, and one sub-package per module."""

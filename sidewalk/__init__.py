@@ -1,0 +1,3 @@
+"""Sidewalk: the composition root (CLI, launcher, missions, reports, compare)."""
+
+__all__: list[str] = []

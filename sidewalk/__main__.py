@@ -1,0 +1,3 @@
+from sidewalk.cli import main
+
+main()

@@ -1,0 +1,62 @@
+"""The `sidewalk` command line: one Typer app, one sub-app per area, each in its own file."""
+
+from __future__ import annotations
+
+import importlib
+import logging
+import os
+
+import typer
+
+__all__ = ["app", "main"]
+
+app = typer.Typer(
+    name="sidewalk",
+    help="Sidewalk: the CMU Terregator/Navlab navigation stack on a Zenoh CODGER blackboard.",
+    no_args_is_help=True,
+    pretty_exceptions_enable=False,
+    add_completion=False,
+)
+
+# (module, attribute, name) — each area registers its commands in its own file.
+_SUBAPPS = [
+    ("sidewalk.cli._blackboard", "blackboard_app", "blackboard"),
+    ("sidewalk.cli._bb", "bb_app", "bb"),
+    ("sidewalk.cli._sim", "sim_app", "sim"),
+    ("sidewalk.cli._bench", "bench_app", "bench"),
+    ("sidewalk.cli._perception", "perception_app", "perception"),
+]
+_COMMANDS = [
+    ("sidewalk.cli._run", "register"),
+]
+
+
+def _assemble() -> None:
+    for modname, attr, name in _SUBAPPS:
+        try:
+            mod = importlib.import_module(modname)
+        except ModuleNotFoundError as exc:
+            if exc.name == modname:
+                continue
+            raise
+        app.add_typer(getattr(mod, attr), name=name)
+    for modname, attr in _COMMANDS:
+        try:
+            mod = importlib.import_module(modname)
+        except ModuleNotFoundError as exc:
+            if exc.name == modname:
+                continue
+            raise
+        getattr(mod, attr)(app)
+
+
+_assemble()
+
+
+def main() -> None:
+    """Run the CLI with logging set from SIDEWALK_LOG (default WARNING)."""
+    logging.basicConfig(
+        level=os.environ.get("SIDEWALK_LOG", "WARNING").upper(),
+        format="%(asctime)s %(name)s %(levelname)s %(message)s",
+    )
+    app()

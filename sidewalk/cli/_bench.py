@@ -1,0 +1,48 @@
+"""`sidewalk bench …`: benchmarks that print one JSON object each."""
+
+from __future__ import annotations
+
+import importlib
+import json
+from typing import Annotated
+
+import typer
+
+__all__ = ["bench_app"]
+
+bench_app = typer.Typer(help="Benchmarks; each prints one JSON object.", no_args_is_help=True)
+
+
+def _emit(result: dict, as_json: bool) -> None:
+    if as_json:
+        typer.echo(json.dumps(result, sort_keys=True))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    table = Table("metric", "value")
+    for k, v in sorted(result.items()):
+        table.add_row(k, f"{v:.4g}" if isinstance(v, float) else str(v))
+    Console().print(table)
+
+
+@bench_app.command("blackboard")
+def bench_blackboard(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    tokens: Annotated[int, typer.Option(help="Tokens in the store for the retrieve benchmark")] = 100_000,
+    samples: Annotated[int, typer.Option(help="Samples per latency figure")] = 2000,
+) -> None:
+    """Blackboard node and client in separate processes, beside the raw-Zenoh floor."""
+    mod = importlib.import_module("bench.blackboard")
+    _emit(mod.run(tokens=tokens, samples=samples), as_json)
+
+
+@bench_app.command("sim")
+def bench_sim(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    world: Annotated[str, typer.Option(help="World name or file")] = "campus",
+    frames: Annotated[int, typer.Option(help="Frames to render")] = 100,
+) -> None:
+    """Simulator render time, step time and the real-time factor reached."""
+    mod = importlib.import_module("bench.sim")
+    _emit(mod.run(world=world, frames=frames), as_json)

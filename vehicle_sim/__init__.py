@@ -1,0 +1,4 @@
+"""Terregator/Navlab simulator: world, kinematics, colored-range sensors, drive interface.
+
+Knows nothing about the blackboard.
+"""

@@ -48,7 +48,7 @@ def with_network(*, serve: bool = False) -> Callable[[Callable[..., Any]], Calla
     """
 
     def decorate(fn: Callable[..., Any]) -> Callable[..., Any]:
-        sig = inspect.signature(fn)
+        sig = inspect.signature(fn, eval_str=True)
         params = [p for name, p in sig.parameters.items() if name != "net"]
 
         @functools.wraps(fn)

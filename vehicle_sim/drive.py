@@ -1,0 +1,219 @@
+"""The drive interface: the messages between a driver (the HELM) and the simulated vehicle, and their wire codec.
+
+Frames: `world` (truth, x east / y north [m]), `local` (odometry: starts at (0, 0, 0) at the start pose
+and drifts; never jumps), `vehicle` (x forward, y left, at the rear axle / body centre).
+Wire format: msgpack of the model's fields (JSON accepted on input: a payload starting with `{`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Literal, TypeVar
+
+import msgpack
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+__all__ = [
+    "DriveCommand",
+    "Odometry",
+    "TruthPose",
+    "SimEvent",
+    "SimClock",
+    "VehicleLimits",
+    "SimInfo",
+    "SimHeartbeat",
+    "EVENT_KINDS",
+    "MAX_COMMAND_DURATION",
+    "WireError",
+    "encode",
+    "decode",
+]
+
+#: Longest duration a single command may hold [s] (sim time).
+MAX_COMMAND_DURATION = 30.0
+
+#: Kinds of simulator events.
+EVENT_KINDS = ("collision", "off-path", "on-path", "watchdog", "commands-exhausted", "rejected")
+
+_FROZEN = ConfigDict(frozen=True, extra="forbid")
+
+
+class WireError(ValueError):
+    """A payload that is not a valid drive-interface message; says what is wrong."""
+
+
+class DriveCommand(BaseModel):
+    """Drive the vehicle at `speed` [m/s] (negative = reverse) along `curvature` [1/m] (positive = left).
+
+    `mode="immediate"` replaces whatever is executing and clears the queue; `mode="queued"` runs after
+    the commands already queued and needs a `duration` [s]. A command without a duration holds until
+    the next command arrives and is guarded by the watchdog; a timed command holds for its duration
+    (sim time) and then the next queued one starts (the vehicle stops when the queue runs out).
+    `turn_rate` [rad/s] overrides the curvature for skid-steer vehicles (the Terregator turns in
+    place with `speed=0`); Ackermann vehicles reject it. `seq` is the sender's sequence number.
+    """
+
+    model_config = _FROZEN
+
+    speed: float = Field(allow_inf_nan=False)
+    curvature: float = Field(default=0.0, allow_inf_nan=False)
+    mode: Literal["immediate", "queued"] = "immediate"
+    duration: float | None = Field(default=None, gt=0.0, le=MAX_COMMAND_DURATION, allow_inf_nan=False)
+    turn_rate: float | None = Field(default=None, allow_inf_nan=False)
+    seq: int = 0
+
+    @model_validator(mode="after")
+    def _queued_needs_duration(self) -> "DriveCommand":
+        if self.mode == "queued" and self.duration is None:
+            raise ValueError("a queued command needs a duration [s]")
+        return self
+
+
+class Odometry(BaseModel):
+    """Dead-reckoned pose of `vehicle` in the `local` frame at sim time `stamp` [s]: x, y [m], yaw [rad].
+
+    `v` [m/s] and `omega` [rad/s] are the measured speed and yaw rate; `distance` [m] the odometer.
+    """
+
+    model_config = _FROZEN
+
+    stamp: float
+    x: float
+    y: float
+    yaw: float
+    v: float
+    omega: float
+    distance: float
+    frame: Literal["local"] = "local"
+    child_frame: Literal["vehicle"] = "vehicle"
+
+
+class TruthPose(BaseModel):
+    """True pose of `vehicle` in the `world` frame at sim time `stamp` [s] (evaluation and monitor only).
+
+    x, y, z [m] (z = ground height), yaw [rad], v [m/s], omega [rad/s], curvature [1/m] actually driven.
+    """
+
+    model_config = _FROZEN
+
+    stamp: float
+    x: float
+    y: float
+    z: float
+    yaw: float
+    v: float
+    omega: float
+    curvature: float
+    frame: Literal["world"] = "world"
+
+
+class SimEvent(BaseModel):
+    """Something that happened to the vehicle at sim time `stamp` [s], at world (x, y) [m].
+
+    kinds: collision (with `object_id`), off-path / on-path (leaving / re-entering path objects),
+    watchdog (commands stopped arriving: vehicle stopped), commands-exhausted (timed commands ran out),
+    rejected (a command the vehicle cannot execute; `detail` says why).
+    """
+
+    model_config = _FROZEN
+
+    stamp: float
+    kind: Literal["collision", "off-path", "on-path", "watchdog", "commands-exhausted", "rejected"]
+    x: float
+    y: float
+    object_id: str | None = None
+    object_kind: str | None = None
+    detail: str = ""
+
+
+class SimClock(BaseModel):
+    """Simulated time `stamp` [s] and the real-time factor asked for (`rtf`) and reached (`rtf_actual`)."""
+
+    model_config = _FROZEN
+
+    stamp: float
+    rtf: float
+    rtf_actual: float
+    step: int
+
+
+class VehicleLimits(BaseModel):
+    """What a driver may ask of the vehicle: speeds [m/s], curvature [1/m], turn-in-place."""
+
+    model_config = _FROZEN
+
+    name: str
+    max_speed: float
+    max_reverse_speed: float
+    max_curvature: float
+    min_turning_radius: float
+    max_accel: float
+    max_decel: float
+    turns_in_place: bool
+    max_turn_rate: float
+
+
+class SimInfo(BaseModel):
+    """The running simulator: world, vehicle and its limits, rates [Hz], the start pose in the world frame."""
+
+    model_config = _FROZEN
+
+    world: str
+    vehicle: Literal["terregator", "navlab"]
+    limits: VehicleLimits
+    seed: int
+    rtf: float
+    physics_hz: float
+    publish_hz: float
+    watchdog_timeout: float
+    start_x: float
+    start_y: float
+    start_yaw: float
+    map_error: float
+
+
+class SimHeartbeat(BaseModel):
+    """The node's sign of life, the same shape as every module's heartbeat: seq, sim time [s], wall time [s], period [s]."""
+
+    model_config = _FROZEN
+
+    module: str = "sim"
+    seq: int = Field(ge=0)
+    sim_time: float | None = None
+    wall_time: float = Field(ge=0.0)
+    period_s: float = Field(gt=0.0)
+    pid: int = Field(ge=0)
+    host: str = ""
+    state: Literal["starting", "ready", "stopping"] = "ready"
+
+
+M = TypeVar("M", bound=BaseModel)
+
+
+def encode(msg: BaseModel, *, as_json: bool = False) -> bytes:
+    """Encode a drive-interface message as msgpack (default) or JSON."""
+    if as_json:
+        return json.dumps(msg.model_dump(mode="json"), separators=(",", ":")).encode()
+    return msgpack.packb(msg.model_dump(), use_bin_type=True)
+
+
+def decode(cls: type[M], payload: bytes | bytearray | memoryview) -> M:
+    """Decode a msgpack or JSON payload into `cls`; raise `WireError` saying what is wrong."""
+    raw = bytes(payload)
+    if not raw:
+        raise WireError(f"empty payload for {cls.__name__}")
+    try:
+        if raw[:1] in (b"{", b" ", b"\n"):
+            data = json.loads(raw.decode("utf-8"), parse_constant=lambda c: math.nan)
+        else:
+            data = msgpack.unpackb(raw, raw=False, strict_map_key=True)
+    except Exception as exc:  # noqa: BLE001 - msgpack/json raise assorted errors on garbage
+        raise WireError(f"{cls.__name__}: payload is neither msgpack nor JSON: {type(exc).__name__}: {exc}"[:300]) from None
+    if not isinstance(data, dict):
+        raise WireError(f"{cls.__name__}: payload must be a map of fields, got {type(data).__name__}")
+    try:
+        return cls.model_validate(data)
+    except ValidationError as exc:
+        parts = [f"{'.'.join(str(x) for x in e['loc']) or '<root>'}: {e['msg']}" for e in exc.errors()]
+        raise WireError(f"{cls.__name__}: " + "; ".join(parts)) from None

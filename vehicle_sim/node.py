@@ -1,0 +1,309 @@
+"""The simulator node: runs a `Simulator` against the wall clock at a real-time factor and serves it over Zenoh.
+
+Keys under `sidewalk/<ns>/` (see `SimKeys`, docs/keys.md): sim/clock, sim/odom, sim/truth, sim/events
+(published, msgpack), sim/cmd (subscribed: `DriveCommand`, msgpack or JSON), sim/capture, sim/info,
+sim/map, sim/world (queryables), alive/sim (liveliness), heartbeat/sim (1 Hz wall clock).
+Threads: the physics loop, a capture worker; zenoh callbacks only enqueue.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import socket
+import queue
+import threading
+import time
+from collections import deque
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from vehicle_sim._zenoh import SimQuery, SimSession
+from vehicle_sim.drive import DriveCommand, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
+from vehicle_sim.mapgen import map_for
+from vehicle_sim.odometry import DEFAULT_ODOMETRY, OdometryModel
+from vehicle_sim.simulator import CommandRejected, SimConfig, Simulator
+from vehicle_sim.worldfile import World
+
+__all__ = ["SimKeys", "NodeConfig", "SimNode"]
+
+log = logging.getLogger("vehicle_sim.node")
+
+
+class SimKeys:
+    """The simulator's key expressions for one namespace."""
+
+    def __init__(self, ns: str) -> None:
+        self.ns = ns
+        base = f"sidewalk/{ns}/sim"
+        self.base = base
+        #: published at publish_hz sim time: `SimClock` (msgpack)
+        self.clock = f"{base}/clock"
+        #: subscribed: `DriveCommand` (msgpack, or JSON text starting with "{")
+        self.cmd = f"{base}/cmd"
+        #: published at publish_hz sim time: `Odometry` (local frame, drifts)
+        self.odom = f"{base}/odom"
+        #: published at publish_hz sim time: `TruthPose` (world frame) — evaluation and monitor only
+        self.truth = f"{base}/truth"
+        #: published when they happen: `SimEvent`
+        self.events = f"{base}/events"
+        #: queryable: `CaptureRequest` (msgpack/JSON/empty) → `encode_capture` bytes at the current pose
+        self.capture = f"{base}/capture"
+        #: queryable: → `SimInfo` (msgpack; JSON if the query is JSON)
+        self.info = f"{base}/info"
+        #: queryable: → the map GeoJSON (JSON) the robot is told
+        self.map = f"{base}/map"
+        #: queryable: → the world GeoJSON (JSON) — evaluation and monitor only
+        self.world = f"{base}/world"
+        #: liveliness token while the node runs
+        self.alive = f"sidewalk/{ns}/alive/sim"
+        #: heartbeat every wall second: `SimHeartbeat` (module "sim", seq, sim_time, wall_time, period_s, pid, host, state)
+        self.heartbeat = f"sidewalk/{ns}/heartbeat/sim"
+
+
+class NodeConfig(BaseModel):
+    """Node settings: vehicle, real-time factor, physics and publish rates [Hz] (sim time), seed, map error scale."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    vehicle: Literal["terregator", "navlab"] = "terregator"
+    rtf: float = Field(default=1.0, gt=0.0, le=1000.0)
+    seed: int = 0
+    physics_hz: float = Field(default=100.0, gt=0.0, le=2000.0)
+    publish_hz: float = Field(default=20.0, gt=0.0)
+    watchdog_timeout: float = Field(default=0.5, gt=0.0)
+    map_error: float = Field(default=1.0, ge=0.0)
+    odometry: OdometryModel = DEFAULT_ODOMETRY
+    capture_workers: int = Field(default=1, ge=1, le=8)
+
+
+class SimNode:
+    """A simulator served over Zenoh; `start()` → ready, `stop()` → session closed."""
+
+    def __init__(self, world: World, config: NodeConfig, zenoh_config: dict, namespace: str = "default") -> None:
+        if config.publish_hz > config.physics_hz:
+            raise ValueError(f"publish_hz {config.publish_hz} must not exceed physics_hz {config.physics_hz}")
+        self.world = world
+        self.config = config
+        self.keys = SimKeys(namespace)
+        self._zcfg = zenoh_config
+        self.sim = Simulator(
+            world,
+            SimConfig(vehicle=config.vehicle, physics_hz=config.physics_hz, watchdog_timeout=config.watchdog_timeout,
+                      odometry=config.odometry, seed=config.seed),
+        )
+        self._publish_every = max(1, int(round(config.physics_hz / config.publish_hz)))
+        self._cmds: deque[bytes] = deque()
+        self._captures: queue.Queue = queue.Queue()
+        self._stop = threading.Event()
+        self._wake = threading.Event()
+        self._lock = threading.Lock()  # guards the pose snapshot
+        self._snapshot = (self.sim.t, self.sim.state)
+        self._threads: list[threading.Thread] = []
+        self._session: SimSession | None = None
+        self._scene = None
+        self._map_json: bytes | None = None
+        self._world_json: bytes | None = None
+        self.rtf_actual = 0.0
+        self.overruns = 0
+        self.commands_received = 0
+        self.commands_rejected = 0
+        self.step_time_total = 0.0
+        self._error: BaseException | None = None
+        self._hb_seq = 0
+
+    # ---- lifecycle ---------------------------------------------------------------------------
+
+    def info(self) -> SimInfo:
+        """Return what this node simulates."""
+        s = self.sim
+        return SimInfo(
+            world=self.world.name, vehicle=self.config.vehicle, limits=s.limits, seed=self.config.seed, rtf=self.config.rtf,
+            physics_hz=self.config.physics_hz, publish_hz=self.config.physics_hz / self._publish_every,
+            watchdog_timeout=self.config.watchdog_timeout, start_x=s.start[0], start_y=s.start[1], start_yaw=s.start[2],
+            map_error=self.config.map_error,
+        )
+
+    def start(self) -> None:
+        """Open the session, declare everything, start the loop; return once serving (the node is ready)."""
+        from vehicle_sim.scene import Scene
+
+        self._scene = Scene(self.world, seed=self.config.seed)
+        self._map_json = json.dumps(map_for(self.world, self.config.map_error, self.config.seed).to_geojson()).encode()
+        self._world_json = json.dumps(self.world.to_geojson()).encode()
+        self._session = z = SimSession(self._zcfg)
+        try:
+            k = self.keys
+            self._pub_clock = z.publisher(k.clock, droppable=True)
+            self._pub_odom = z.publisher(k.odom, droppable=True)
+            self._pub_truth = z.publisher(k.truth, droppable=True)
+            self._pub_events = z.publisher(k.events)
+            self._pub_hb = z.publisher(k.heartbeat, droppable=True)
+            z.subscribe(k.cmd, self._on_cmd)
+            z.queryable(k.capture, self._on_capture)
+            z.queryable(k.info, self._on_info)
+            z.queryable(k.map, lambda q: self._reply_static(q, self._map_json))
+            z.queryable(k.world, lambda q: self._reply_static(q, self._world_json))
+            for i in range(self.config.capture_workers):
+                t = threading.Thread(target=self._capture_worker, name=f"sim-capture-{i}", daemon=True)
+                t.start()
+                self._threads.append(t)
+            loop = threading.Thread(target=self._run_loop, name="sim-physics", daemon=True)
+            loop.start()
+            self._threads.append(loop)
+            z.liveliness_token(k.alive)
+        except BaseException:
+            self.stop()
+            raise
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop the loop and workers, then close the session (idempotent)."""
+        self._stop.set()
+        self._wake.set()
+        for _ in self._threads:
+            self._captures.put(None)
+        for t in self._threads:
+            t.join(timeout)
+        self._threads.clear()
+        if self._session is not None:
+            self._session.close()
+            self._session = None
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the node stops (or `timeout` [s] wall passes); return True if stopped."""
+        return self._stop.wait(timeout)
+
+    @property
+    def error(self) -> BaseException | None:
+        """Return the exception that stopped the physics loop, if any."""
+        return self._error
+
+    # ---- callbacks (zenoh threads: enqueue only) ------------------------------------------------
+
+    def _on_cmd(self, payload: bytes, key: str) -> None:
+        self._cmds.append(payload)
+
+    def _on_capture(self, q: SimQuery) -> None:
+        with self._lock:
+            t, state = self._snapshot
+        self._captures.put((q, t, state))
+
+    def _on_info(self, q: SimQuery) -> None:
+        try:
+            q.reply(encode(self.info(), as_json=q.is_json), as_json=q.is_json)
+        finally:
+            q.finish()
+
+    def _reply_static(self, q: SimQuery, data: bytes | None) -> None:
+        try:
+            if data is not None:
+                q.reply(data, as_json=True)
+        finally:
+            q.finish()
+
+    # ---- capture worker -----------------------------------------------------------------------
+
+    def _capture_worker(self) -> None:
+        from vehicle_sim.sensors import CaptureRequest, capture, encode_capture
+
+        while True:
+            item = self._captures.get()
+            if item is None:
+                return
+            q, t, state = item
+            try:
+                if self._stop.is_set():
+                    q.reply_err(json.dumps({"error": "simulator is shutting down"}).encode())
+                    continue
+                req = decode(CaptureRequest, q.payload) if q.payload else CaptureRequest()
+                res = capture(self._scene, (state.x, state.y, state.yaw), t, req, vehicle=self.config.vehicle)
+                q.reply(encode_capture(res))
+            except WireError as exc:
+                q.reply_err(json.dumps({"error": "bad capture request", "detail": str(exc)}).encode())
+            except Exception as exc:  # noqa: BLE001 - report any capture failure to the asker
+                log.exception("capture failed")
+                q.reply_err(json.dumps({"error": "capture failed", "detail": f"{type(exc).__name__}: {exc}"}).encode())
+            finally:
+                q.finish()
+
+    # ---- physics loop -------------------------------------------------------------------------
+
+    def _drain_commands(self) -> None:
+        sim = self.sim
+        while self._cmds:
+            raw = self._cmds.popleft()
+            self.commands_received += 1
+            try:
+                cmd = decode(DriveCommand, raw)
+                sim.submit(cmd)
+            except WireError as exc:
+                self.commands_rejected += 1
+                ev = SimEvent(stamp=sim.t, kind="rejected", x=sim.state.x, y=sim.state.y, detail=str(exc)[:500])
+                self._pub_events.put(encode(ev))
+            except CommandRejected:
+                self.commands_rejected += 1  # the simulator logged a "rejected" event
+
+    def _publish(self) -> None:
+        sim = self.sim
+        self._pub_clock.put(encode(sim.clock(self.config.rtf, self.rtf_actual)))
+        self._pub_odom.put(encode(sim.odometry()))
+        self._pub_truth.put(encode(sim.truth()))
+
+    def _run_loop(self) -> None:
+        try:
+            self._loop()
+        except BaseException as exc:  # noqa: BLE001 - keep the reason for the caller
+            self._error = exc
+            log.exception("simulator loop failed")
+            self._stop.set()
+
+    def _loop(self) -> None:
+        sim = self.sim
+        rtf = self.config.rtf
+        dt = sim.dt
+        every = self._publish_every
+        max_lag = max(0.25, 5 * dt, 0.1 * rtf)  # sim seconds (≈ 0.1 s wall) we may fall behind before re-anchoring
+        wake_wall = max(dt / rtf, 0.001)  # at most 1000 wakes per wall second
+        perf = time.perf_counter
+        wall0 = perf()
+        sim0 = sim.t
+        hb_next = wall0
+        window: deque[tuple[float, float]] = deque()
+        self._publish()
+        while not self._stop.is_set():
+            self._drain_commands()
+            now = perf()
+            target = sim0 + (now - wall0) * rtf
+            if target - sim.t > max_lag:
+                self.overruns += 1
+                wall0, sim0 = now, sim.t  # re-anchor: drop the backlog rather than spiral
+                target = sim.t + dt
+            t0 = perf()
+            while sim.t + dt <= target + 1e-9 and not self._stop.is_set():
+                events = sim.step()
+                for ev in events:
+                    self._pub_events.put(encode(ev))
+                if sim.steps % every == 0:
+                    with self._lock:
+                        self._snapshot = (sim.t, sim.state)
+                    self._publish()
+                if self._cmds:
+                    self._drain_commands()
+            self.step_time_total += perf() - t0
+            now = perf()
+            window.append((now, sim.t))
+            while len(window) > 2 and now - window[0][0] > 1.0:
+                window.popleft()
+            if len(window) >= 2 and window[-1][0] > window[0][0]:
+                self.rtf_actual = (window[-1][1] - window[0][1]) / (window[-1][0] - window[0][0])
+            if now >= hb_next:
+                self._hb_seq += 1
+                self._pub_hb.put(encode(SimHeartbeat(seq=self._hb_seq, sim_time=sim.t, wall_time=time.time(), period_s=1.0,
+                                                     pid=os.getpid(), host=socket.gethostname())))
+                hb_next = now + 1.0
+            next_wall = wall0 + (sim.t + dt - sim0) / rtf
+            delay = max(next_wall - perf(), 0.0)
+            if delay > 0.0:
+                self._stop.wait(max(delay, wake_wall))

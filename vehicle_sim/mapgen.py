@@ -17,7 +17,7 @@ from vehicle_sim.worldfile import (
     WorldObject,
 )
 
-__all__ = ["MapError", "DEFAULT_MAP_ERROR", "NO_MAP_ERROR", "derive_map", "map_for", "REMOVABLE_ROLES"]
+__all__ = ["MapError", "DEFAULT_MAP_ERROR", "NO_MAP_ERROR", "derive_map", "displaced_by_up_to", "map_for", "REMOVABLE_ROLES"]
 
 #: Roles of objects that may be displaced or left out of the map (path objects never are).
 REMOVABLE_ROLES = ("landmark", "obstacle")
@@ -27,7 +27,8 @@ class MapError(BaseModel):
     """How wrong the map is: a rigid offset [m] and rotation [deg] about the start, per-object errors.
 
     `displace_std` [m] is the per-axis standard deviation of independent displacements of landmark and
-    obstacle objects; `missing_fraction` is the probability that such an object is absent from the map.
+    obstacle objects, each displacement clipped to `displace_max` [m] when given; `missing_fraction` is
+    the probability that such an object is absent from the map.
     """
 
     model_config = ConfigDict(frozen=True, extra="forbid")
@@ -36,6 +37,7 @@ class MapError(BaseModel):
     offset_y: float = 0.0
     rotation_deg: float = 0.0
     displace_std: float = Field(default=0.0, ge=0.0)
+    displace_max: float | None = Field(default=None, ge=0.0)
     missing_fraction: float = Field(default=0.0, ge=0.0, le=1.0)
 
     @classmethod
@@ -49,6 +51,11 @@ class MapError(BaseModel):
             displace_std=d.displace_std * magnitude,
             missing_fraction=min(1.0, d.missing_fraction * magnitude),
         )
+
+
+def displaced_by_up_to(max_m: float) -> "MapError":
+    """Return a map error that only moves landmarks and obstacles, each by at most `max_m` [m]."""
+    return MapError(displace_std=max_m / 2.0, displace_max=max_m)
 
 
 #: The small error shipped maps carry: 0.4 m offset, 0.3° rotation, 0.25 m object scatter, 5 % missing.
@@ -82,6 +89,8 @@ def derive_map(world: World, error: MapError, rng: np.random.Generator) -> World
         # draw both numbers for every object so the stream does not depend on earlier outcomes
         drop = rng.random() < error.missing_fraction
         d = rng.normal(0.0, 1.0, size=2) * error.displace_std
+        if error.displace_max is not None and (n := float(np.hypot(*d))) > error.displace_max:
+            d *= error.displace_max / n
         if removable and drop:
             continue
         shift = d if removable else np.zeros(2)

@@ -60,7 +60,12 @@ def with_network(*, serve: bool = False) -> Callable[[Callable[..., Any]], Calla
                 raise typer.BadParameter(msgs) from None
             return fn(*args, net=net.with_defaults(serve=serve), **kwargs)
 
-        wrapper.__signature__ = sig.replace(parameters=params + _PARAMS)  # type: ignore[attr-defined]
+        new_sig = sig.replace(parameters=params + _PARAMS)
+        wrapper.__signature__ = new_sig  # type: ignore[attr-defined]
+        # evaluated annotations: Typer resolves hints in the wrapper's globals, not the command's
+        wrapper.__annotations__ = {p.name: p.annotation for p in new_sig.parameters.values()}
+        if new_sig.return_annotation is not inspect.Signature.empty:
+            wrapper.__annotations__["return"] = new_sig.return_annotation
         del wrapper.__wrapped__
         return wrapper
 

@@ -1,0 +1,248 @@
+"""`sidewalk perception …`: evaluate PERCEPTION against the simulator's ground truth; run the process.
+
+This file is the composition root for perception evaluation: it captures frames with `vehicle_sim`
+(pure, no network), turns them into `ColoredRangeImage`s on the laser grid, and hands them to the pure
+`modules.perception.evaluation`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Iterator
+
+import numpy as np
+import typer
+
+__all__ = ["perception_app", "FrameSource"]
+
+perception_app = typer.Typer(help="PERCEPTION: colored-range segmentation, object finding, position fixes.", no_args_is_help=True)
+
+
+@dataclass
+class FrameSource:
+    """Capture registered colored-range frames with ground truth from a world, at chosen poses."""
+
+    world_name: str
+    vehicle: str = "terregator"
+    seed: int = 0
+    use_map: bool = True  # predicted objects from the map file (False: from the world, a perfect map)
+
+    def __post_init__(self) -> None:
+        from vehicle_sim.scene import Scene
+        from vehicle_sim.sensors import CaptureRequest, LaserConfig, extrinsics_for
+        from vehicle_sim.worldfile import KINDS, load_world, world_path
+
+        from modules.perception.monitor import ResolutionTable, SensorGeometry
+
+        self.kinds = tuple(KINDS)
+        path = Path(self.world_name) if self.world_name.endswith(".geojson") else world_path(self.world_name)
+        self.world = load_world(path)
+        map_path = path.with_name(path.name.replace(".world.geojson", ".map.geojson"))
+        self.map = load_world(map_path) if (self.use_map and map_path.exists() and map_path != path) else self.world
+        self.scene = Scene(self.world, seed=self.seed)
+        self.request = CaptureRequest()
+        laser = LaserConfig()
+        self.table = ResolutionTable(sensor_geometry(self.vehicle), max_distance=laser.ambiguity)
+        self.map_objects = tuple(_map_object(o) for o in self.map.objects)
+
+    def capture(self, pose: tuple[float, float, float], stamp: float, rng: np.random.Generator):
+        """Return (ColoredRangeImage, (H, W) truth class labels (-1 = none/sky), capture seconds) at a true pose."""
+        from vehicle_sim.sensors import capture
+
+        from modules.perception.sensor_frame import SensorFrame, colored_range_image
+
+        t0 = time.perf_counter()
+        res = capture(self.scene, pose, stamp, self.request, vehicle=self.vehicle, rng=rng)
+        dt = time.perf_counter() - t0
+        frame = SensorFrame.from_fields(res)
+        img = colored_range_image(frame)
+        labels = res.laser_labels.astype(np.int64)
+        labels[(labels == self.kinds.index("sky")) | (labels == self.kinds.index("none"))] = -1
+        self.last_frame = frame
+        return img, labels, dt
+
+
+def sensor_geometry(vehicle: str):
+    """Return the laser geometry of a vehicle for the monitor's resolution table."""
+    from vehicle_sim.sensors import LaserConfig, extrinsics_for
+
+    from modules.perception.monitor import SensorGeometry
+
+    laser = LaserConfig()
+    lp = extrinsics_for(vehicle).laser_position
+    return SensorGeometry(
+        height=float(lp[2]), pitch_down=math.radians(-laser.tilt_deg), hfov=math.radians(laser.hfov_deg),
+        vfov=math.radians(laser.vfov_deg), rows=laser.rows, cols=laser.cols, range_step=laser.range_step,
+        x_offset=float(lp[0]),
+    )
+
+
+def _map_object(o):
+    """Convert a `vehicle_sim` world object into the vocabulary's MapObject (what a driving unit carries)."""
+    from modules.vocabulary import MapObject
+
+    shape = {k: v for k, v in o.shape.model_dump().items() if not isinstance(v, dict)}
+    d = {
+        "object_id": o.id,
+        "kind": o.kind,
+        "role": o.role,
+        "cost": o.cost if o.cost is not None and math.isfinite(o.cost) else None,
+        "colour": {"mean": tuple(o.colour.mean), "std": tuple(o.colour.std)} if o.colour is not None else None,
+        "shape": shape,
+        "reflectance": o.reflectance,
+    }
+    if o.polygon is None:
+        d["center"] = (float(o.center[0]), float(o.center[1]))
+        d["radius"] = float(o.radius)
+    else:
+        d["polygon"] = tuple((float(a), float(b)) for a, b in o.polygon)
+    return MapObject.model_validate(d)
+
+
+def _route_edges(src: FrameSource) -> list[tuple[np.ndarray, bool]]:
+    """Return the polylines to sample (world frame) and whether each leads onto a slope or stairs.
+
+    The shipped missions' routes are used when `worlds/<world>*.yaml` missions exist and name their
+    edges; otherwise every path-graph edge, both directions.
+    """
+    w = src.world
+    three_d = {e.id for e in w.edges if e.mode in ("go-through-slope", "climb-stairs")}
+    nodes_3d = {n for e in w.edges if e.id in three_d for n in (e.from_node, e.to_node)}
+    out = []
+    for e in w.edges:
+        pts = e.points
+        for forward in (True, False):
+            p = pts if forward else pts[::-1]
+            end = e.to_node if forward else e.from_node
+            near_3d = e.id in three_d or end in nodes_3d
+            out.append((p, near_3d))
+    return out
+
+
+def _sample_pose(poly: np.ndarray, rng: np.random.Generator, lateral: float = 0.4) -> tuple[float, float, float]:
+    seg = np.diff(poly, axis=0)
+    ln = np.linalg.norm(seg, axis=1)
+    s = rng.uniform(0, ln.sum())
+    i = int(min(np.searchsorted(np.cumsum(ln), s), len(seg) - 1))
+    t = (s - (np.cumsum(ln)[i] - ln[i])) / max(ln[i], 1e-9)
+    xy = poly[i] + t * seg[i]
+    yaw = math.atan2(seg[i, 1], seg[i, 0])
+    off = rng.uniform(-lateral, lateral)
+    return (float(xy[0] - off * math.sin(yaw)), float(xy[1] + off * math.cos(yaw)), float(yaw + rng.normal(0, math.radians(4))))
+
+
+def objects_in_view(src: FrameSource, pose: tuple[float, float, float], reach: float = 24.0):
+    """Return the map objects whose footprint meets the sensor's reach ahead of the pose (what a driving unit carries)."""
+    from shapely.geometry import Point, Polygon
+
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    fan = [(0.0, -1.0), (reach, -reach * 0.9), (reach, reach * 0.9), (0.0, 1.0)]
+    poly = Polygon([(x + c * a - s * b, y + s * a + c * b) for a, b in fan])
+    out = []
+    for o in src.map_objects:
+        g = Polygon(o.polygon) if o.polygon is not None else Point(o.center).buffer(o.radius or 0.1)
+        if g.intersects(poly):
+            out.append(o)
+    return tuple(out)
+
+
+def eval_frames(src: FrameSource, frames: int, rng: np.random.Generator, pose_error: tuple[float, float] = (0.5, 2.0)) -> Iterator:
+    """Yield `EvalFrame`s: half on approaches to the slope and stairs, half anywhere on the routes."""
+    from modules.perception.evaluation import EvalFrame
+
+    routes = _route_edges(src)
+    focus = [p for p, f in routes if f] or [p for p, _ in routes]
+    weights = np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum() for p, _ in routes])
+    for k in range(frames):
+        if k % 2 == 0:
+            poly = focus[int(rng.integers(len(focus)))]
+        else:
+            poly = routes[int(rng.choice(len(routes), p=weights / weights.sum()))][0]
+        truth = _sample_pose(poly, rng)
+        img, labels, dt = src.capture(truth, stamp=float(k), rng=rng)
+        ang = rng.uniform(0, 2 * math.pi)
+        d = abs(rng.normal(0, pose_error[0]))
+        prior = (truth[0] + d * math.cos(ang), truth[1] + d * math.sin(ang), truth[2] + math.radians(rng.normal(0, pose_error[1])))
+        yield EvalFrame(img, labels, src.kinds, truth, prior, objects_in_view(src, prior), dt, src.last_frame)
+
+
+@perception_app.command("eval")
+def eval_cmd(
+    world: Annotated[str, typer.Option(help="World name (worlds/<name>.world.geojson) or file")] = "campus",
+    frames: Annotated[int, typer.Option(min=1, help="Frames to capture")] = 60,
+    seed: Annotated[int, typer.Option(help="Seed for poses, sensor noise and pose errors")] = 0,
+    vehicle: Annotated[str, typer.Option(help="terregator or navlab (sensor mounting)")] = "terregator",
+    pose_error: Annotated[str, typer.Option(help="Prior pose error as M,DEG (std) for the position fixes")] = "0.5,2",
+    perfect_map: Annotated[bool, typer.Option("--perfect-map", help="Predict objects from the world instead of the map file")] = False,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+) -> None:
+    """Score colour, range and colored-range segmentation, position fixes and cycle time against truth."""
+    from modules.perception.evaluation import evaluate
+    from modules.perception.pipeline import PerceptionPipeline
+
+    try:
+        pe = tuple(float(v) for v in pose_error.split(","))
+        if len(pe) != 2:
+            raise ValueError
+    except ValueError:
+        raise typer.BadParameter(f"--pose-error: expected M,DEG (two numbers), got {pose_error!r}") from None
+    try:
+        src = FrameSource(world, vehicle=vehicle, seed=seed, use_map=not perfect_map)
+    except (FileNotFoundError, ValueError) as exc:
+        raise typer.BadParameter(f"--world {world!r}: {exc}") from None
+    rng = np.random.default_rng(seed)
+    pipe = PerceptionPipeline(src.table)
+    with np.errstate(all="ignore"):
+        report = evaluate(eval_frames(src, frames, rng, pe), pipe).as_dict()  # type: ignore[arg-type]
+    report.update({"world": world, "vehicle": vehicle, "seed": seed, "map": "world" if perfect_map else "map", "pose_error": pose_error})
+    if as_json:
+        typer.echo(json.dumps(report, sort_keys=True))
+        return
+    from rich.console import Console
+    from rich.table import Table
+
+    con = Console()
+    t = Table("class", *report["iou_focus"].keys(), title=f"IoU on slope/stairs frames ({report['focus_frames']} of {report['frames']})")
+    for c in ("slope", "stairs", "grass", "sidewalk", "intersection"):
+        t.add_row(c, *(f"{report['iou_focus'][m].get(c, float('nan')):.3f}" for m in report["iou_focus"]))
+    t.add_row("mean{slope,stairs,grass}", *(f"{report['mean_iou_focus'][m]['mean_iou']:.3f}" for m in report["iou_focus"]))
+    con.print(t)
+    con.print({k: report[k] for k in ("position_fix", "cycle_ms_p50", "cycle_ms_p95", "capture_ms_p50")})
+
+
+def _run_command() -> None:
+    from sidewalk.cli._network import with_network
+
+    @perception_app.command("run")
+    @with_network(serve=False)
+    def run_cmd(
+        net,
+        vehicle: Annotated[str, typer.Option(help="terregator or navlab (the first capture's calibration then wins)")] = "terregator",
+        speed: Annotated[float, typer.Option(min=0.01, help="desired speed for the view/resolution table (m/s)")] = 1.0,
+        max_wait: Annotated[float, typer.Option(min=0.01, help="longest wait for the image input position (s, sim time)")] = 6.0,
+        name: Annotated[str, typer.Option(help="module name (liveliness, heartbeat)")] = "perception",
+    ) -> None:
+        """Run the PERCEPTION process: answer driving units from the blackboard with the simulator's sensors."""
+        from pydantic import ValidationError
+
+        from modules.perception.module import PerceptionConfig, PerceptionModule
+        from modules.runtime import run_module, setup_logging
+
+        try:
+            cfg = PerceptionConfig(vehicle=vehicle, speed=speed, max_wait_s=max_wait)
+        except ValidationError as exc:
+            raise typer.BadParameter("; ".join(f"--{e['loc'][0]}: {e['msg']}" for e in exc.errors())) from None
+        setup_logging()
+
+        async def body(rt) -> None:
+            await PerceptionModule(rt, cfg).run()
+
+        raise typer.Exit(run_module(name, body, net))
+
+
+_run_command()

@@ -1,0 +1,255 @@
+"""`sidewalk run`, `up`, `submit`, `status`, `cancel`: run missions and operate a live system."""
+
+from __future__ import annotations
+
+import asyncio
+import importlib
+import math
+import sys
+from pathlib import Path
+from typing import Annotated, Callable, Optional
+
+import typer
+
+from blackboard.network import NetworkConfig
+from sidewalk.cli._network import with_network
+
+__all__ = ["register", "UP_TARGETS"]
+
+#: `sidewalk up NAME` → (module, function taking argv). The simulator goes through its Typer command.
+UP_TARGETS: dict[str, tuple[str, str]] = {
+    "blackboard": ("blackboard.__main__", "main"),
+    "captain": ("modules.captain.main", "main"),
+    "map_navigator": ("modules.map_navigator.main", "main"),
+    "pilot": ("modules.pilot.__main__", "main"),
+    "helm": ("modules.helm.__main__", "main"),
+    "perception": ("modules.perception.__main__", "main"),
+}
+
+
+def _parse_pose_error(text: str) -> tuple[float, float]:
+    parts = text.split(",")
+    try:
+        m, deg = (float(p) for p in parts)
+    except ValueError:
+        raise typer.BadParameter(f"{text!r} is not M,DEG (metres and degrees, e.g. 1.5,3)", param_hint="--pose-error") from None
+    if not (math.isfinite(m) and math.isfinite(deg)) or m < 0:
+        raise typer.BadParameter(f"{text!r}: metres must be ≥ 0 and both finite", param_hint="--pose-error")
+    return m, deg
+
+
+def run(
+    world: Annotated[str, typer.Option(help="World name (worlds/<name>.world.geojson) or file")] = "campus",
+    mission: Annotated[str, typer.Option(help="Mission name (worlds/<name>.yaml) or file")] = "campus-tour",
+    vehicle: Annotated[Optional[str], typer.Option(help="terregator or navlab (default: the mission's, else terregator)")] = None,
+    rtf: Annotated[float, typer.Option(help="Real-time factor of the simulator")] = 20.0,
+    seed: Annotated[int, typer.Option(help="Seed: the run is reproducible from it")] = 0,
+    out: Annotated[Path, typer.Option(help="Directory for report.json, trajectory.png, logs/")] = Path("runs/latest"),
+    no_perception: Annotated[bool, typer.Option("--no-perception", help="Run without PERCEPTION: the PILOT dead-reckons on the map")] = False,
+    pose_error: Annotated[str, typer.Option(help="Initial pose error M,DEG given to the PILOT")] = "0,0",
+    map_error: Annotated[Optional[float], typer.Option(help="Map objects displaced by up to M metres (default: the shipped map)")] = None,
+    max_sim_time: Annotated[float, typer.Option(help="Give up after this much sim time [s]")] = 3600.0,
+    max_wall_time: Annotated[float, typer.Option(help="Give up after this much wall time [s]")] = 1800.0,
+    ns: Annotated[Optional[str], typer.Option("--ns", help="Namespace (default: a fresh one per run)")] = None,
+) -> None:
+    """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh."""
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress as RichProgress, TextColumn, TimeElapsedColumn
+
+    from sidewalk.launcher import LaunchError, Progress, RunConfig, run_mission
+
+    if vehicle is not None and vehicle not in ("terregator", "navlab"):
+        raise typer.BadParameter(f"{vehicle!r} is not terregator or navlab", param_hint="--vehicle")
+    pe_m, pe_deg = _parse_pose_error(pose_error)
+    cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
+                    perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
+                    max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns)
+    console = Console(stderr=True)
+    with RichProgress(
+        TextColumn("[bold]{task.fields[step]}"),
+        BarColumn(),
+        TextColumn("step {task.completed:.0f}/{task.total:.0f}"),
+        TextColumn("{task.fields[dist]:7.1f} m"),
+        TextColumn("sim {task.fields[sim]:7.1f} s"),
+        TextColumn("RTF {task.fields[rtf]:5.1f}"),
+        TextColumn("{task.fields[state]}"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=False,
+    ) as bar:
+        task = bar.add_task("run", total=1, step="starting", dist=0.0, sim=0.0, rtf=0.0, state="starting")
+
+        def show(p: Progress) -> None:
+            bar.update(task, total=max(1, p.step_count), completed=p.step_index, step=p.step[:28], dist=p.distance_m,
+                       sim=p.sim_time_s, rtf=p.rtf, state=p.state)
+
+        try:
+            report = asyncio.run(run_mission(cfg, show))
+        except LaunchError as exc:
+            console.print(f"[red]error:[/red] {exc}")
+            raise typer.Exit(2) from None
+        except KeyboardInterrupt:
+            console.print("[yellow]interrupted: every process was stopped[/yellow]")
+            raise typer.Exit(130) from None
+        bar.update(task, completed=len([s for s in report.steps if s.success]))
+    verdict = "[green]success[/green]" if report.success else f"[red]failed[/red] {report.reason}"
+    console.print(
+        f"{report.mission}: {verdict} — {report.distance_m:.1f} m in {report.sim_time_s:.1f} s sim "
+        f"({report.wall_time_s:.1f} s wall, RTF {report.rtf_achieved:.1f}); collisions {report.collisions}; "
+        f"position error final {report.position_error_m.final}; report: {out / 'report.json'}"
+    )
+    raise typer.Exit(0 if report.success else 1)
+
+
+def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="blackboard, sim, captain, map_navigator, pilot, helm or perception")]) -> None:
+    """Run one part of the system on this host; the rest of the arguments go to it (try `up pilot --help`)."""
+    name = module.replace("-", "_")
+    argv = list(ctx.args)
+    if name == "sim":
+        from typer.main import get_command
+
+        from sidewalk.cli._sim import sim_app
+
+        get_command(sim_app).main(args=["serve", *argv], prog_name="sidewalk up sim", standalone_mode=True)
+        return
+    if name not in UP_TARGETS:
+        known = ", ".join(["sim", *UP_TARGETS])
+        raise typer.BadParameter(f"unknown module {module!r}; known: {known}", param_hint="MODULE")
+    modname, fn = UP_TARGETS[name]
+    main: Callable[[list[str]], int] = getattr(importlib.import_module(modname), fn)
+    raise typer.Exit(main(argv) or 0)
+
+
+@with_network()
+def submit(
+    file: Annotated[Path, typer.Argument(help="Mission file (YAML or JSON), or a mission name from worlds/")],
+    follow: Annotated[bool, typer.Option("--follow/--no-follow", help="Follow the mission until it ends")] = True,
+    timeout: Annotated[float, typer.Option(help="Seconds to wait for the CAPTAIN to answer")] = 10.0,
+    net: NetworkConfig = None,  # type: ignore[assignment]
+) -> None:
+    """Send a mission to the CAPTAIN over Zenoh and follow its progress."""
+    from sidewalk.launcher import mission_path
+
+    try:
+        path = mission_path(file)
+        text = path.read_text()
+    except (FileNotFoundError, OSError) as exc:
+        raise typer.BadParameter(str(exc), param_hint="FILE") from None
+    raise typer.Exit(asyncio.run(_submit(net, text, follow, timeout)))
+
+
+async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -> int:
+    from rich.console import Console
+
+    from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
+    from modules.runtime import ModuleKeys, ZenohLink
+
+    console = Console()
+    link = ZenohLink.open(net)
+    try:
+        client = MissionClient(link, ModuleKeys(net.namespace), timeout=timeout)
+        try:
+            acc = await client.submit(text)
+        except MissionRejected as exc:
+            console.print(f"[red]rejected:[/red] {exc.rejection.message}")
+            return 2
+        except CaptainUnavailableError as exc:
+            console.print(f"[red]error:[/red] {exc}")
+            return 3
+        console.print(f"mission accepted: [bold]{acc.mission_id}[/bold]")
+        if not follow:
+            return 0
+        last = None
+        while True:
+            st = await client.status(acc.mission_id)
+            line = (st.state, st.current_step)
+            if line != last:
+                step = st.steps[st.current_step].name if st.current_step is not None and st.steps else "-"
+                console.print(f"  {st.state:<10} step {(st.current_step or 0) + 1}/{st.step_count} {step} {st.reason}")
+                last = line
+            if st.terminal:
+                for s in st.steps:
+                    console.print(f"    {s.name:<24} {s.state:<10} {s.reason}")
+                return 0 if st.state == "succeeded" else 1
+            await asyncio.sleep(0.5)  # polling a remote status for a person to read
+    finally:
+        link.close()
+
+
+@with_network()
+def status(
+    timeout: Annotated[float, typer.Option(help="Seconds to wait for answers")] = 2.0,
+    net: NetworkConfig = None,  # type: ignore[assignment]
+) -> None:
+    """List the live modules (liveliness and heartbeat) and the missions the CAPTAIN knows."""
+    raise typer.Exit(asyncio.run(_status(net, timeout)))
+
+
+async def _status(net: NetworkConfig, timeout: float) -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from modules.captain.client import MissionClient
+    from modules.runtime import ModuleKeys, ZenohLink
+
+    link = ZenohLink.open(net)
+    try:
+        keys = await link.alive_keys(f"sidewalk/{net.namespace}/alive/**", timeout=timeout)
+        table = Table("module", "liveliness key", title=f"live in namespace {net.namespace!r}")
+        for k in keys:
+            table.add_row(k.rsplit("/", 1)[-1] if "/bbclient/" not in k else "bb client " + k.rsplit("/", 1)[-1], k)
+        console = Console()
+        console.print(table)
+        if not keys:
+            console.print("[yellow]nothing alive: is the system running, and are --connect/--ns right?[/yellow]")
+            return 1
+        try:
+            sts = await MissionClient(link, ModuleKeys(net.namespace), timeout=timeout).statuses()
+        except Exception:  # no CAPTAIN: nothing more to show
+            sts = []
+        if sts:
+            mt = Table("mission", "name", "state", "step", "reason", title="missions")
+            for s in sts:
+                mt.add_row(s.mission_id, s.name, s.state, f"{(s.current_step or 0) + 1}/{s.step_count}", s.reason)
+            console.print(mt)
+        return 0
+    finally:
+        link.close()
+
+
+@with_network()
+def cancel(
+    mission_id: Annotated[str, typer.Argument(help="Mission id (from submit or status)")],
+    timeout: Annotated[float, typer.Option(help="Seconds to wait for the CAPTAIN")] = 10.0,
+    net: NetworkConfig = None,  # type: ignore[assignment]
+) -> None:
+    """Cancel a running mission."""
+    raise typer.Exit(asyncio.run(_cancel(net, mission_id, timeout)))
+
+
+async def _cancel(net: NetworkConfig, mission_id: str, timeout: float) -> int:
+    from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
+    from modules.runtime import ModuleKeys, ZenohLink
+
+    link = ZenohLink.open(net)
+    try:
+        st = await MissionClient(link, ModuleKeys(net.namespace), timeout=timeout).cancel(mission_id)
+        typer.echo(f"{st.mission_id}: {st.state} {st.reason}")
+        return 0
+    except (MissionRejected, CaptainUnavailableError) as exc:
+        typer.echo(f"error: {exc}", err=True)
+        return 2
+    finally:
+        link.close()
+
+
+def register(app: typer.Typer) -> None:
+    """Add run, up, submit, status and cancel to the top-level app."""
+    app.command("run")(run)
+    app.command(
+        "up",
+        context_settings={"allow_extra_args": True, "ignore_unknown_options": True, "help_option_names": []},
+    )(up)
+    app.command("submit")(submit)
+    app.command("status")(status)
+    app.command("cancel")(cancel)

@@ -1,0 +1,125 @@
+"""Record a run for its report: ground truth, simulator events, sim clock and estimated poses."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from blackboard import BlackboardClient, BlackboardError
+from modules.runtime import ZenohLink
+from vehicle_sim.drive import SimClock, SimEvent, TruthPose, WireError, decode
+
+__all__ = ["Recorder", "Track"]
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class Track:
+    """A time-stamped planar track: rows of (stamp [s], x [m], y [m], yaw [rad]) in `world`."""
+
+    rows: list[tuple[float, float, float, float]] = field(default_factory=list)
+
+    def array(self) -> np.ndarray:
+        """Return the track as an (N,4) float array."""
+        return np.asarray(self.rows, dtype=float).reshape(-1, 4)
+
+
+class Recorder:
+    """Subscribe to the simulator's truth, events and clock; sample the estimated pose from the blackboard.
+
+    Ground truth is read here for evaluation only; no module reads it.
+    """
+
+    def __init__(self, link: ZenohLink, bb: BlackboardClient, ns: str, *, estimate_period_s: float = 0.5) -> None:
+        self.link = link
+        self.bb = bb
+        self.base = f"sidewalk/{ns}/sim"
+        self.truth = Track()
+        self.estimate = Track()
+        self.events: list[SimEvent] = []
+        self.clock: SimClock | None = None
+        self.estimate_period_s = estimate_period_s
+        self.bad_samples = 0
+        self._last_estimate_t = -1e9
+        self._estimating = False
+        self._tasks: set[asyncio.Task] = set()
+
+    def start(self) -> None:
+        """Declare the subscribers."""
+        self.link.subscribe(f"{self.base}/truth", self._on_truth)
+        self.link.subscribe(f"{self.base}/events", self._on_event)
+        self.link.subscribe(f"{self.base}/clock", self._on_clock)
+
+    @property
+    def sim_time(self) -> float:
+        """Return the newest sim time heard [s] (0 before the first clock message)."""
+        return self.clock.stamp if self.clock else 0.0
+
+    def distance_m(self) -> float:
+        """Return the distance driven so far by the true vehicle [m]."""
+        a = self.truth.array()
+        if len(a) < 2:
+            return 0.0
+        return float(np.sum(np.hypot(np.diff(a[:, 1]), np.diff(a[:, 2]))))
+
+    def collisions(self) -> int:
+        """Return the number of collision events."""
+        return sum(1 for e in self.events if e.kind == "collision")
+
+    def off_path_s(self, end_stamp: float) -> float:
+        """Return the sim time spent off the path objects [s], up to end_stamp."""
+        total, since = 0.0, None
+        for e in sorted(self.events, key=lambda e: e.stamp):
+            if e.kind == "off-path" and since is None:
+                since = e.stamp
+            elif e.kind == "on-path" and since is not None:
+                total += e.stamp - since
+                since = None
+        if since is not None:
+            total += max(0.0, end_stamp - since)
+        return total
+
+    def _on_truth(self, _key: str, payload: bytes) -> None:
+        try:
+            t = decode(TruthPose, payload)
+        except WireError:
+            self.bad_samples += 1
+            return
+        self.truth.rows.append((t.stamp, t.x, t.y, t.yaw))
+        if t.stamp - self._last_estimate_t >= self.estimate_period_s and not self._estimating:
+            self._last_estimate_t = t.stamp
+            self._estimating = True
+            task = asyncio.ensure_future(self._sample_estimate(t.stamp))
+            self._tasks.add(task)
+            task.add_done_callback(self._tasks.discard)
+
+    async def _sample_estimate(self, stamp: float) -> None:
+        try:
+            # a little in the past: the HELM's poses trail the simulator's truth by a publish period
+            at = max(0.0, stamp - 0.25)
+            pose = await self.bb.lookup_pose(parent="world", child="vehicle", stamp=at)
+            self.estimate.rows.append((at, pose.x, pose.y, pose.yaw))
+        except (BlackboardError, asyncio.TimeoutError, TimeoutError) as exc:
+            log.debug("no estimate at %.2f: %s", stamp, exc)
+        finally:
+            self._estimating = False
+
+    def _on_event(self, _key: str, payload: bytes) -> None:
+        try:
+            self.events.append(decode(SimEvent, payload))
+        except WireError:
+            self.bad_samples += 1
+
+    def _on_clock(self, _key: str, payload: bytes) -> None:
+        with contextlib.suppress(WireError):
+            self.clock = decode(SimClock, payload)
+
+    async def close(self) -> None:
+        """Wait for estimate look-ups in flight."""
+        if self._tasks:
+            await asyncio.gather(*self._tasks, return_exceptions=True)

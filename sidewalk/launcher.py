@@ -24,7 +24,7 @@ from blackboard.testing import free_port
 from modules.captain.client import MissionClient
 from modules.captain.missionfile import MissionFileError, load_mission
 from modules.runtime import ModuleKeys, ZenohLink
-from modules.vocabulary import MissionStatus, RoutePlan
+from modules.vocabulary import Mission, MissionStatus, RoutePlan
 from sidewalk.metrics import cross_track_errors, path_length, position_errors
 from sidewalk.recorder import Recorder
 from sidewalk.report import BlackboardUsage, ErrorSummary, RunReport, StepReport, plot_trajectory, write_report
@@ -32,7 +32,7 @@ from sidewalk.supervisor import ProcessPlan, Supervisor
 from vehicle_sim.mapgen import derive_map, displaced_by_up_to
 from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
 
-__all__ = ["RunConfig", "Progress", "run_mission", "mission_path", "MODULES", "LaunchError"]
+__all__ = ["RunConfig", "Progress", "preflight", "run_mission", "mission_path", "MODULES", "LaunchError"]
 
 #: Every module of the Sidewalk system in start order (the consumers before the producers).
 MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
@@ -138,12 +138,8 @@ def _object_outlines(world: World) -> list[tuple[str, np.ndarray]]:
     return out
 
 
-async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | None = None) -> RunReport:
-    """Run one mission end to end and return its report (also written to `cfg.out`)."""
-    out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
-    for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png"):
-        (out / stale).unlink(missing_ok=True)
+def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
+    """Load and check the world and the mission before anything starts; raise LaunchError."""
     try:
         world = load_world(cfg.world)
     except (FileNotFoundError, ValueError) as exc:
@@ -155,6 +151,18 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
         raise LaunchError(str(exc)) from None
     if mission.world is not None and mission.world != world.name:
         raise LaunchError(f"mission {mission.name!r} is for world {mission.world!r}, not {world.name!r}")
+    return world, mission, mpath
+
+
+async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | None = None) -> RunReport:
+    """Run one mission end to end and return its report (also written to `cfg.out`)."""
+    world, mission, mpath = preflight(cfg)
+    out = Path(cfg.out)
+    out.mkdir(parents=True, exist_ok=True)
+    for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson"):
+        (out / stale).unlink(missing_ok=True)
+    for old_log in (out / "logs").glob("*.log"):
+        old_log.unlink()
     vehicle = cfg.vehicle or mission.vehicle or "terregator"
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
@@ -170,7 +178,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
         ProcessPlan("helm", ("-m", "sidewalk", "up", "helm", "--vehicle", vehicle, *zflags)),
     ]
     if cfg.perception:
-        plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--seed", str(cfg.seed), *zflags)))
+        plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags)))
     plans += [
         ProcessPlan("pilot", ("-m", "sidewalk", "up", "pilot", "--vehicle", vehicle,
                               "--perception", "on" if cfg.perception else "off",

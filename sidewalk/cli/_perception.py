@@ -103,24 +103,58 @@ def _map_object(o):
     return MapObject.model_validate(d)
 
 
-def _route_edges(src: FrameSource) -> list[tuple[np.ndarray, bool]]:
-    """Return the polylines to sample (world frame) and whether each leads onto a slope or stairs.
+def _mission_routes(src: FrameSource) -> list[np.ndarray]:
+    """Return the legs (world frame, direction of travel) of the shipped missions written for this world."""
+    from modules.captain.missionfile import MissionFileError, load_mission
+    from modules.map_navigator.mapdata import MapData
+    from modules.map_navigator.route import RouteError, RouteOptions, select_route
+    from vehicle_sim.worldfile import WORLDS_DIR
 
-    The shipped missions' routes are used when `worlds/<world>*.yaml` missions exist and name their
-    edges; otherwise every path-graph edge, both directions.
+    legs: list[np.ndarray] = []
+    m = MapData(src.map)
+    for path in sorted(WORLDS_DIR.glob("*.yaml")):
+        try:
+            mission = load_mission(path)
+        except MissionFileError:
+            continue
+        if mission.world not in (None, src.world.name) or src.map.start is None:
+            continue
+        start = (src.map.start.x, src.map.start.y)
+        opts = RouteOptions(vehicle=mission.vehicle or src.vehicle)
+        for step in mission.steps:
+            try:
+                route = select_route(m, start, step.destination, step.constraints, opts)
+            except RouteError:
+                break
+            legs += [np.asarray(leg.coords, dtype=np.float64) for leg in route.legs if leg.length > 1.0]
+            start = route.goal_xy
+    return legs
+
+
+def _route_edges(src: FrameSource) -> tuple[list[tuple[np.ndarray, bool]], str]:
+    """Return the polylines to sample (world frame), whether each leads onto a slope or stairs, and their source.
+
+    The shipped missions' routes (worlds/*.yaml written for this world) when there are any; otherwise
+    every path-graph edge in both directions.
     """
     w = src.world
-    three_d = {e.id for e in w.edges if e.mode in ("go-through-slope", "climb-stairs")}
-    nodes_3d = {n for e in w.edges if e.id in three_d for n in (e.from_node, e.to_node)}
+    three_d = [e for e in w.edges if e.mode in ("go-through-slope", "climb-stairs")]
+    nodes_3d = np.array([(w.node(n).x, w.node(n).y) for e in three_d for n in (e.from_node, e.to_node)]).reshape(-1, 2)
+
+    def near_3d(p: np.ndarray) -> bool:
+        if len(nodes_3d) == 0:
+            return False
+        d = np.linalg.norm(nodes_3d[None, :, :] - p[:, None, :], axis=-1)
+        return bool(d.min() < 1.0)
+
+    legs = _mission_routes(src)
+    if legs:
+        return [(p, near_3d(p)) for p in legs], "missions"
     out = []
     for e in w.edges:
-        pts = e.points
-        for forward in (True, False):
-            p = pts if forward else pts[::-1]
-            end = e.to_node if forward else e.from_node
-            near_3d = e.id in three_d or end in nodes_3d
-            out.append((p, near_3d))
-    return out
+        for p in (e.points, e.points[::-1]):
+            out.append((p, near_3d(p)))
+    return out, "path graph"
 
 
 def _sample_pose(poly: np.ndarray, rng: np.random.Generator, lateral: float = 0.4) -> tuple[float, float, float]:
@@ -155,7 +189,7 @@ def eval_frames(src: FrameSource, frames: int, rng: np.random.Generator, pose_er
     """Yield `EvalFrame`s: half on approaches to the slope and stairs, half anywhere on the routes."""
     from modules.perception.evaluation import EvalFrame
 
-    routes = _route_edges(src)
+    routes, src.routes_from = _route_edges(src)
     focus = [p for p, f in routes if f] or [p for p, _ in routes]
     weights = np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum() for p, _ in routes])
     for k in range(frames):
@@ -199,7 +233,7 @@ def eval_cmd(
     pipe = PerceptionPipeline(src.table)
     with np.errstate(all="ignore"):
         report = evaluate(eval_frames(src, frames, rng, pe), pipe).as_dict()  # type: ignore[arg-type]
-    report.update({"world": world, "vehicle": vehicle, "seed": seed, "map": "world" if perfect_map else "map", "pose_error": pose_error})
+    report.update({"frames_along": getattr(src, "routes_from", ""), "world": world, "vehicle": vehicle, "seed": seed, "map": "world" if perfect_map else "map", "pose_error": pose_error})
     if as_json:
         typer.echo(json.dumps(report, sort_keys=True))
         return

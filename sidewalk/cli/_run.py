@@ -56,7 +56,7 @@ def run(
     from rich.console import Console
     from rich.progress import BarColumn, Progress as RichProgress, TextColumn, TimeElapsedColumn
 
-    from sidewalk.launcher import LaunchError, Progress, RunConfig, run_mission
+    from sidewalk.launcher import LaunchError, Progress, RunConfig, preflight, run_mission
 
     if vehicle is not None and vehicle not in ("terregator", "navlab"):
         raise typer.BadParameter(f"{vehicle!r} is not terregator or navlab", param_hint="--vehicle")
@@ -65,6 +65,11 @@ def run(
                     perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
                     max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns)
     console = Console(stderr=True)
+    try:
+        preflight(cfg)
+    except LaunchError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from None
     with RichProgress(
         TextColumn("[bold]{task.fields[step]}"),
         BarColumn(),

@@ -1,0 +1,58 @@
+"""The CLI's own errors: bad flags, files and names say where and what."""
+
+import json
+
+from typer.testing import CliRunner
+
+from sidewalk.cli import app
+from sidewalk.launcher import mission_path
+
+runner = CliRunner()
+
+
+def test_bad_pose_error_flag_is_named():
+    r = runner.invoke(app, ["run", "--pose-error", "1.5"])
+    assert r.exit_code == 2
+    assert "--pose-error" in r.output and "M,DEG" in r.output
+
+
+def test_bad_vehicle_is_named():
+    r = runner.invoke(app, ["run", "--vehicle", "tank"])
+    assert r.exit_code == 2 and "--vehicle" in r.output
+
+
+def test_unknown_mission_lists_the_known_ones(tmp_path):
+    r = runner.invoke(app, ["run", "--mission", "no-such-mission", "--out", str(tmp_path)])
+    assert r.exit_code == 2
+    assert "no mission named 'no-such-mission'" in r.output and "campus-tour" in r.output
+
+
+def test_mission_for_another_world_is_refused(tmp_path):
+    r = runner.invoke(app, ["run", "--world", "north_hills", "--mission", "campus-tour", "--out", str(tmp_path)])
+    assert r.exit_code == 2 and "is for world 'campus'" in r.output
+
+
+def test_invalid_mission_file_names_line_and_field(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("mission: x\nworld: campus\nsteps:\n  - name: a\n    destination: quad\n    constraints: [keep_middle]\n")
+    r = runner.invoke(app, ["run", "--mission", str(bad), "--out", str(tmp_path / "out")])
+    assert r.exit_code == 2
+    out = " ".join(r.output.split())
+    assert "bad.yaml:6:" in out and "steps[0].constraints.keep_middle" in out and "unknown constraint" in out
+
+
+def test_bad_endpoint_flag_is_named():
+    r = runner.invoke(app, ["status", "--connect", "localhost"])
+    assert r.exit_code == 2 and "PROTO/ADDRESS" in r.output
+
+
+def test_up_unknown_module_lists_the_known_ones():
+    r = runner.invoke(app, ["up", "navigatorr"])
+    assert r.exit_code == 2 and "map_navigator" in r.output
+
+
+def test_mission_path_resolves_names_and_files(tmp_path):
+    assert mission_path("campus-tour").name == "campus-tour.yaml"
+    f = tmp_path / "m.yaml"
+    f.write_text("x")
+    assert mission_path(str(f)) == f

@@ -1,0 +1,681 @@
+"""A fast 2.5-D scene built once from a `World`: ground height field, materials, shadows, solids.
+
+The ground is a raster of the top object per cell (the world's own footprint raster, so labels agree
+with `World.label_at`) with heights computed analytically from each object's flat/slope/stairs shape
+(so slopes are smooth planes and stairs have vertical risers). Standing objects are analytic solids:
+buildings, hedges and benches are vertical prisms; posts and tree trunks are vertical cylinders; tree
+crowns are ellipsoids with a vertical axis. Ground shadows of every solid are rasterised once from
+the sun direction (parallel light, projected on the base height of the casting object).
+
+`Scene.cast` renders a level azimuth/elevation grid of rays from one origin: each grid column is a
+vertical half-plane, so the ground is found by marching the column's height profile once (the
+first sample whose elevation angle reaches the ray's, a "voxel-space" renderer) and the solids are
+intersected analytically per column. Frames: everything here is in the `world` frame (x east,
+y north, z up) [m]; azimuths are math angles CCW from +x [rad].
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+from scipy.ndimage import gaussian_filter
+
+from vehicle_sim.worldfile import (
+    KINDS,
+    FlatShape,
+    PostShape,
+    PrismShape,
+    SlopeShape,
+    StairsShape,
+    TreeShape,
+    World,
+)
+
+__all__ = [
+    "LABEL_NONE",
+    "LABEL_SKY",
+    "MATERIAL_SKY",
+    "Hits",
+    "Scene",
+    "ground_samples",
+]
+
+#: Class index of "no object" ground.
+LABEL_NONE: int = KINDS.index("none")
+#: Class index for rays that hit nothing.
+LABEL_SKY: int = KINDS.index("sky")
+#: Material index for rays that hit nothing.
+MATERIAL_SKY: int = -1
+
+_TILE = 512  # texture noise tile size [cells]
+_TEX_RES = 0.06  # texture sampling pitch on solids [m]
+_NONE_COLOUR = ((118.0, 104.0, 84.0), (10.0, 10.0, 9.0))  # bare earth where the world has nothing
+_CROWN_COLOUR = ((46.0, 92.0, 38.0), (16.0, 20.0, 14.0))  # foliage when a tree gives no crown_colour
+
+
+def ground_samples(s_min: float = 0.3, s_max: float = 45.0) -> np.ndarray:
+    """Return horizontal march distances [m] (S,) float32: 4 cm steps near, growing as 1.5 % of distance."""
+    out = [s_min]
+    s = s_min
+    while s < s_max:
+        s += min(max(0.04, 0.015 * s), 0.5)
+        out.append(s)
+    return np.asarray(out, dtype=np.float32)
+
+
+@dataclass(frozen=True)
+class Hits:
+    """What each ray of a level az/el grid hit; arrays are (H, W[, k]) in grid order, world frame.
+
+    `s` horizontal distance [m] (inf = nothing), `rng` 3-D range [m] (inf = nothing), `xyz` hit point
+    [m] (NaN = nothing), `label` class index into `KINDS` (uint8, `LABEL_SKY` = nothing), `material`
+    int32 index into the scene's materials (`MATERIAL_SKY` = nothing), `normal` unit surface normal
+    (float32), `tex` texture noise coordinates (int32, (H, W, 2)), `riser` True where the ray hit a
+    vertical ground step.
+    """
+
+    s: np.ndarray
+    rng: np.ndarray
+    xyz: np.ndarray
+    label: np.ndarray
+    material: np.ndarray
+    normal: np.ndarray
+    tex: np.ndarray
+    riser: np.ndarray
+
+    @property
+    def hit(self) -> np.ndarray:
+        """Return (H, W) bool: the ray hit a surface within range."""
+        return self.material != MATERIAL_SKY
+
+
+class Scene:
+    """A renderable scene built once from a `World` (see module docstring); pure, no network."""
+
+    def __init__(self, world: World, *, seed: int = 0, max_range: float = 45.0) -> None:
+        """Build the scene [m]: ground raster, materials, solids, shadows and a seeded texture."""
+        self.world = world
+        self.seed = int(seed)
+        self.max_range = float(max_range)
+        rng = np.random.default_rng([self.seed, 0x5CE4E])
+        n = len(world.objects)
+        self.res = float(world.raster_res)
+        xmin, ymin, xmax, ymax = world.bounds(margin=1.0)
+        self.origin = np.array([xmin, ymin], dtype=np.float64)
+        w = int(math.ceil((xmax - xmin) / self.res)) + 1
+        h = int(math.ceil((ymax - ymin) / self.res)) + 1
+        self.shape = (h, w)
+        # ground raster: object index + 1 per cell (0 = nothing), the world's own raster.
+        grid = np.empty((h, w), dtype=np.int16 if n < 32000 else np.int32)
+        xs = xmin + (np.arange(w) + 0.5) * self.res
+        rows = max(1, 2_000_000 // max(w, 1))
+        for r0 in range(0, h, rows):
+            r1 = min(h, r0 + rows)
+            yy = ymin + (np.arange(r0, r1) + 0.5) * self.res
+            pts = np.column_stack([np.tile(xs, r1 - r0), np.repeat(yy, w)])
+            grid[r0:r1] = (world.object_index_at(pts) + 1).reshape(r1 - r0, w)
+        grid[0, :] = grid[-1, :] = 0  # the margin: nothing there, so clipped lookups read "nothing"
+        grid[:, 0] = grid[:, -1] = 0
+        self.grid = grid
+        self._grid_flat = grid.ravel()
+
+        # materials: 0 = none ground, 1..n = objects (tree objects: the trunk), n+1.. = tree crowns
+        trunks = [i for i, o in enumerate(world.objects) if isinstance(o.shape, TreeShape)]
+        m = n + 1 + len(trunks)
+        self.mat_mean = np.zeros((m, 3), np.float32)
+        self.mat_std = np.zeros((m, 3), np.float32)
+        self.mat_refl = np.zeros(m, np.float32)
+        self.mat_label = np.zeros(m, np.uint8)
+        self.mat_mean[0], self.mat_std[0] = _NONE_COLOUR
+        self.mat_refl[0], self.mat_label[0] = 0.35, LABEL_NONE
+        for i, o in enumerate(world.objects):
+            self.mat_mean[i + 1] = o.colour.mean
+            self.mat_std[i + 1] = o.colour.std
+            self.mat_refl[i + 1] = o.reflectance
+            self.mat_label[i + 1] = o.kind_index
+        crown_mat = {}
+        for j, i in enumerate(trunks):
+            k = n + 1 + j
+            crown_mat[i] = k
+            cc = getattr(world.objects[i].shape, "crown_colour", None)
+            if cc is not None:
+                self.mat_mean[k], self.mat_std[k] = cc.mean, cc.std
+            else:
+                self.mat_mean[k], self.mat_std[k] = _CROWN_COLOUR
+            self.mat_refl[k], self.mat_label[k] = 0.55, KINDS.index("tree")
+
+        # analytic ground height per material (object): z = z0 + rise * g(t), t along the axis
+        self._g_z0 = np.zeros(m, np.float32)
+        self._g_rise = np.zeros(m, np.float32)
+        self._g_ax = np.zeros((m, 2), np.float32)
+        self._g_lo = np.zeros(m, np.float32)
+        self._g_inv_len = np.zeros(m, np.float32)
+        self._g_steps = np.zeros(m, np.float32)  # 0 = continuous
+        for i, o in enumerate(world.objects):
+            s = o.shape
+            k = i + 1
+            if isinstance(s, FlatShape):
+                self._g_z0[k] = s.z
+            elif isinstance(s, (SlopeShape, StairsShape)):
+                lo, hi = o.axis_extent()
+                a = math.radians(s.axis_deg)
+                self._g_z0[k], self._g_rise[k] = s.z0, s.rise
+                self._g_ax[k] = (math.cos(a), math.sin(a))
+                self._g_lo[k] = lo
+                self._g_inv_len[k] = 1.0 / max(hi - lo, 1e-9)
+                if isinstance(s, StairsShape):
+                    self._g_steps[k] = s.n_steps
+            else:
+                self._g_z0[k] = s.z0
+        self._g_a0 = (self._g_ax[:, 0] * self._g_inv_len).astype(np.float32)
+        self._g_a1 = (self._g_ax[:, 1] * self._g_inv_len).astype(np.float32)
+        self._g_b = (self._g_lo * self._g_inv_len).astype(np.float32)
+        self._g_tilted = self._g_rise != 0
+        self._any_tilted = bool(self._g_tilted.any())
+        # per-material ground normals: tread/flat/slope normal, and the riser normal (minus the axis)
+        grad = self._g_rise[:, None] * self._g_inv_len[:, None] * self._g_ax
+        grad[self._g_steps > 0] = 0.0
+        nrm = np.concatenate([-grad, np.ones((m, 1), np.float32)], axis=1)
+        self._g_normal = (nrm / np.linalg.norm(nrm, axis=1, keepdims=True)).astype(np.float32)
+        self._g_riser_normal = np.concatenate([-self._g_ax, np.zeros((m, 1), np.float32)], axis=1).astype(np.float32)
+
+        # solids
+        cyl, ell, prisms = [], [], []
+        for i, o in enumerate(world.objects):
+            s = o.shape
+            if isinstance(s, TreeShape):
+                cx, cy = o.center  # type: ignore[misc]
+                cyl.append((cx, cy, s.trunk_radius, s.z0, s.z0 + s.crown_base + 0.25 * (s.height - s.crown_base), i + 1))
+                b = 0.5 * (s.height - s.crown_base)
+                ell.append((cx, cy, s.z0 + s.crown_base + b, s.crown_radius, b, crown_mat[i]))
+            elif isinstance(s, PostShape):
+                cx, cy = o.center  # type: ignore[misc]
+                cyl.append((cx, cy, float(o.radius), s.z0, s.z0 + s.height, i + 1))  # type: ignore[arg-type]
+            elif isinstance(s, PrismShape):
+                prisms.append((o.vertices.astype(np.float64), s.z0, s.z0 + s.height, i + 1))
+        self.cylinders = np.asarray(cyl, np.float64).reshape(-1, 6)
+        self.ellipsoids = np.asarray(ell, np.float64).reshape(-1, 6)
+        self.prisms = prisms
+        self._prism_centre = np.array([p[0].mean(axis=0) for p in prisms]).reshape(-1, 2)
+        self._prism_radius = np.array([np.linalg.norm(p[0] - p[0].mean(axis=0), axis=1).max() for p in prisms]).reshape(-1)
+
+        # sun and ground shadows
+        self.sun = world.sun.direction().astype(np.float64)
+        self.sunlit = self._shadow_raster()
+        self._sunlit_flat = self.sunlit.ravel()
+        # materials lit by the ground shadow raster: ground covers, posts and trunks (not crowns, prisms)
+        flag = np.ones(m, bool)
+        for i, o in enumerate(world.objects):
+            if isinstance(o.shape, PrismShape):
+                flag[i + 1] = False
+        flag[n + 1:] = False  # crowns
+        self._mat_ground_shadow = flag
+
+        # texture noise tile (3, T, T), unit std, mildly smoothed
+        # texture: unit-variance noise per channel, 64 % correlated across channels (surfaces vary
+        # mostly in brightness, as concrete and grass do), mildly smoothed
+        raw = rng.standard_normal((4, _TILE, _TILE)).astype(np.float32)
+        for c in range(4):
+            raw[c] = gaussian_filter(raw[c], 0.6, mode="wrap")
+            raw[c] /= raw[c].std()
+        tile = 0.8 * raw[3][None] + 0.6 * raw[:3]
+        self.tile = tile
+        self._tile_flat = np.ascontiguousarray(np.moveaxis(tile, 0, -1).reshape(-1, 3))
+        self._samples = ground_samples(0.3, self.max_range)
+
+    # ---------------------------------------------------------------- ground queries
+
+    def cell_of(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Return (col, row, inside) integer cell indices of world points x, y [m]."""
+        ix = np.floor((x - self.origin[0]) * (1.0 / self.res)).astype(np.int32)
+        iy = np.floor((y - self.origin[1]) * (1.0 / self.res)).astype(np.int32)
+        h, w = self.shape
+        inside = (ix >= 0) & (ix < w) & (iy >= 0) & (iy < h)
+        np.clip(ix, 0, w - 1, out=ix)
+        np.clip(iy, 0, h - 1, out=iy)
+        return ix, iy, inside
+
+    def _flat_index(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Return flat cell indices of world points (outside points land on the empty border cells)."""
+        h, w = self.shape
+        ix = ((x - np.float32(self.origin[0])) * np.float32(1.0 / self.res)).astype(np.int32)
+        iy = ((y - np.float32(self.origin[1])) * np.float32(1.0 / self.res)).astype(np.int32)
+        np.clip(ix, 0, w - 1, out=ix)
+        np.clip(iy, 0, h - 1, out=iy)
+        iy *= w
+        iy += ix
+        return iy
+
+    def ground_material(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Return the ground material (object index + 1; 0 = nothing) at world points x, y [m]."""
+        return np.take(self._grid_flat, self._flat_index(x, y)).astype(np.int32)
+
+    def ground_height(self, x: np.ndarray, y: np.ndarray, mat: np.ndarray | None = None) -> np.ndarray:
+        """Return the ground height z [m] at world points x, y [m] (same shapes), float32."""
+        if mat is None:
+            mat = self.ground_material(x, y)
+        z = np.take(self._g_z0, mat)
+        if not self._any_tilted:
+            return z
+        sel = np.nonzero(np.take(self._g_tilted, mat))
+        if len(sel[0]) == 0:
+            return z
+        ms = mat[sel]
+        t = x[sel] * self._g_a0[ms] + y[sel] * self._g_a1[ms] - self._g_b[ms]
+        np.clip(t, 0.0, 1.0, out=t)
+        n = self._g_steps[ms]
+        stepped = (np.minimum(np.floor(t * n), n - 1.0) + 1.0) / np.maximum(n, 1.0)
+        g = np.where(n > 0, stepped, t)
+        z[sel] += (self._g_rise[ms] * g).astype(np.float32)
+        return z
+
+    def elevation(self, xy: np.ndarray) -> np.ndarray:
+        """Return the ground height [m] at world points `xy` (N, 2) [m] → (N,) float64."""
+        xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        return self.ground_height(xy[:, 0], xy[:, 1]).astype(np.float64)
+
+    # ---------------------------------------------------------------- shadows
+
+    def _shadow_raster(self) -> np.ndarray:
+        """Return the sunlit fraction of each ground cell, (H, W) uint8 (255 = full sun)."""
+        h, w = self.shape
+        mask = np.zeros((h, w), np.uint8)
+        sx, sy, sz = self.sun
+        shadow = -np.array([sx, sy]) / max(sz, 1e-3)  # ground displacement per metre of height
+        shift = 4
+        scale = (1 << shift) / self.res
+
+        def fill(poly_xy: np.ndarray) -> None:
+            pts = np.round((poly_xy - self.origin) * scale - 0.5 * (1 << shift)).astype(np.int32)
+            cv2.fillPoly(mask, [pts.reshape(-1, 1, 2)], 255, lineType=cv2.LINE_8, shift=shift)
+
+        def hull(points: np.ndarray) -> np.ndarray:
+            return cv2.convexHull(points.astype(np.float32)).reshape(-1, 2).astype(np.float64)
+
+        circle = np.column_stack([np.cos(np.linspace(0, 2 * np.pi, 24, endpoint=False)),
+                                  np.sin(np.linspace(0, 2 * np.pi, 24, endpoint=False))])
+        for cx, cy, r, zb, zt, _ in self.cylinders:
+            base = np.array([cx, cy]) + r * circle
+            fill(hull(np.vstack([base, base + shadow * (zt - zb)])))
+        # crown: the shadow of an ellipsoid under parallel light is an ellipse (exact, via a sphere)
+        horiz = math.hypot(sx, sy)
+        if horiz > 1e-9:
+            along = -np.array([sx, sy]) / horiz
+        else:
+            along = np.array([1.0, 0.0])
+        across = np.array([-along[1], along[0]])
+        for cx, cy, zc, R, b, _ in self.ellipsoids:
+            zg = float(self.ground_height(np.array([cx]), np.array([cy]))[0])
+            centre = np.array([cx, cy]) + shadow * (zc - zg)
+            lz = sz * R / b
+            sin_el = lz / math.sqrt(horiz**2 + lz**2)
+            major = R / max(sin_el, 1e-3)
+            pts = centre + major * circle[:, :1] * along + R * circle[:, 1:] * across
+            fill(pts)
+        for verts, zb, zt, _ in self.prisms:
+            fill(hull(np.vstack([verts, verts + shadow * (zt - zb)])))
+        sunlit = 255 - mask
+        return cv2.GaussianBlur(sunlit, (0, 0), 0.8)
+
+    def sunlit_at(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """Return the ground sunlit fraction [0–1] at world points x, y [m], float32."""
+        ix, iy, inside = self.cell_of(x, y)
+        return np.where(inside, self.sunlit[iy, ix], 255).astype(np.float32) * (1.0 / 255.0)
+
+    # ---------------------------------------------------------------- ray casting
+
+    def cast(self, origin: np.ndarray, az: np.ndarray, el: np.ndarray, reach: float | None = None) -> Hits:
+        """Cast a level grid of rays from `origin` (3,) [m]: world azimuths `az` (W,) [rad], elevations `el` (H,) [rad].
+
+        Returns `Hits` of shape (H, W): row i has elevation el[i], column j azimuth az[j]. The ground
+        is marched out to `max_range` [m]; with a longer `reach` [m] (cameras) solids are intersected
+        out to `reach` and the ground beyond the march is taken as the plane z = 0.
+        """
+        reach = self.max_range if reach is None else max(float(reach), self.max_range)
+        ox, oy, oz = (float(v) for v in origin)
+        az = np.asarray(az, np.float64)
+        el = np.asarray(el, np.float64)
+        H, W = len(el), len(az)
+        ca, sa = np.cos(az).astype(np.float32), np.sin(az).astype(np.float32)
+        tan_el = np.tan(el).astype(np.float32)
+        S = self._samples
+        nS = len(S)
+
+        # ---- ground: march every column's height profile once
+        X = np.float32(ox) + ca[:, None] * S[None, :]
+        Y = np.float32(oy) + sa[:, None] * S[None, :]
+        gmat = self.ground_material(X, Y)
+        Hg = self.ground_height(X, Y, gmat)
+        alpha = (Hg - np.float32(oz)) / S[None, :]
+        np.clip(alpha, -120.0, 120.0, out=alpha)
+        A = np.maximum.accumulate(alpha, axis=1)
+        offs = (np.arange(W, dtype=np.float64) * 256.0)[:, None]  # float64: keeps tan resolution
+        flat = (A + offs).ravel()
+        q = (tan_el[None, :] + offs).ravel()  # (W*H) queries in column-major blocks
+        k = (np.searchsorted(flat, q, side="left").reshape(W, H) - np.arange(W)[:, None] * nS).T  # (H, W)
+        ground_hit = k < nS
+        kc = np.clip(k, 1, nS - 1)
+        f1 = kc + (np.arange(W) * nS)[None, :]  # flat index into the (W, S) profiles
+        f0 = f1 - 1
+        Hf, Gf = Hg.ravel(), gmat.ravel()
+        h1 = Hf.take(f1)
+        h0 = Hf.take(f0)
+        s1 = S.take(kc)
+        s0 = S.take(kc - 1)
+        t = tan_el[:, None]
+        d0 = oz + s0 * t - h0
+        d1 = oz + s1 * t - h1
+        g1 = Gf.take(f1)
+        g0 = Gf.take(f0)
+        riser = ((h1 - h0) > 0.03) & ~((g1 == g0) & (self._g_steps[g1] == 0))
+        frac = np.clip(d0 / np.maximum(d0 - d1, 1e-6), 0.0, 1.0)
+        s_ground = np.where(riser, s1, s0 + (s1 - s0) * frac)
+        s_ground = np.where(k == 0, S[0], s_ground)
+        riser &= k > 0
+        s_buf = np.where(ground_hit, s_ground, np.inf).astype(np.float32)
+        mat = np.where(ground_hit, g1, MATERIAL_SKY).astype(np.int32)
+        # ground normals: per material (flat/tread up, slope gradient), risers face down the stairs
+        gm = np.where(ground_hit, mat, 0)
+        normal = np.take(self._g_normal, gm, axis=0)
+        if riser.any():  # steps inside stairs face down the stairs; other vertical ground faces face the ray
+            rr, cc = np.nonzero(riser)
+            same = (g1[rr, cc] == g0[rr, cc])[:, None]
+            back = np.stack([-ca[cc], -sa[cc], np.zeros(len(cc), np.float32)], -1)
+            normal[rr, cc] = np.where(same, self._g_riser_normal[gm[rr, cc]], back)
+        s_fin = np.where(ground_hit, s_buf, np.float32(0.0))
+        gx = np.float32(ox) + s_fin * ca[None, :]
+        gy = np.float32(oy) + s_fin * sa[None, :]
+        tex = np.empty((H, W, 2), np.int32)
+        tex[..., 0] = gx * np.float32(1.0 / self.res)
+        tex[..., 1] = gy * np.float32(1.0 / self.res)
+
+        # ---- solids, analytically per column
+        rmax = reach
+        az_mid = 0.5 * (float(az.max()) + float(az.min()))
+        az_half = 0.5 * (float(az.max()) - float(az.min())) + 0.01
+        ctx = _Ctx(ox, oy, oz, ca, sa, ca.astype(np.float64), sa.astype(np.float64), tan_el, -tan_el,
+                   -az if W < 2 or bool(np.all(np.diff(az) < 0)) else None, az_mid,
+                   s_buf, mat, normal, tex)
+        if reach > self.max_range:  # far ground: the plane z = 0 beyond the march
+            far = (mat == MATERIAL_SKY) & (tan_el[:, None] < -1e-4) & (oz > 0.0)
+            if far.any():
+                rr, cc = np.nonzero(far)
+                sf = (oz / -tan_el[rr]).astype(np.float32)
+                ok = (sf > self.max_range) & (sf <= reach)
+                rr, cc, sf = rr[ok], cc[ok], sf[ok]
+                fx, fy = ox + sf * ca[cc], oy + sf * sa[cc]
+                s_buf[rr, cc] = sf
+                mat[rr, cc] = self.ground_material(fx, fy)
+                tex[rr, cc, 0] = (fx * np.float32(1.0 / self.res)).astype(np.int32)
+                tex[rr, cc, 1] = (fy * np.float32(1.0 / self.res)).astype(np.int32)
+        # thin solids matter less far away: posts and trunks to 60 m, crowns to 100 m, buildings to `reach`
+        for j in self._visible(self.cylinders, self.cylinders[:, 2], ox, oy, az_mid, az_half, min(rmax, max(60.0, self.max_range))):
+            cx, cy, r, zb, zt, m = self.cylinders[j]
+            self._cylinder(ctx, cx, cy, r, zb, zt, int(m))
+        for j in self._visible(self.ellipsoids, self.ellipsoids[:, 3], ox, oy, az_mid, az_half, min(rmax, max(100.0, self.max_range))):
+            cx, cy, zc, R, b, m = self.ellipsoids[j]
+            self._ellipsoid(ctx, cx, cy, zc, R, b, int(m))
+        if len(self.prisms):
+            for j in self._visible(self._prism_centre, self._prism_radius, ox, oy, az_mid, az_half, rmax):
+                verts, zb, zt, m = self.prisms[j]
+                self._prism(ctx, verts, zb, zt, m)
+
+        s_buf = ctx.s
+        too_far = s_buf > rmax
+        mat = np.where(too_far, MATERIAL_SKY, ctx.mat)
+        s_buf = np.where(too_far, np.inf, s_buf).astype(np.float32)
+        hit = mat != MATERIAL_SKY
+        cos_el = np.cos(el).astype(np.float32)[:, None]
+        rng3 = s_buf / cos_el
+        s_fin = np.where(hit, s_buf, np.float32(0.0))
+        xyz = np.stack([ox + s_fin * ca[None, :], oy + s_fin * sa[None, :], oz + s_fin * t], axis=-1)
+        xyz[~hit] = np.nan
+        label = np.where(hit, self.mat_label[np.maximum(mat, 0)], LABEL_SKY).astype(np.uint8)
+        riser = riser & (ctx.mat == np.where(ground_hit, g1, -2)) & hit
+        return Hits(s=s_buf, rng=rng3.astype(np.float32), xyz=xyz.astype(np.float32), label=label,
+                    material=mat, normal=ctx.normal, tex=ctx.tex, riser=riser)
+
+    # solids -----------------------------------------------------------------------------
+
+    def _visible(self, centres: np.ndarray, radii: np.ndarray, ox: float, oy: float,
+                 az_mid: float, az_half: float, reach: float) -> np.ndarray:
+        """Return indices of round-bounded solids within range and within the azimuth window [rad]."""
+        if len(centres) == 0:
+            return np.zeros(0, np.int64)
+        dx = centres[:, 0] - ox
+        dy = centres[:, 1] - oy
+        d = np.hypot(dx, dy)
+        bearing = np.arctan2(dy, dx)
+        off = np.abs((bearing - az_mid + np.pi) % (2 * np.pi) - np.pi)
+        spread = np.arcsin(np.clip(radii / np.maximum(d, 1e-9), 0.0, 1.0))
+        keep = (d - radii < reach) & ((d <= radii) | (off <= az_half + spread))
+        return np.flatnonzero(keep)
+
+    @staticmethod
+    def _rows(ctx: "_Ctx", lo: float, hi: float) -> tuple[int, int]:
+        """Return the row slice whose ray tangents lie in [lo, hi] (tangents descend with the row)."""
+        r0 = int(np.searchsorted(ctx.neg_tan, -hi, side="left"))
+        r1 = int(np.searchsorted(ctx.neg_tan, -lo, side="right"))
+        return r0, r1
+
+    @staticmethod
+    def _circle_columns(ctx: "_Ctx", cx: float, cy: float, r: float):
+        """Return (c0, c1, p, half) for the contiguous columns whose 2-D ray meets a circle, or None."""
+        qx, qy = cx - ctx.ox, cy - ctx.oy
+        p = qx * ctx.ca + qy * ctx.sa
+        perp2 = (qx * qx + qy * qy) - p * p
+        hit = (perp2 < r * r) & (p > 0)
+        cols = np.flatnonzero(hit)
+        if len(cols) == 0:
+            return None
+        c0, c1 = int(cols[0]), int(cols[-1]) + 1
+        half = np.sqrt(np.maximum(r * r - perp2[c0:c1], 0.0))
+        half = np.where(hit[c0:c1], half, np.nan)
+        return c0, c1, p[c0:c1], half
+
+    def _cylinder(self, ctx: "_Ctx", cx: float, cy: float, r: float, zb: float, zt: float, m: int) -> None:
+        found = self._circle_columns(ctx, cx, cy, r)
+        if found is None:
+            return
+        c0, c1, p, half = found
+        s_in = np.maximum(p - half, 0.05)  # NaN where the column misses
+        s_out = p + half
+        with np.errstate(invalid="ignore"):
+            lo = float(np.nanmin(np.minimum((zb - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
+            hi = float(np.nanmax(np.maximum((zt - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
+        r0, r1 = self._rows(ctx, lo, hi)
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_in)).any():
+            return
+        t = ctx.tan[r0:r1, None]
+        s_in = s_in[None, :]
+        z_in = ctx.oz + s_in * t
+        with np.errstate(invalid="ignore", divide="ignore"):
+            side = (z_in >= zb) & (z_in <= zt)
+            s_cap = np.where(t < 0, (zt - ctx.oz) / t, np.inf)
+            cap = (~side) & (z_in > zt) & (s_cap <= s_out[None, :])
+        s_new = np.where(side, s_in, np.where(cap, s_cap, np.inf))
+        win = s_new < ctx.s[r0:r1, c0:c1]
+        if not win.any():
+            return
+        ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
+        hx = np.nan_to_num(ctx.ox + s_in * ca - cx)
+        hy = np.nan_to_num(ctx.oy + s_in * sa - cy)
+        n_side = np.stack([hx / r, hy / r, np.zeros_like(hx)], -1)
+        nrm = np.where(side[..., None], n_side, np.array([0, 0, 1], np.float32))
+        tu = np.broadcast_to(np.arctan2(hy, hx) * (r / _TEX_RES), win.shape)
+        tv = (ctx.oz + np.where(win, s_new, 0.0) * t) * (1.0 / _TEX_RES)
+        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+
+    def _ellipsoid(self, ctx: "_Ctx", cx: float, cy: float, zc: float, R: float, b: float, m: int) -> None:
+        found = self._circle_columns(ctx, cx, cy, R)
+        if found is None:
+            return
+        c0, c1, p, half = found
+        s_near = np.maximum(p - half, 0.05)
+        s_far = p + half
+        with np.errstate(invalid="ignore"):
+            lo = float(np.nanmin(np.minimum((zc - b - ctx.oz) / s_near, (zc - b - ctx.oz) / s_far)))
+            hi = float(np.nanmax(np.maximum((zc + b - ctx.oz) / s_near, (zc + b - ctx.oz) / s_far)))
+        r0, r1 = self._rows(ctx, lo, hi)
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_near)).any():
+            return
+        a = np.nan_to_num(half, nan=1e-6)[None, :]
+        a = np.maximum(a, 1e-6)
+        bb = b * a / R
+        pp = p[None, :]
+        t = ctx.tan[r0:r1, None]
+        dz0 = ctx.oz - zc
+        ia2, ib2 = 1.0 / (a * a), 1.0 / (bb * bb)
+        A = ia2 + (t * t) * ib2
+        B = -2.0 * pp * ia2 + 2.0 * dz0 * t * ib2
+        C = pp * pp * ia2 + dz0 * dz0 * ib2 - 1.0
+        disc = B * B - 4 * A * C
+        ok = (disc >= 0) & ~np.isnan(half)[None, :]
+        sq = np.sqrt(np.where(ok, disc, 0.0))
+        s1 = (-B - sq) / (2 * A)
+        s2 = (-B + sq) / (2 * A)
+        s_new = np.where(s1 > 0, s1, s2)
+        s_new = np.where(ok & (s_new > 0), s_new, np.inf)
+        win = s_new < ctx.s[r0:r1, c0:c1]
+        if not win.any():
+            return
+        ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
+        sf = np.where(win, s_new, 0.0)
+        hx = ctx.ox + sf * ca - cx
+        hy = ctx.oy + sf * sa - cy
+        hz = ctx.oz + sf * t - zc
+        nrm = np.stack([hx * (1.0 / (R * R)), hy * (1.0 / (R * R)), hz * (1.0 / (b * b))], -1)
+        nrm /= np.maximum(np.linalg.norm(nrm, axis=-1, keepdims=True), 1e-9)
+        tu = (hx - hy) * (1.0 / _TEX_RES)
+        tv = (hz + 0.7 * hx) * (1.0 / _TEX_RES)
+        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+
+    def _prism(self, ctx: "_Ctx", verts: np.ndarray, zb: float, zt: float, m: int) -> None:
+        v0 = verts
+        e = np.roll(verts, -1, axis=0) - v0  # (M, 2)
+        w0 = v0 - np.array([ctx.ox, ctx.oy])  # (M, 2)
+        # columns within the footprint's angular span (all columns when the sensor is close or inside)
+        b0, b1 = 0, len(ctx.ca)
+        d = np.hypot(w0[:, 0], w0[:, 1])
+        if d.min() > 1.0 and ctx.neg_az is not None:
+            rel = (np.arctan2(w0[:, 1], w0[:, 0]) - ctx.az_mid + np.pi) % (2 * np.pi) - np.pi
+            if rel.max() - rel.min() < np.pi:
+                lo, hi = rel.min() + ctx.az_mid, rel.max() + ctx.az_mid
+                b0 = max(0, int(np.searchsorted(ctx.neg_az, -hi, side="left")) - 1)
+                b1 = min(len(ctx.ca), int(np.searchsorted(ctx.neg_az, -lo, side="right")) + 1)
+                if b1 <= b0:
+                    return
+        ux, uy = ctx.ca64[b0:b1, None], ctx.sa64[b0:b1, None]  # (W', 1)
+        den = ux * e[None, :, 1] - uy * e[None, :, 0]  # u × e
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s = (w0[None, :, 0] * e[None, :, 1] - w0[None, :, 1] * e[None, :, 0]) / den
+            tau = (w0[None, :, 0] * uy - w0[None, :, 1] * ux) / den
+        valid = (np.abs(den) > 1e-12) & (tau >= 0) & (tau <= 1) & (s > 0)
+        any_col = valid.any(axis=1)
+        cols = np.flatnonzero(any_col)
+        if len(cols) == 0:
+            return
+        c0, c1 = int(cols[0]), int(cols[-1]) + 1
+        valid = valid[c0:c1]
+        s = s[c0:c1]
+        c0, c1 = c0 + b0, c1 + b0
+        s_v = np.where(valid, s, np.inf)
+        j_in = np.argmin(s_v, axis=1)
+        s_in = s_v[np.arange(c1 - c0), j_in]
+        s_out = np.where(valid, s, -np.inf).max(axis=1)
+        miss = ~np.isfinite(s_in)
+        s_in_c = np.where(miss, np.nan, np.maximum(s_in, 0.05))
+        with np.errstate(invalid="ignore"):
+            s_out_c = np.where(miss, np.nan, s_out)
+            lo = float(np.nanmin(np.minimum((zb - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
+            hi = float(np.nanmax(np.maximum((zt - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
+        r0, r1 = self._rows(ctx, lo, hi)
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_in_c)).any():
+            return
+        t = ctx.tan[r0:r1, None]
+        s_in2 = s_in[None, :]
+        with np.errstate(invalid="ignore"):
+            z_in = ctx.oz + s_in2 * t
+            side = (z_in >= zb) & (z_in <= zt)
+            s_roof = np.where(t < 0, (zt - ctx.oz) / np.where(t < 0, t, -1.0), np.inf)
+            roof = (~side) & (z_in > zt) & (s_roof <= s_out[None, :])
+        s_new = np.where(side, s_in2, np.where(roof, s_roof, np.inf))
+        win = s_new < ctx.s[r0:r1, c0:c1]
+        if not win.any():
+            return
+        jj = j_in
+        en = e[jj] / np.linalg.norm(e[jj], axis=1, keepdims=True)
+        nx, ny = en[:, 1], -en[:, 0]
+        ca, sa = ctx.ca64[c0:c1], ctx.sa64[c0:c1]
+        flip = (nx * ca + ny * sa) > 0  # the wall faces the sensor
+        nx, ny = np.where(flip, -nx, nx), np.where(flip, -ny, ny)
+        n_side = np.stack([nx, ny, np.zeros_like(nx)], -1)[None]
+        nrm = np.where(side[..., None], n_side, np.array([0, 0, 1], np.float32))
+        sfin = np.where(miss, 0.0, s_in)
+        hx = ctx.ox + sfin * ca
+        hy = ctx.oy + sfin * sa
+        along = (hx - v0[jj, 0]) * en[:, 0] + (hy - v0[jj, 1]) * en[:, 1]
+        tu = np.broadcast_to((along * (1.0 / _TEX_RES))[None, :], win.shape)
+        tv = (ctx.oz + np.where(win, s_new, 0.0) * t) * (1.0 / _TEX_RES)
+        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+
+    @staticmethod
+    def _commit(ctx: "_Ctx", r0: int, r1: int, c0: int, c1: int, win: np.ndarray, s_new: np.ndarray, m: int,
+                nrm: np.ndarray, tu: np.ndarray, tv: np.ndarray) -> None:
+        """Write the winning hits of one solid into the depth buffer block [r0:r1, c0:c1]."""
+        sel = np.nonzero(win)
+        blk = (slice(r0, r1), slice(c0, c1))
+        ctx.s[blk][sel] = s_new[sel]
+        ctx.mat[blk][sel] = m
+        ctx.normal[blk][sel] = np.broadcast_to(nrm, win.shape + (3,))[sel]
+        ctx.tex[blk][sel] = np.stack([np.broadcast_to(tu, win.shape)[sel], np.broadcast_to(tv, win.shape)[sel]], -1).astype(np.int32)
+
+    # ---------------------------------------------------------------- appearance
+
+    def albedo(self, hits: Hits) -> np.ndarray:
+        """Return the full-sun colour of every hit, (H, W, 3) float32 sRGB [0–255] (sky: 0)."""
+        m = np.maximum(hits.material, 0)
+        idx = (hits.tex[..., 1] & (_TILE - 1)) * _TILE + (hits.tex[..., 0] & (_TILE - 1))
+        noise = np.take(self._tile_flat, idx, axis=0)  # (H, W, 3)
+        col = np.take(self.mat_mean, m, axis=0)
+        col += np.take(self.mat_std, m, axis=0) * noise
+        col[hits.material == MATERIAL_SKY] = 0.0
+        return col
+
+    def sun_factor(self, hits: Hits) -> np.ndarray:
+        """Return the direct-sun factor of every hit relative to flat open ground, (H, W) float32 [0–1.3].
+
+        Every surface takes Lambert's cosine against the sun, normalised so flat ground in full sun
+        gives 1; the ground and low solids (posts, trunks) also take the rasterised ground shadows.
+        """
+        sun = self.sun.astype(np.float32)
+        lam = hits.normal @ (sun / np.float32(max(float(sun[2]), 1e-3)))
+        np.clip(lam, 0.0, 1.3, out=lam)
+        takes = np.take(self._mat_ground_shadow, np.maximum(hits.material, 0)) & (hits.material != MATERIAL_SKY)
+        sel = np.nonzero(takes)
+        x = hits.xyz[..., 0][sel]
+        y = hits.xyz[..., 1][sel]
+        lam[sel] *= np.take(self._sunlit_flat, self._flat_index(x, y)).astype(np.float32) * np.float32(1.0 / 255.0)
+        return lam
+
+
+@dataclass
+class _Ctx:
+    ox: float
+    oy: float
+    oz: float
+    ca: np.ndarray
+    sa: np.ndarray
+    ca64: np.ndarray
+    sa64: np.ndarray
+    tan: np.ndarray
+    neg_tan: np.ndarray
+    neg_az: np.ndarray | None  # minus the world azimuths of the columns when they descend (ascending) [rad]
+    az_mid: float
+    s: np.ndarray
+    mat: np.ndarray
+    normal: np.ndarray
+    tex: np.ndarray

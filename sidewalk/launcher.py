@@ -8,7 +8,6 @@ estimates for the report, and stops everything — also on Ctrl-C.
 from __future__ import annotations
 
 import asyncio
-import json
 import math
 import os
 import time
@@ -19,20 +18,17 @@ from typing import Callable, Optional
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from blackboard import BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import free_port
-from modules.captain.client import MissionClient
 from modules.captain.missionfile import MissionFileError, load_mission
-from modules.runtime import ModuleKeys, ZenohLink
-from modules.vocabulary import Mission, MissionStatus, RoutePlan
+from modules.vocabulary import Mission, MissionStatus
 from sidewalk.metrics import cross_track_errors, path_length, position_errors
-from sidewalk.recorder import Recorder
+from sidewalk.system import SystemRun
 from sidewalk.report import BlackboardUsage, ErrorSummary, RunReport, StepReport, plot_trajectory, write_report
-from sidewalk.supervisor import ProcessPlan, Supervisor
+from sidewalk.supervisor import ProcessPlan, ProcessStartError
 from vehicle_sim.mapgen import derive_map, displaced_by_up_to
 from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
 
-__all__ = ["RunConfig", "Progress", "preflight", "run_mission", "mission_path", "MODULES", "LaunchError"]
+__all__ = ["RunConfig", "Progress", "preflight", "build_plans", "prepare_out", "run_mission", "mission_path", "MODULES", "LaunchError"]
 
 #: Every module of the Sidewalk system in start order (the consumers before the producers).
 MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
@@ -154,22 +150,11 @@ def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
     return world, mission, mpath
 
 
-async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | None = None) -> RunReport:
-    """Run one mission end to end and return its report (also written to `cfg.out`)."""
-    world, mission, mpath = preflight(cfg)
-    out = Path(cfg.out)
-    out.mkdir(parents=True, exist_ok=True)
-    for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson"):
-        (out / stale).unlink(missing_ok=True)
-    for old_log in (out / "logs").glob("*.log"):
-        old_log.unlink()
-    vehicle = cfg.vehicle or mission.vehicle or "terregator"
-    ns = cfg.namespace or f"run{os.getpid()}"
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
+def build_plans(cfg: RunConfig, world: World, vehicle: str, out: Path, ns: str, endpoint: str) -> list[ProcessPlan]:
+    """Return the processes of a run in start order: node, simulator, then the modules."""
     zflags = ("--ns", ns, "--connect", endpoint)
     sx, sy, syaw = _start_pose(world, cfg)
     map_file = _map_file(world, cfg, out)
-
     plans = [
         ProcessPlan("blackboard", ("-m", "sidewalk", "up", "blackboard", "--ns", ns, "--listen", endpoint,
                                    "--db", str(out / "blackboard.db"), "--types", "modules.vocabulary")),
@@ -187,54 +172,57 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
                                       "--vehicle", vehicle, *zflags)),
         ProcessPlan("captain", ("-m", "sidewalk", "up", "captain", *zflags)),
     ]
+    return plans
 
-    sup = Supervisor(out / "logs")
+
+def prepare_out(out: Path) -> None:
+    """Create the output directory and remove what an earlier run left there."""
+    out.mkdir(parents=True, exist_ok=True)
+    for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson"):
+        (out / stale).unlink(missing_ok=True)
+    for old_log in (out / "logs").glob("*.log"):
+        old_log.unlink()
+
+
+async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | None = None) -> RunReport:
+    """Run one mission end to end and return its report (also written to `cfg.out`)."""
+    world, mission, mpath = preflight(cfg)
+    out = Path(cfg.out)
+    prepare_out(out)
+    vehicle = cfg.vehicle or mission.vehicle or "terregator"
+    ns = cfg.namespace or f"run{os.getpid()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    system = SystemRun(build_plans(cfg, world, vehicle, out, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs")
     progress = Progress(step_count=len(mission.steps))
-    link: ZenohLink | None = None
-    bb: BlackboardClient | None = None
-    recorder: Recorder | None = None
     status: MissionStatus | None = None
     reason = ""
-    wall0 = time.monotonic()
+    wall_mission0 = time.monotonic()
     sim0: float | None = None
-    wall_mission0 = wall0
-    exit_codes: dict[str, Optional[int]] = {}
-    cpu: dict[str, float] = {}
+    routes: list[tuple[int, int, np.ndarray]] = []
     stats: dict = {}
-    routes: list[np.ndarray] = []
     try:
-        for plan in plans:
-            progress.step = f"starting {plan.name}"
+        def starting(name: str) -> None:
+            progress.step = f"starting {name}"
             if on_progress:
                 on_progress(progress)
-            await sup.start(plan, ready_timeout=60.0)
-        net = NetworkConfig(namespace=ns, connect=(endpoint,))
-        link = ZenohLink.open(net)
-        bb = await BlackboardClient.connect(net, source="launcher")
-        recorder = Recorder(link, bb, ns)
-        recorder.start()
-        status_stream = bb.monitor(Spec(type="mission_status"))
-        await status_stream.start()
-        client = MissionClient(link, ModuleKeys(ns), timeout=15.0)
-        accepted = await client.submit(mpath.read_text())
-        mission_id = accepted.mission_id
+
+        try:
+            await system.start(on_starting=starting)
+        except ProcessStartError as exc:
+            raise LaunchError(str(exc)) from None
+        mission_id = await system.submit(mpath.read_text())
         wall_mission0 = time.monotonic()
         deadline = wall_mission0 + cfg.max_wall_time_s
         while True:
-            if recorder.clock is not None and sim0 is None:
-                sim0 = recorder.clock.stamp
-            try:
-                ev = await status_stream.next(timeout=0.5)
-                st = ev.token.attrs
-                if isinstance(st, MissionStatus) and st.mission_id == mission_id:
-                    status = st
-            except (asyncio.TimeoutError, TimeoutError):
-                pass
-            while not sup.crashed.empty():
-                dead = sup.crashed.get_nowait()
-                progress.state = f"{dead.plan.name} exited ({dead.proc.returncode})"
-            progress.sim_time_s = recorder.sim_time - (sim0 or 0.0)
-            progress.distance_m = recorder.distance_m()
+            if system.recorder.clock is not None and sim0 is None:
+                sim0 = system.recorder.clock.stamp
+            st = await system.next_status(mission_id, timeout=0.5)
+            if st is not None:
+                status = st
+            for dead in system.crashed():
+                progress.state = f"{dead} exited"
+            progress.sim_time_s = system.recorder.sim_time - (sim0 or 0.0)
+            progress.distance_m = system.recorder.distance_m()
             progress.rtf = progress.sim_time_s / max(1e-6, time.monotonic() - wall_mission0)
             if status is not None:
                 progress.state = status.state
@@ -252,31 +240,12 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             if time.monotonic() > deadline:
                 reason = f"wall-time budget of {cfg.max_wall_time_s:.0f} s used up"
                 break
-        await status_stream.close()
-        # what the run leaves on the blackboard: the route plans and the node's counters
-        for tok in await bb.retrieve(Spec(type="route_plan")):
-            plan_attrs = tok.attrs
-            if isinstance(plan_attrs, RoutePlan) and plan_attrs.mission_id == mission_id:
-                routes.append((plan_attrs.step_index, plan_attrs.revision, np.asarray(plan_attrs.polyline, dtype=float)))
-        replies = await link.get(f"sidewalk/{ns}/bb/stats", timeout=5.0)
-        if replies and replies[0].ok:
-            import msgpack
-
-            try:
-                stats = msgpack.unpackb(replies[0].payload)
-            except Exception:
-                stats = json.loads(replies[0].payload)
+        routes = await system.route_plans(mission_id)
+        stats = await system.blackboard_stats()
     finally:
-        if recorder is not None:
-            await recorder.close()
-        cpu = sup.sample_cpu()
-        if bb is not None:
-            await bb.close()
-        if link is not None:
-            link.close()
-        exit_codes = await sup.stop_all()
-
+        cpu, exit_codes = await system.close()
     wall = time.monotonic() - wall_mission0
+    recorder = system.recorder
     truth = recorder.truth.array() if recorder else np.zeros((0, 4))
     est = recorder.estimate.array() if recorder else np.zeros((0, 4))
     # the newest revision of each step's route

@@ -1,0 +1,58 @@
+"""Entry point of the CAPTAIN module: `python -m modules.captain [--mission FILE]... [Zenoh flags]`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from modules.captain.missionfile import MissionFileError, load_mission
+from modules.captain.service import Captain, CaptainOptions
+from modules.runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
+from modules.vocabulary import Mission
+
+__all__ = ["main", "build_parser", "captain_main"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the CAPTAIN's argument parser."""
+    p = argparse.ArgumentParser(prog="python -m modules.captain", description="Sidewalk CAPTAIN: missions → steps → status.")
+    p.add_argument("--mission", action="append", default=[], type=Path, help="mission file to run at start (repeatable, in order)")
+    p.add_argument("--name", default="captain", help="module name (liveliness key chunk)")
+    p.add_argument("--navigator", default="map_navigator", help="module name of the MAP NAVIGATOR to supervise")
+    p.add_argument("--navigator-grace", type=float, default=15.0, help="wall seconds the MAP NAVIGATOR may be gone before the mission fails")
+    p.add_argument("--step-timeout", type=float, default=None, help="sim seconds a step may take (default: no limit)")
+    p.add_argument("--heartbeat", type=float, default=1.0, help="heartbeat period [s wall]")
+    add_network_args(p)
+    return p
+
+
+def captain_main(missions: list[Mission], options: CaptainOptions):
+    """Return the module main running the CAPTAIN with `missions` queued at start."""
+
+    async def run(rt: ModuleRuntime) -> None:
+        cap = Captain(rt, options)
+        cap.declare()
+        for m in missions:
+            await cap.accept(m)
+        rt.ready()
+        await cap.run()
+
+    return run
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the CAPTAIN until SIGINT/SIGTERM; return the exit code (2 for a bad mission file)."""
+    setup_logging()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    net = network_from_args(parser, args)
+    missions = []
+    for path in args.mission:
+        try:
+            missions.append(load_mission(path))
+        except MissionFileError as exc:
+            print(f"error: {exc}", file=sys.stderr)
+            return 2
+    options = CaptainOptions(navigator=args.navigator, navigator_grace_s=args.navigator_grace, step_timeout_s=args.step_timeout)
+    return run_module(args.name, captain_main(missions, options), net, heartbeat_period=args.heartbeat)

@@ -1,0 +1,292 @@
+"""The CAPTAIN module: takes missions (files, or submitted over Zenoh), sequences their steps on the
+blackboard one at a time, and keeps each mission's status (seed §2.3.1).
+
+It never sees perception or the vehicle: it writes `mission`, `mission_step` and `mission_status`
+tokens and reads `step_result` tokens.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import re
+import secrets
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any
+
+from blackboard import AttrPredicate, Spec, VersionConflictError
+
+from modules.captain.missionfile import MissionFileError, parse_mission
+from modules.captain.sequencer import MissionRun
+from modules.captain.wire import Rejection, SubmitAccepted, WireError, parse_cancel, rejection_from
+from modules.runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
+from modules.vocabulary import Mission, MissionStatus, StepResult
+
+__all__ = ["Captain", "CaptainOptions", "new_mission_id"]
+
+log = logging.getLogger(__name__)
+
+
+def new_mission_id(name: str) -> str:
+    """Return a fresh mission id: the name's slug and 6 hex digits (a single key chunk)."""
+    slug = re.sub(r"[^A-Za-z0-9_-]+", "-", name).strip("-")[:40] or "mission"
+    return f"{slug}-{secrets.token_hex(3)}"
+
+
+@dataclass(frozen=True)
+class CaptainOptions:
+    """CAPTAIN settings: which module answers steps, how long it may vanish [s wall], step timeout [s sim]."""
+
+    navigator: str = "map_navigator"
+    navigator_grace_s: float = 15.0
+    step_timeout_s: float | None = None
+    keep_finished: int = 100
+
+
+@dataclass
+class _Entry:
+    run: MissionRun
+    status_token: Any = None
+    cancel: asyncio.Event = field(default_factory=asyncio.Event)
+    cancel_reason: str = ""
+
+
+class Captain:
+    """The CAPTAIN service bound to a module runtime (blackboard client, Zenoh link, sim clock)."""
+
+    def __init__(self, rt: ModuleRuntime, options: CaptainOptions = CaptainOptions()) -> None:
+        self.rt = rt
+        self.bb = rt.bb
+        self.options = options
+        self._entries: dict[str, _Entry] = {}
+        self._queue: deque[str] = deque()
+        self._wake = asyncio.Event()
+        self.navigator: ModuleWatch | None = None
+
+    # ---- accepting missions -------------------------------------------------------------
+
+    def _now(self) -> float:
+        return self.rt.clock.now_or(0.0)
+
+    async def accept(self, mission: Mission) -> SubmitAccepted:
+        """Queue a validated mission (assigning an id if it has none); post its mission and status tokens."""
+        if not mission.mission_id or mission.mission_id in self._entries:
+            mission = mission.model_copy(update={"mission_id": new_mission_id(mission.name)})
+        run = MissionRun(mission, submitted_at=self._now())
+        entry = _Entry(run)
+        self._entries[mission.mission_id] = entry
+        ahead = len(self._queue) + sum(1 for e in self._entries.values() if e.run.status.state == "running")
+        self._queue.append(mission.mission_id)
+        await self.bb.post(mission, stamp=self._now())
+        entry.status_token = await self.bb.post(run.status, stamp=self._now())
+        self._wake.set()
+        self._prune()
+        log.info("accepted mission %s (%s, %d steps)", mission.mission_id, mission.name, len(mission.steps))
+        return SubmitAccepted(mission_id=mission.mission_id, name=mission.name, steps=len(mission.steps), queued_behind=ahead)
+
+    def _prune(self) -> None:
+        done = [k for k, e in self._entries.items() if e.run.finished]
+        for k in done[: max(0, len(done) - self.options.keep_finished)]:
+            del self._entries[k]
+
+    def status(self, mission_id: str) -> MissionStatus | None:
+        """Return the status of a mission this CAPTAIN knows, or None."""
+        e = self._entries.get(mission_id)
+        return None if e is None else e.run.status
+
+    def statuses(self) -> list[MissionStatus]:
+        """Return the status of every mission known, oldest first."""
+        return [e.run.status for e in self._entries.values()]
+
+    async def cancel(self, mission_id: str, reason: str = "cancelled by request") -> MissionStatus:
+        """Cancel a queued or running mission; raise KeyError (unknown) or ValueError (already finished)."""
+        e = self._entries.get(mission_id)
+        if e is None:
+            raise KeyError(mission_id)
+        if e.run.finished:
+            raise ValueError(f"mission {mission_id} already {e.run.status.state}")
+        if mission_id in self._queue:
+            self._queue.remove(mission_id)
+            e.run.cancel(self._now(), reason)
+            await self._publish(e)
+        else:
+            e.cancel_reason = reason
+            e.cancel.set()
+        return e.run.status
+
+    # ---- blackboard writes ----------------------------------------------------------------
+
+    async def _publish(self, e: _Entry) -> None:
+        st = e.run.status
+        tok = e.status_token
+        for _ in range(3):
+            try:
+                e.status_token = await self.bb.update(tok.id, st, expected_version=tok.version, stamp=self._now())
+                return
+            except VersionConflictError:
+                found = await self.bb.retrieve(Spec(type="mission_status", where=(AttrPredicate(path="mission_id", op="==", value=st.mission_id),)))
+                if not found:
+                    break
+                tok = found[0]
+        e.status_token = await self.bb.post(st, stamp=self._now())
+
+    # ---- running missions -----------------------------------------------------------------
+
+    async def run(self) -> None:
+        """Run queued missions one after the other, forever."""
+        while True:
+            while not self._queue:
+                self._wake.clear()
+                await self._wake.wait()
+            mid = self._queue.popleft()
+            e = self._entries.get(mid)
+            if e is None or e.run.finished:
+                continue
+            try:
+                await self._execute(e)
+            except asyncio.CancelledError:
+                raise
+            except Exception as exc:  # a failure in one mission must not stop the CAPTAIN
+                log.exception("mission %s failed inside the CAPTAIN", mid)
+                e.run.fail(self._now(), f"captain error: {type(exc).__name__}: {exc}")
+                try:
+                    await self._publish(e)
+                except Exception:
+                    log.exception("could not publish the status of %s", mid)
+
+    async def _execute(self, e: _Entry) -> None:
+        run = e.run
+        step = run.start(self._now())
+        await self._publish(e)
+        while True:
+            step_tok = await self.bb.post(step, stamp=self._now())
+            outcome = await self._await_result(e, step.step_index)
+            if isinstance(outcome, StepResult):
+                nxt = run.step_finished(outcome, self._now())
+                if nxt.kind == "wait":
+                    await self._publish(e)
+                    if await self._wait_or_cancel(e, nxt.until):  # cancelled while waiting
+                        await self._withdraw(step_tok, step)
+                        run.cancel(self._now(), e.cancel_reason)
+                        await self._publish(e)
+                        return
+                    nxt = run.wait_over(self._now())
+            else:  # cancelled, navigator lost, or timed out
+                kind, reason = outcome
+                await self._withdraw(step_tok, step)
+                if kind == "cancel":
+                    run.cancel(self._now(), reason)
+                else:
+                    run.fail(self._now(), reason)
+                await self._publish(e)
+                return
+            await self._publish(e)
+            if nxt.kind == "done":
+                log.info("mission %s %s %s", run.mission.mission_id, run.status.state, run.status.reason)
+                return
+            assert nxt.step is not None
+            step = nxt.step
+
+    async def _withdraw(self, tok: Any, step: Any) -> None:
+        for _ in range(3):
+            try:
+                await self.bb.update(tok.id, step.model_copy(update={"state": "cancelled"}), expected_version=tok.version, stamp=self._now())
+                return
+            except VersionConflictError:
+                found = await self.bb.retrieve(Spec(type="mission_step", where=(
+                    AttrPredicate(path="mission_id", op="==", value=step.mission_id),
+                    AttrPredicate(path="step_index", op="==", value=step.step_index))))
+                if not found:
+                    return
+                tok = found[0]
+            except Exception as exc:
+                log.warning("could not withdraw step %s/%d: %s", step.mission_id, step.step_index, exc)
+                return
+
+    async def _wait_or_cancel(self, e: _Entry, until: float) -> bool:
+        wait = asyncio.ensure_future(self.rt.clock.wait_until(until))
+        cancel = asyncio.ensure_future(e.cancel.wait())
+        try:
+            done, _ = await asyncio.wait({wait, cancel}, return_when=asyncio.FIRST_COMPLETED)
+            return cancel in done
+        finally:
+            wait.cancel()
+            cancel.cancel()
+
+    async def _await_result(self, e: _Entry, index: int) -> StepResult | tuple[str, str]:
+        mid = e.run.mission.mission_id
+        spec = Spec(type="step_result", where=(AttrPredicate(path="mission_id", op="==", value=mid),
+                                               AttrPredicate(path="step_index", op="==", value=index)))
+        result = asyncio.ensure_future(self.bb.wait(spec))
+        cancel = asyncio.ensure_future(e.cancel.wait())
+        lost = asyncio.ensure_future(self.navigator.lost(self.options.navigator_grace_s) if self.navigator else asyncio.Event().wait())
+        tasks = {result, cancel, lost}
+        timer = None
+        if self.options.step_timeout_s is not None:
+            timer = asyncio.ensure_future(self.rt.clock.sleep(self.options.step_timeout_s))
+            tasks.add(timer)
+        try:
+            while True:
+                done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+                if result not in done or result.exception() is None:
+                    break
+                log.warning("waiting for the result of %s step %d failed (%r); waiting again", mid, index, result.exception())
+                await asyncio.sleep(0.5)  # wall-time back-off while the blackboard is unreachable
+                tasks.discard(result)
+                result = asyncio.ensure_future(self.bb.wait(spec))
+                tasks.add(result)
+            if result in done:
+                return result.result().attrs
+            if cancel in done:
+                return ("cancel", e.cancel_reason)
+            if lost in done:
+                return ("fail", lost.result())
+            return ("fail", f"step {index + 1} timed out after {self.options.step_timeout_s:.0f} s of sim time")
+        finally:
+            for t in tasks:
+                t.cancel()
+
+    # ---- Zenoh services -------------------------------------------------------------------
+
+    async def on_submit(self, req: QueryRequest) -> QueryAnswer:
+        """Answer a mission submission: YAML or JSON text → mission id, or a rejection naming lines and fields."""
+        try:
+            mission = parse_mission(req.payload, source="submitted mission")
+        except MissionFileError as exc:
+            return QueryAnswer(ok=False, payload=rejection_from(exc).to_bytes())
+        acc = await self.accept(mission)
+        return QueryAnswer(ok=True, payload=acc.model_dump_json().encode())
+
+    async def on_status(self, req: QueryRequest) -> QueryAnswer:
+        """Answer a status query for `…/mission/status/<id>` with the MissionStatus JSON."""
+        mid = req.key.rsplit("/", 1)[-1]
+        if mid in ("*", "**"):
+            return QueryAnswer(ok=True, replies=tuple(
+                (self.rt.keys.mission_status(s.mission_id), s.model_dump_json().encode()) for s in self.statuses()))
+        st = self.status(mid)
+        if st is None:
+            return QueryAnswer(ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid!r} known to this CAPTAIN").to_bytes())
+        return QueryAnswer(ok=True, payload=st.model_dump_json().encode(), key=self.rt.keys.mission_status(mid))
+
+    async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
+        """Answer a cancel request (mission id text or JSON) with the mission's status, or a rejection."""
+        try:
+            creq = parse_cancel(req.payload)
+            st = await self.cancel(creq.mission_id, creq.reason)
+        except WireError as exc:
+            return QueryAnswer(ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
+        except KeyError as exc:
+            return QueryAnswer(ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {exc.args[0]!r} known to this CAPTAIN").to_bytes())
+        except ValueError as exc:
+            return QueryAnswer(ok=False, payload=Rejection(error="finished", message=str(exc)).to_bytes())
+        return QueryAnswer(ok=True, payload=st.model_dump_json().encode())
+
+    def declare(self) -> None:
+        """Declare the submit, status and cancel queryables and the navigator watch on the runtime's link."""
+        link, keys = self.rt.link, self.rt.keys
+        link.queryable(keys.mission_submit, self.on_submit)
+        link.queryable(keys.mission_status("*"), self.on_status)
+        link.queryable(keys.mission_cancel, self.on_cancel)
+        self.navigator = ModuleWatch(link, keys, self.options.navigator)
+

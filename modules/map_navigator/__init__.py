@@ -1,0 +1,23 @@
+"""The MAP NAVIGATOR: route selection on the path graph, segmentation by navigation mode, route
+segment descriptions copied from the map, one segment at a time, replanning on failure."""
+
+from modules.map_navigator.describe import DescribeOptions, describe_segment, exit_condition, lateral_offset
+from modules.map_navigator.main import build_parser, main, navigator_main, start_position
+from modules.map_navigator.mapdata import MapData, load_map, map_object
+from modules.map_navigator.route import (
+    Leg, NoRouteError, Route, RouteError, RouteOptions, UnknownPlaceError, edge_cost, edge_forbidden, select_route,
+)
+from modules.map_navigator.segments import SegmentOptions, SegmentPlan, heading_change, segment_route
+from modules.map_navigator.service import MapNavigator, ServiceOptions
+from modules.map_navigator.stepjob import NavigatorOptions, Planned, StepJob, vehicle_turn_radius
+
+__all__ = [
+    "DescribeOptions", "describe_segment", "exit_condition", "lateral_offset",
+    "build_parser", "main", "navigator_main", "start_position",
+    "MapData", "load_map", "map_object",
+    "Leg", "NoRouteError", "Route", "RouteError", "RouteOptions", "UnknownPlaceError", "edge_cost", "edge_forbidden",
+    "select_route",
+    "SegmentOptions", "SegmentPlan", "heading_change", "segment_route",
+    "MapNavigator", "ServiceOptions",
+    "NavigatorOptions", "Planned", "StepJob", "vehicle_turn_radius",
+]

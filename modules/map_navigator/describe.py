@@ -1,0 +1,69 @@
+"""The ROUTE SEGMENT DESCRIBER: route segment descriptions with exit conditions, constraints and objects.
+
+Object descriptions are copied from the map: the segment's path objects first, then every other
+object within `describe_radius_m` of the centreline, nearest first (the prediction PERCEPTION
+matches). World frame, metres.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import shapely
+
+from modules.map_navigator.mapdata import MapData
+from modules.map_navigator.segments import SegmentPlan, _direction
+from modules.vocabulary import DrivingConstraints, ExitCondition, RouteSegmentDescription, StepConstraints
+
+__all__ = ["DescribeOptions", "describe_segment", "exit_condition", "lateral_offset"]
+
+
+@dataclass(frozen=True)
+class DescribeOptions:
+    """Description settings: how far around the centreline objects are copied [m], and how many at most."""
+
+    describe_radius_m: float = 8.0
+    max_objects: int = 48
+
+
+def lateral_offset(keep: str | None, width: float) -> float:
+    """Return the track offset from the centreline [m], + left of travel: keep right → −width/4."""
+    if keep == "right":
+        return -width / 4.0
+    if keep == "left":
+        return width / 4.0
+    return 0.0
+
+
+def exit_condition(coords: tuple[tuple[float, float], ...], width: float) -> ExitCondition:
+    """Return the exit condition at the end of a centreline: a gate across the path, the end point."""
+    end = coords[-1]
+    h = _direction(coords, at_end=True)
+    half = width / 2.0 + 0.5
+    nx, ny = -math.sin(h), math.cos(h)
+    gate = ((end[0] - nx * half, end[1] - ny * half), (end[0] + nx * half, end[1] + ny * half))
+    return ExitCondition(point=end, gate=gate, heading=h, radius_m=max(1.0, width / 2.0))
+
+
+def describe_segment(seg: SegmentPlan, m: MapData, *, segment_id: str, plan_id: str, index: int,
+                     constraints: StepConstraints, last: bool, opts: DescribeOptions = DescribeOptions()) -> RouteSegmentDescription:
+    """Return the route segment description of `seg` (the `index`-th of plan `plan_id`)."""
+    desc = m.descriptions
+    line = shapely.LineString(seg.coords) if seg.length > 1e-6 else shapely.Point(seg.coords[0])
+    objects = [desc[o] for o in seg.path_objects if o in desc]
+    seen = set(seg.path_objects)
+    for _, obj in m.objects_near(line, opts.describe_radius_m):
+        if len(objects) >= opts.max_objects:
+            break
+        if obj.id not in seen:
+            seen.add(obj.id)
+            objects.append(desc[obj.id])
+    return RouteSegmentDescription(
+        segment_id=segment_id, plan_id=plan_id, segment_index=index, mode=seg.mode,  # type: ignore[arg-type]
+        path_object_ids=seg.path_objects, centreline=seg.coords, width_m=seg.width, length_m=seg.length,
+        exit=exit_condition(seg.coords, seg.width),
+        constraints=DrivingConstraints(keep=constraints.keep, lateral_offset_m=lateral_offset(constraints.keep, seg.width),
+                                       speed_limit=constraints.speed_limit, stop_at_exit=last),
+        objects=tuple(objects),
+    )

@@ -1,0 +1,161 @@
+"""One mission step in the MAP NAVIGATOR: plan, hand out one segment at a time, replan on failure.
+
+Pure: no I/O. The service posts what it returns and feeds segment results back.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from modules.map_navigator.describe import DescribeOptions, describe_segment
+from modules.map_navigator.mapdata import MapData
+from modules.map_navigator.route import Route, RouteError, RouteOptions, select_route
+from modules.map_navigator.segments import SegmentOptions, SegmentPlan, segment_route
+from modules.vocabulary import MissionStep, RoutePlan, RouteSegmentDescription, SegmentResult, StepResult
+
+__all__ = ["NavigatorOptions", "StepJob", "Planned", "vehicle_turn_radius"]
+
+
+def vehicle_turn_radius(vehicle: str) -> float:
+    """Return the minimum turning radius [m] the decomposition allows for: Navlab 7 m, Terregator 0 m."""
+    return 7.0 if vehicle == "navlab" else 0.0
+
+
+@dataclass(frozen=True)
+class NavigatorOptions:
+    """MAP NAVIGATOR settings: vehicle, replans allowed per step, decomposition and description settings."""
+
+    vehicle: str = "terregator"
+    max_replans: int = 2
+    segment: SegmentOptions = field(default_factory=SegmentOptions)
+    describe: DescribeOptions = field(default_factory=DescribeOptions)
+
+    def segment_options(self) -> SegmentOptions:
+        """Return the decomposition settings with the vehicle's turning radius."""
+        return replace(self.segment, turn_radius_m=max(self.segment.turn_radius_m, vehicle_turn_radius(self.vehicle)))
+
+
+@dataclass(frozen=True)
+class Planned:
+    """A (re)plan: the route plan token and the segment descriptions, in driving order."""
+
+    plan: RoutePlan
+    segments: tuple[RouteSegmentDescription, ...]
+
+
+class StepJob:
+    """Route one mission step from `start_xy` [m] (world frame): plan, segments, results, replans."""
+
+    def __init__(self, m: MapData, step: MissionStep, start_xy: tuple[float, float], options: NavigatorOptions = NavigatorOptions(),
+                 *, first_revision: int = 0) -> None:
+        self.map = m
+        self.step = step
+        self.options = options
+        self.position = (float(start_xy[0]), float(start_xy[1]))
+        self.revision = first_revision - 1
+        self._first_revision = first_revision
+        self.blocked: set[str] = set()
+        self.planned: Planned | None = None
+        self._plans: list[SegmentPlan] = []
+        self.cursor = 0
+        self.done_length = 0.0
+        self.segments_done = 0
+        self.result: StepResult | None = None
+        self._retreat: tuple[float, float] | None = None
+
+    @property
+    def plan_id(self) -> str:
+        """Return the id of the current plan: <mission>.<step>.<revision>."""
+        return f"{self.step.mission_id}.{self.step.step_index}.{self.revision}"
+
+    def _route(self) -> Route:
+        opts = RouteOptions(vehicle=self.options.vehicle, blocked_edges=frozenset(self.blocked), retreat=self._retreat)  # type: ignore[arg-type]
+        return select_route(self.map, self.position, self.step.destination, self.step.constraints, opts)
+
+    def plan(self) -> Planned | StepResult:
+        """Plan (or replan) from the current position; return the plan, or the step's result if done/failed."""
+        self.revision += 1
+        try:
+            route = self._route()
+        except RouteError as exc:
+            return self._finish(False, str(exc) if self.revision == self._first_revision else f"replanning failed: {exc}")
+        self._plans = segment_route(route, self.map, self.options.segment_options())
+        self.cursor = 0
+        n = len(self._plans)
+        segs = tuple(
+            describe_segment(sp, self.map, segment_id=f"{self.plan_id}.{i}", plan_id=self.plan_id, index=i,
+                             constraints=self.step.constraints, last=(i == n - 1), opts=self.options.describe)
+            for i, sp in enumerate(self._plans)
+        )
+        poly = route.polyline() if route.legs else (route.start_xy, route.goal_xy)
+        plan = RoutePlan(
+            plan_id=self.plan_id, mission_id=self.step.mission_id, step_index=self.step.step_index, revision=self.revision,
+            node_ids=route.node_ids, edge_ids=route.edge_ids, segment_count=n, length_m=route.length, cost=route.cost,
+            polyline=poly, start_xy=route.start_xy, goal_xy=route.goal_xy, goal_name=route.goal_name,
+        )
+        self.planned = Planned(plan, segs)
+        if n == 0:
+            self._finish(True, "already at the destination")
+        return self.planned
+
+    def current(self) -> RouteSegmentDescription | None:
+        """Return the segment the PILOT should drive now, or None when the step is over."""
+        if self.result is not None or self.planned is None or self.cursor >= len(self.planned.segments):
+            return None
+        return self.planned.segments[self.cursor]
+
+    def segment_done(self, res: SegmentResult) -> RouteSegmentDescription | Planned | StepResult:
+        """Apply the PILOT's result for the current segment; return the next segment, a new plan, or the step result."""
+        seg = self.current()
+        if seg is None or res.segment_id != seg.segment_id:
+            raise ValueError(f"result for segment {res.segment_id} but the current segment is {seg.segment_id if seg else None}")
+        if res.success:
+            self.position = res.end_xy if res.end_xy is not None else seg.exit.point
+            self.done_length += seg.length_m
+            self.segments_done += 1
+            self.cursor += 1
+            nxt = self.current()
+            if nxt is None:
+                return self._finish(True, "")
+            return nxt
+        if res.end_xy is not None:
+            self.position = res.end_xy
+        self.blocked.update(self._plans[self.cursor].edge_ids)
+        self._retreat = _travel_direction(seg.centreline, self.position)
+        why = f"segment {seg.segment_index} ({seg.mode}) failed: {res.reason or 'no reason given'}"
+        if self.revision - self._first_revision >= self.options.max_replans:
+            return self._finish(False, f"{why}; no replans left ({self.options.max_replans} allowed)")
+        out = self.plan()
+        if isinstance(out, StepResult):
+            self.result = out.model_copy(update={"reason": f"{why}; {out.reason}"})
+            return self.result
+        return out
+
+    def cancel(self, reason: str = "cancelled") -> StepResult:
+        """End the step as failed because it was cancelled."""
+        return self._finish(False, reason)
+
+    def _finish(self, success: bool, reason: str) -> StepResult:
+        if self.result is None:
+            self.result = StepResult(
+                mission_id=self.step.mission_id, step_index=self.step.step_index, success=success, reason=reason,
+                route_length_m=self.done_length, segments_done=self.segments_done, replans=max(0, self.revision - self._first_revision),
+            )
+        return self.result
+
+
+
+def _travel_direction(coords: tuple[tuple[float, float], ...], xy: tuple[float, float]) -> tuple[float, float]:
+    """Return the unit direction of travel along `coords` at the point nearest `xy` (world frame)."""
+    import shapely
+
+    line = shapely.LineString(coords)
+    s = line.project(shapely.Point(xy))
+    a = line.interpolate(max(0.0, s - 0.5))
+    b = line.interpolate(min(line.length, s + 0.5))
+    dx, dy = b.x - a.x, b.y - a.y
+    n = (dx * dx + dy * dy) ** 0.5
+    if n < 1e-9:
+        (x0, y0), (x1, y1) = coords[0], coords[-1]
+        dx, dy, n = x1 - x0, y1 - y0, max(1e-9, ((x1 - x0) ** 2 + (y1 - y0) ** 2) ** 0.5)
+    return (dx / n, dy / n)

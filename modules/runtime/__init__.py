@@ -1,0 +1,24 @@
+"""The module runtime: lifecycle, Zenoh session, sim clock, liveliness and heartbeat, shutdown.
+
+A module is an async function `main(rt: ModuleRuntime)`; `run_module(name, main, net)` runs it.
+"""
+
+from modules.runtime._zenoh import GetReply, QueryAnswer, QueryRequest, ZenohLink
+from modules.runtime.args import add_network_args, network_from_args, setup_logging
+from modules.runtime.clock import ClockNotRunningError, SimClock
+from modules.runtime.heartbeat import (
+    ClockPayloadError, HeartbeatError, HeartbeatTracker, decode_clock, decode_heartbeat, encode_heartbeat,
+)
+from modules.runtime.keys import ModuleKeys, check_name
+from modules.runtime.watch import ModuleWatch
+from modules.runtime.lifecycle import READY_PREFIX, ModuleMain, ModuleRuntime, run_module, run_module_async
+
+__all__ = [
+    "GetReply", "QueryAnswer", "QueryRequest", "ZenohLink",
+    "add_network_args", "network_from_args", "setup_logging",
+    "ClockNotRunningError", "SimClock",
+    "ClockPayloadError", "HeartbeatError", "HeartbeatTracker", "decode_clock", "decode_heartbeat", "encode_heartbeat",
+    "ModuleKeys", "check_name",
+    "ModuleWatch",
+    "READY_PREFIX", "ModuleMain", "ModuleRuntime", "run_module", "run_module_async",
+]

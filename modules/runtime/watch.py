@@ -1,0 +1,57 @@
+"""Watch another module's liveliness token and tell when it has been gone too long."""
+
+from __future__ import annotations
+
+import asyncio
+import time
+
+from modules.runtime._zenoh import ZenohLink
+from modules.runtime.keys import ModuleKeys
+
+__all__ = ["ModuleWatch"]
+
+
+class ModuleWatch:
+    """The liveliness of module `name`: None until first seen either way, then True/False."""
+
+    def __init__(self, link: ZenohLink, keys: ModuleKeys, name: str) -> None:
+        self.name = name
+        self.key = keys.alive(name)
+        self.alive: bool | None = None
+        self._changed = asyncio.Event()
+        link.watch_alive(self.key, self._on_change)
+
+    def _on_change(self, key: str, alive: bool) -> None:
+        if key == self.key:
+            self.alive = alive
+            self._changed.set()
+
+    def observe(self, alive: bool) -> None:
+        """Record a liveliness change (what the Zenoh watch calls; on the loop)."""
+        self._on_change(self.key, alive)
+
+    async def wait_alive(self) -> None:
+        """Return once the module is alive."""
+        while self.alive is not True:
+            self._changed.clear()
+            await self._changed.wait()
+
+    async def lost(self, grace_s: float) -> str:
+        """Return a reason once the module's token has been gone for longer than `grace_s` wall seconds [s].
+
+        A module never seen is not lost: only one that was alive and went away (or was seen gone).
+        """
+        while True:
+            while self.alive is not False:
+                self._changed.clear()
+                await self._changed.wait()
+            gone_at = time.monotonic()
+            while self.alive is False:
+                left = grace_s - (time.monotonic() - gone_at)
+                if left <= 0:
+                    return f"{self.name} stopped (no liveliness for {grace_s:.0f} s)"
+                self._changed.clear()
+                try:
+                    await asyncio.wait_for(self._changed.wait(), left)
+                except asyncio.TimeoutError:
+                    pass

@@ -1,0 +1,77 @@
+"""The Sidewalk vocabulary: token types the modules exchange, registered with the blackboard.
+
+Importing this package registers every type (`sidewalk blackboard serve --types modules.vocabulary`).
+One file per token group: mapdata (map objects), mission (CAPTAIN ↔ MAP NAVIGATOR), route
+(MAP NAVIGATOR ↔ PILOT), perception (PERCEPTION results), driving (PILOT ↔ PERCEPTION/HELM),
+health (heartbeats).
+
+Who writes what (type name: writer → readers; all coordinates in attrs are world frame unless a
+`frame` field says otherwise):
+
+- mission, mission_status: CAPTAIN → monitors (status updated in place, one token per mission)
+- mission_step: CAPTAIN → MAP NAVIGATOR (state "cancelled" withdraws it)
+- step_result: MAP NAVIGATOR → CAPTAIN
+- route_plan: MAP NAVIGATOR → monitors (never the PILOT: it sees one segment at a time)
+- route_segment: MAP NAVIGATOR → PILOT (one active at a time; state "cancelled" withdraws it)
+- segment_result: PILOT → MAP NAVIGATOR (end_xy: where the PILOT thinks the vehicle is)
+- driving_unit: PILOT → PERCEPTION, which updates status and fills `result`
+- perception_result: PERCEPTION → PILOT (also embedded in the driving unit)
+- position_estimate, local_path_constraints: PILOT → monitors
+- local_path_plan: PILOT → HELM (newest `seq` wins)
+- map_object: MAP NAVIGATOR (copies of the map; also embedded in segments and driving units)
+- heartbeat: every module, on `sidewalk/<ns>/heartbeat/<module>` (not a blackboard token)
+"""
+
+from modules.vocabulary._base import XY, Cov3, Frozen, Polyline2, Pose, Ring
+from modules.vocabulary.driving import (
+    DrivingUnitDescription, LocalPathConstraints, LocalPathPlan, PlanPose, PositionEstimate, UnitStatus,
+)
+from modules.vocabulary.health import Heartbeat, ModuleState
+from modules.vocabulary.mapdata import (
+    ColourStats, FlatShape, MapObject, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
+    TreeShape,
+)
+from modules.vocabulary.mission import (
+    TERMINAL_STATES, Destination, KeepSide, Mission, MissionState, MissionStatus, MissionStep,
+    MissionStepSpec, StepConstraints, StepOutcome, StepResult, Trigger, TriggerAction,
+)
+from modules.vocabulary.perception import (
+    DetectedObject, LineFix, PerceptionResult, PointFix, PositionFix, ResultFrame, SensorMode, SurfaceType,
+)
+from modules.vocabulary.route import (
+    NAVIGATION_MODES, DrivingConstraints, ExitCondition, NavigationMode, RoutePlan, RouteSegmentDescription,
+    SegmentResult,
+)
+
+#: Registered token type name of each vocabulary model.
+TOKEN_TYPES: dict[type, str] = {
+    MapObject: "map_object",
+    Mission: "mission",
+    MissionStep: "mission_step",
+    StepResult: "step_result",
+    MissionStatus: "mission_status",
+    RoutePlan: "route_plan",
+    RouteSegmentDescription: "route_segment",
+    SegmentResult: "segment_result",
+    DrivingUnitDescription: "driving_unit",
+    PerceptionResult: "perception_result",
+    PositionEstimate: "position_estimate",
+    LocalPathConstraints: "local_path_constraints",
+    LocalPathPlan: "local_path_plan",
+    Heartbeat: "heartbeat",
+}
+
+__all__ = [
+    "XY", "Cov3", "Frozen", "Polyline2", "Pose", "Ring",
+    "DrivingUnitDescription", "LocalPathConstraints", "LocalPathPlan", "PlanPose", "PositionEstimate", "UnitStatus",
+    "Heartbeat", "ModuleState",
+    "ColourStats", "FlatShape", "MapObject", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
+    "StairsShape", "TreeShape",
+    "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionState", "MissionStatus", "MissionStep",
+    "MissionStepSpec", "StepConstraints", "StepOutcome", "StepResult", "Trigger", "TriggerAction",
+    "DetectedObject", "LineFix", "PerceptionResult", "PointFix", "PositionFix", "ResultFrame", "SensorMode",
+    "SurfaceType",
+    "NAVIGATION_MODES", "DrivingConstraints", "ExitCondition", "NavigationMode", "RoutePlan",
+    "RouteSegmentDescription", "SegmentResult",
+    "TOKEN_TYPES",
+]

@@ -1,0 +1,160 @@
+"""Mission vocabulary: missions, mission steps, step results and mission status (CAPTAIN ↔ MAP NAVIGATOR).
+
+Seed §2.3.1: a mission is a sequence of steps; each step has a destination (where to go), constraints
+(how to go) and a trigger with an action. The CAPTAIN sends one step at a time to the MAP NAVIGATOR
+and gets back success or failure. Coordinates are in the `world` frame [m].
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import Field, model_validator
+
+from blackboard.registry import token_type
+from modules.vocabulary._base import XY, Frozen, NonNeg
+
+__all__ = [
+    "KeepSide", "TriggerAction", "MissionState", "Destination", "StepConstraints", "Trigger",
+    "MissionStepSpec", "Mission", "MissionStep", "StepResult", "StepOutcome", "MissionStatus",
+    "TERMINAL_STATES",
+]
+
+#: Which side of the path to keep to; None = centre of the path.
+KeepSide = Literal["right", "left"]
+#: What the CAPTAIN does when a step's trigger fires (the step arrived).
+TriggerAction = Literal["stop", "wait", "continue"]
+#: Lifecycle of a mission.
+MissionState = Literal["queued", "running", "succeeded", "failed", "cancelled"]
+#: States a mission never leaves.
+TERMINAL_STATES: frozenset[str] = frozenset({"succeeded", "failed", "cancelled"})
+
+
+class Destination(Frozen):
+    """Where a step goes: a named place of the map, or a point (x [m], y [m]) in the world frame."""
+
+    place: str | None = None
+    xy: XY | None = None
+
+    @model_validator(mode="after")
+    def _exactly_one(self) -> "Destination":
+        if (self.place is None) == (self.xy is None):
+            raise ValueError("give exactly one of place (a named place) or xy (world coordinates)")
+        if self.place is not None and not self.place.strip():
+            raise ValueError("place must be a non-empty name")
+        return self
+
+    def describe(self) -> str:
+        """Return a short human-readable form ("place NAME" or "(x, y)")."""
+        if self.place is not None:
+            return f"place {self.place!r}"
+        assert self.xy is not None
+        return f"({self.xy[0]:.1f}, {self.xy[1]:.1f})"
+
+
+class StepConstraints(Frozen):
+    """How to go: keep to a side, avoid stairs/slopes, a speed limit [m/s]."""
+
+    keep: KeepSide | None = None
+    avoid_stairs: bool = False
+    avoid_slope: bool = False
+    speed_limit: Annotated[float, Field(gt=0.0, le=20.0)] | None = None
+
+
+class Trigger(Frozen):
+    """Action taken when the step's trigger condition (arrival at the destination) is satisfied.
+
+    stop: end the mission there (succeeded); wait: hold for wait_s [s] sim time, then go on;
+    continue: go straight on to the next step.
+    """
+
+    action: TriggerAction = "continue"
+    wait_s: NonNeg = 0.0
+
+    @model_validator(mode="after")
+    def _wait_needs_time(self) -> "Trigger":
+        if self.action == "wait" and self.wait_s <= 0.0:
+            raise ValueError("action 'wait' needs wait_s > 0 [s]")
+        if self.action != "wait" and self.wait_s != 0.0:
+            raise ValueError(f"wait_s is only meaningful with action 'wait', not {self.action!r}")
+        return self
+
+
+class MissionStepSpec(Frozen):
+    """One step of a mission as written by the person: name, destination, constraints, trigger."""
+
+    name: str
+    destination: Destination
+    constraints: StepConstraints = StepConstraints()
+    trigger: Trigger = Trigger()
+
+
+@token_type("mission")
+class Mission(Frozen):
+    """A whole mission, as accepted by the CAPTAIN (seen only by the CAPTAIN and monitors)."""
+
+    mission_id: str
+    name: str
+    description: str = ""
+    world: str | None = None
+    vehicle: Literal["terregator", "navlab"] | None = None
+    steps: Annotated[tuple[MissionStepSpec, ...], Field(min_length=1)]
+
+
+@token_type("mission_step")
+class MissionStep(Frozen):
+    """One step sent by the CAPTAIN to the MAP NAVIGATOR: destination and constraints only.
+
+    The CAPTAIN updates `state` to "cancelled" to withdraw the step.
+    """
+
+    mission_id: str
+    step_index: Annotated[int, Field(ge=0)]
+    name: str
+    destination: Destination
+    constraints: StepConstraints = StepConstraints()
+    state: Literal["active", "cancelled"] = "active"
+
+
+@token_type("step_result")
+class StepResult(Frozen):
+    """The MAP NAVIGATOR's verdict on a mission step: success or failure with the reason."""
+
+    mission_id: str
+    step_index: Annotated[int, Field(ge=0)]
+    success: bool
+    reason: str = ""
+    route_length_m: NonNeg = 0.0
+    segments_done: Annotated[int, Field(ge=0)] = 0
+    replans: Annotated[int, Field(ge=0)] = 0
+
+
+class StepOutcome(Frozen):
+    """Progress of one step inside a mission status; times in sim time [s]."""
+
+    step_index: Annotated[int, Field(ge=0)]
+    name: str
+    state: Literal["pending", "running", "waiting", "succeeded", "failed", "cancelled"] = "pending"
+    reason: str = ""
+    started_at: float | None = None
+    finished_at: float | None = None
+
+
+@token_type("mission_status")
+class MissionStatus(Frozen):
+    """The CAPTAIN's view of a mission: state, current step, per-step outcomes, reason; times [s] sim."""
+
+    mission_id: str
+    name: str
+    state: MissionState
+    current_step: Annotated[int, Field(ge=0)] | None = None
+    step_count: Annotated[int, Field(ge=1)]
+    steps: tuple[StepOutcome, ...] = ()
+    reason: str = ""
+    submitted_at: float | None = None
+    finished_at: float | None = None
+
+    @property
+    def terminal(self) -> bool:
+        """Return whether the mission has finished (succeeded, failed or cancelled)."""
+        return self.state in TERMINAL_STATES

@@ -1,5 +1,60 @@
 """CODGER: the Sidewalk blackboard over Zenoh. Knows nothing about sidewalks."""
 
+from blackboard.client import BlackboardClient, MonitorStream
+from blackboard.errors import (
+    BadRequestError,
+    BadSpecError,
+    BlackboardError,
+    ExtrapolationError,
+    FutureExtrapolationError,
+    InvalidTokenError,
+    NodeUnavailableError,
+    NotFoundError,
+    PastExtrapolationError,
+    UnknownFrameError,
+    UnknownTypeError,
+    VersionConflictError,
+)
+from blackboard.frames import FrameTree
+from blackboard.geometry import Point, Polygon, Polyline, Pose2D
+from blackboard.keys import BlackboardKeys
 from blackboard.network import DEFAULT_ENDPOINT, NetworkConfig
+from blackboard.registry import TypeRegistry, default_registry, token_type
+from blackboard.spec import AttrPredicate, Intersects, Near, Nearest, Spec, Within
+from blackboard.token import MonitorEvent, Token
 
-__all__ = ["DEFAULT_ENDPOINT", "NetworkConfig"]
+__all__ = [
+    "DEFAULT_ENDPOINT",
+    "NetworkConfig",
+    "BlackboardClient",
+    "MonitorStream",
+    "BlackboardKeys",
+    "Token",
+    "MonitorEvent",
+    "Spec",
+    "AttrPredicate",
+    "Near",
+    "Within",
+    "Intersects",
+    "Nearest",
+    "Point",
+    "Polyline",
+    "Polygon",
+    "Pose2D",
+    "FrameTree",
+    "token_type",
+    "TypeRegistry",
+    "default_registry",
+    "BlackboardError",
+    "BadRequestError",
+    "UnknownTypeError",
+    "InvalidTokenError",
+    "BadSpecError",
+    "VersionConflictError",
+    "NotFoundError",
+    "UnknownFrameError",
+    "ExtrapolationError",
+    "PastExtrapolationError",
+    "FutureExtrapolationError",
+    "NodeUnavailableError",
+]

@@ -1,0 +1,336 @@
+"""Blackboard benchmark: node and client in separate processes on loopback, beside the raw-Zenoh floor.
+
+Three processes: the blackboard node (`python -m blackboard`), a floor process (`python -m
+bench.blackboard floor`) with a raw queryable that answers at once and a raw relay that re-puts
+every sample, and this client. Latencies are measured with the same asyncio client harness for
+the node and for the floor (reply/sample callback → `call_soon_threadsafe` → future), and the two
+are sampled interleaved so machine noise hits both alike. Figures in microseconds.
+
+Keys: notify_p50_us/p99 vs zenoh_relay_p50_us/p99 (post→monitor event through the node vs a raw
+put relayed by a third process), post_ack_p50_us/p99 vs zenoh_get_p50_us/p99, retrieve_100k_p50_us/p99
+(within-polygon spec returning about 50 of `tokens`), post_throughput_per_s (pipelined,
+acknowledged), transform_10k_points_us p50/p99.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import gc
+import json
+import math
+import os
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict
+
+from blackboard import (
+    BlackboardClient,
+    NetworkConfig,
+    Point,
+    Polygon,
+    Pose2D,
+    Spec,
+    Within,
+    token_type,
+)
+from blackboard.testing import free_port, start_node
+
+__all__ = ["run", "BenchItem", "BenchNote"]
+
+
+@token_type("bench_item")
+class BenchItem(BaseModel):
+    """A token for the retrieve benchmark."""
+
+    model_config = ConfigDict(frozen=True)
+    seq: int
+    value: float = 0.0
+
+
+@token_type("bench_note")
+class BenchNote(BaseModel):
+    """A token for the latency benchmarks."""
+
+    model_config = ConfigDict(frozen=True)
+    seq: int
+
+
+_WORLD = 1000.0  # side of the square the 100k points are spread over [m]
+
+
+def _pct(xs: list[float]) -> tuple[float, float]:
+    a = np.asarray(xs) * 1e6
+    return float(np.percentile(a, 50)), float(np.percentile(a, 99))
+
+
+# ---------------------------------------------------------------------- floor process
+def _floor_main(endpoint: str, ns: str) -> None:
+    import zenoh
+
+    cfg = {"mode": "peer", "scouting": {"multicast": {"enabled": False}}, "listen": {"endpoints": [endpoint]}}
+    s = zenoh.open(zenoh.Config.from_json5(json.dumps(cfg)))
+    enc = zenoh.Encoding("application/msgpack")
+    echo_key = f"sidewalk/{ns}/floor/echo"
+    out_key = f"sidewalk/{ns}/floor/out"
+    pub = s.declare_publisher(out_key, encoding=enc, congestion_control=zenoh.CongestionControl.BLOCK, express=True)
+
+    def on_query(q: "zenoh.Query") -> None:
+        p = q.payload
+        q.reply(q.key_expr, p.to_bytes() if p is not None else b"", encoding=enc)
+        q.drop()
+
+    def on_sample(smp: "zenoh.Sample") -> None:
+        pub.put(smp.payload.to_bytes())
+
+    qa = s.declare_queryable(echo_key, zenoh.handlers.Callback(on_query, indirect=False), complete=True)
+    sub = s.declare_subscriber(f"sidewalk/{ns}/floor/in", zenoh.handlers.Callback(on_sample, indirect=False))
+    tok = s.liveliness().declare_token(f"sidewalk/{ns}/alive/floor")
+    stop = False
+
+    def on_sig(*_: object) -> None:
+        nonlocal stop
+        stop = True
+
+    signal.signal(signal.SIGTERM, on_sig)
+    signal.signal(signal.SIGINT, on_sig)
+    print("floor ready", flush=True)
+    while not stop:
+        signal.sigtimedwait([signal.SIGTERM, signal.SIGINT], 0.5) if hasattr(signal, "sigtimedwait") else time.sleep(0.5)
+    for h in (tok, sub, qa, pub):
+        h.undeclare()
+    s.close()
+
+
+def _start_floor(ns: str) -> tuple[subprocess.Popen, str]:
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = {**os.environ, "PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
+    p = subprocess.Popen([sys.executable, "-m", "bench.blackboard", "floor", "--endpoint", ep, "--ns", ns],
+                         stdout=subprocess.PIPE, text=True, env=env)
+    assert p.stdout is not None
+    r, _, _ = select.select([p.stdout], [], [], 20)
+    line = p.stdout.readline() if r else ""
+    if not line.startswith("floor ready"):
+        p.kill()
+        raise RuntimeError(f"floor process failed to start: {line!r}")
+    return p, ep
+
+
+# ---------------------------------------------------------------------- measurements
+class _Floor:
+    """Raw zenoh get/put through the same session and asyncio harness the client uses."""
+
+    def __init__(self, bb: BlackboardClient, ns: str) -> None:
+        self.s = bb._session
+        self.loop = asyncio.get_running_loop()
+        self.echo = f"sidewalk/{ns}/floor/echo"
+        self.inp = f"sidewalk/{ns}/floor/in"
+        self.waiter: asyncio.Future | None = None
+        self.s.subscribe(f"sidewalk/{ns}/floor/out", lambda smp: self.loop.call_soon_threadsafe(self._got, smp))
+
+    def _got(self, smp: object) -> None:
+        if self.waiter is not None and not self.waiter.done():
+            self.waiter.set_result(smp)
+
+    async def get(self, payload: bytes) -> None:
+        fut = self.loop.create_future()
+        self.s.get(self.echo, payload, as_json=False, timeout=10,
+                   on_reply=lambda r: self.loop.call_soon_threadsafe(lambda: fut.done() or fut.set_result(r)),
+                   on_done=lambda: self.loop.call_soon_threadsafe(lambda: fut.done() or fut.set_exception(TimeoutError("floor get"))))
+        await fut
+
+    async def relay(self, payload: bytes) -> None:
+        self.waiter = self.loop.create_future()
+        self.s.put(self.inp, payload)
+        await asyncio.wait_for(self.waiter, 10)
+
+
+async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, samples: int) -> dict:
+    out: dict = {}
+    net = net.model_copy(update={"connect": net.connect + (floor_ep,)})
+    async with BlackboardClient(net, source="bench", timeout=60) as bb:
+        floor = _Floor(bb, ns)
+        note_payload = {"op": "post", "type": "bench_note", "attrs": {"seq": 0}, "frame": "world", "stamp": 0.0,
+                        "source": "bench", "geometry": {"kind": "point", "x": 1.0, "y": 2.0}}
+        from blackboard.codec import encode
+
+        floor_payload = encode([note_payload])
+        # warm up both paths
+        for i in range(200):
+            await bb.post(BenchNote(seq=i), geometry=Point(x=1, y=2), stamp=float(i))
+            await floor.get(floor_payload)
+            await floor.relay(floor_payload)
+
+        gc.collect()
+        gc.freeze()
+        # --- post ack vs raw get (interleaved)
+        pa, zg = [], []
+        pc = time.perf_counter
+        for i in range(samples):
+            t0 = pc()
+            await bb.post(BenchNote(seq=i), geometry=Point(x=1, y=2), stamp=float(i))
+            t1 = pc()
+            await floor.get(floor_payload)
+            t2 = pc()
+            pa.append(t1 - t0)
+            zg.append(t2 - t1)
+        out["post_ack_p50_us"], out["post_ack_p99_us"] = _pct(pa)
+        out["zenoh_get_p50_us"], out["zenoh_get_p99_us"] = _pct(zg)
+        out["post_vs_zenoh_get"] = out["post_ack_p50_us"] / out["zenoh_get_p50_us"]
+
+        # --- notify vs relay (interleaved)
+        nt, zr = [], []
+        async with bb.monitor(Spec(type="bench_note")) as mon:
+            for i in range(50):
+                await bb.post(BenchNote(seq=i), stamp=0.0)
+                await mon.next(10)
+            for i in range(samples):
+                t0 = pc()
+                ack = asyncio.ensure_future(bb.post(BenchNote(seq=i), geometry=Point(x=1, y=2), stamp=float(i)))
+                await anext(mon)
+                t1 = pc()
+                await ack
+                t2 = pc()
+                await floor.relay(floor_payload)
+                t3 = pc()
+                nt.append(t1 - t0)
+                zr.append(t3 - t2)
+        out["notify_p50_us"], out["notify_p99_us"] = _pct(nt)
+        out["zenoh_relay_p50_us"], out["zenoh_relay_p99_us"] = _pct(zr)
+        out["notify_vs_zenoh_relay"] = out["notify_p50_us"] / out["zenoh_relay_p50_us"]
+
+        # --- throughput: pipelined, acknowledged posts (client coalesces each window into one batch)
+        n_tp = max(20_000, samples * 10)
+        window = 1000
+        in_flight = 4
+        item = BenchItem(seq=0)
+        sem = asyncio.Semaphore(in_flight)
+
+        async def chunk(base: int) -> None:
+            async with sem:
+                await asyncio.gather(*[bb.post(item, geometry=Point(x=float(j % 100), y=-10.0 - (j // 100) % 100), stamp=float(j))
+                                       for j in range(base, base + window)])
+
+        t0 = pc()
+        await asyncio.gather(*[chunk(b) for b in range(0, n_tp, window)])
+        out["post_throughput_per_s"] = n_tp / (pc() - t0)
+        out["post_throughput_posts"] = n_tp
+
+        # --- bulk load for retrieve: raw batch ops, 5000 per message
+        rng = np.random.default_rng(12345)
+        xy = rng.uniform(0.0, _WORLD, size=(tokens, 2))
+        t0 = pc()
+        batch = 5000
+        pending = []
+        for b in range(0, tokens, batch):
+            ops = [{"op": "post", "type": "bench_item", "attrs": {"seq": int(k), "value": float(k)}, "frame": "world",
+                    "stamp": float(k), "source": "bench", "geometry": {"kind": "point", "x": float(xy[k, 0]), "y": float(xy[k, 1])}}
+                   for k in range(b, min(b + batch, tokens))]
+            pending.append(bb._query(bb.keys.batch, encode(ops)))
+            if len(pending) >= 4:
+                await pending.pop(0)
+        for p in pending:
+            await p
+        out["bulk_load_tokens_per_s"] = tokens / (pc() - t0)
+
+        # --- retrieve ~50 of `tokens` by a within-polygon spec (random hexagon, random place)
+        area = 50.0 * _WORLD * _WORLD / tokens  # [m²] expected to hold 50 tokens
+        radius = math.sqrt(area / (1.5 * math.sqrt(3)))  # regular hexagon of that area
+        specs = []
+        for _ in range(samples):
+            cx, cy = rng.uniform(radius, _WORLD - radius, size=2)
+            pts = [(cx + radius * math.cos(a), cy + radius * math.sin(a)) for a in np.arange(6) * math.pi / 3]
+            specs.append(Spec(type="bench_item", geometry=Within(Polygon(points=pts), frame="world")))
+        for s in specs[:50]:
+            await bb.retrieve(s)
+        rt, counts = [], []
+        for i, s in enumerate(specs):
+            t0 = pc()
+            got = await bb.retrieve(s)
+            t1 = pc()
+            rt.append(t1 - t0)
+            counts.append(len(got))
+        out["retrieve_100k_p50_us"], out["retrieve_100k_p99_us"] = _pct(rt)
+        out["retrieve_tokens_in_store"] = tokens
+        out["retrieve_mean_matches"] = float(np.mean(counts))
+        out["retrieve_vs_zenoh_get"] = out["retrieve_100k_p50_us"] / out["zenoh_get_p50_us"]
+
+        # --- transform 10k points vehicle@t → world (lookup on the node + vectorised numpy)
+        await bb.post_pose(parent="world", child="local", pose=Pose2D(x=10.0, y=20.0, yaw=0.3), stamp=0.0, hold=None)
+        await asyncio.gather(*[bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=0.01 * t, y=0.0, yaw=0.001 * t), stamp=0.01 * t)
+                               for t in range(1000)])
+        pts = rng.normal(0.0, 10.0, size=(10_000, 2))
+        tt = []
+        for i in range(max(samples // 2, 100)):
+            stamp = 0.5 + 0.01 * (i % 800) + 0.005
+            t0 = pc()
+            res = await bb.transform(pts, src_frame="vehicle", src_stamp=stamp, dst_frame="world")
+            tt.append(pc() - t0)
+        assert res.shape == (10_000, 2)
+        out["transform_10k_points_us"], out["transform_10k_points_p99_us"] = _pct(tt)
+        out["transform_10k_points_p50_us"] = out["transform_10k_points_us"]
+
+        st = await bb.stats()
+        out.update({f"node_{k}": v for k, v in st.items()})
+        gc.unfreeze()
+    out["samples"] = samples
+    out["cpus"] = os.cpu_count()
+    out["loadavg_1m"] = os.getloadavg()[0]
+    return out
+
+
+def run(tokens: int = 100_000, samples: int = 2000, dispatch: str = "inline") -> dict:
+    """Start a node and a floor process, measure, stop them; return the figures (see module docstring)."""
+    if tokens < 1 or samples < 10:
+        raise ValueError("tokens must be ≥ 1 and samples ≥ 10")
+    ns = f"bench{os.getpid()}"
+    tmp = tempfile.mkdtemp(prefix="bb-bench-")
+    node = start_node(namespace=ns, types=("bench.blackboard",), db=os.path.join(tmp, "bench.sqlite"), dispatch=dispatch)
+    floor, floor_ep = None, ""
+    try:
+        floor, floor_ep = _start_floor(ns)
+        out = asyncio.run(_bench(node.client_net(), floor_ep, ns, tokens, samples))
+        out["node_dispatch"] = dispatch
+        out["node_db"] = "sqlite file, WAL, synchronous=NORMAL"
+        return out
+    finally:
+        if floor is not None:
+            floor.send_signal(signal.SIGTERM)
+            try:
+                floor.wait(10)
+            except subprocess.TimeoutExpired:
+                floor.kill()
+            if floor.stdout:
+                floor.stdout.close()
+        node.stop()
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench.blackboard")
+    sub = ap.add_subparsers(dest="cmd", required=True)
+    f = sub.add_parser("floor", help="run the raw-Zenoh floor process (echo queryable + relay)")
+    f.add_argument("--endpoint", required=True)
+    f.add_argument("--ns", required=True)
+    r = sub.add_parser("run", help="run the benchmark and print JSON")
+    r.add_argument("--tokens", type=int, default=100_000)
+    r.add_argument("--samples", type=int, default=2000)
+    r.add_argument("--dispatch", default="inline", choices=["inline", "loop"])
+    a = ap.parse_args(argv)
+    if a.cmd == "floor":
+        _floor_main(a.endpoint, a.ns)
+    else:
+        print(json.dumps(run(a.tokens, a.samples, a.dispatch), sort_keys=True))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(_main())

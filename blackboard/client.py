@@ -1,0 +1,538 @@
+"""The async blackboard client every module uses.
+
+Writes issued in the same loop iteration are coalesced into one batch message (one commit on the
+node); each call still gets its own acknowledgement or typed error. A write resolves once the node
+has committed it (durable per the node's sync mode). `post`, `post_raw`, `post_pose` and
+`set_static_frame` queue their request when called and return an awaitable future (so
+`asyncio.gather(*[bb.post(...) for ...])` pipelines without a task per post); `update`, `delete`,
+`retrieve`, `wait`, `lookup_pose` and `transform` are coroutines. Replies and monitor events
+arrive on zenoh threads and are handed to the loop with `call_soon_threadsafe`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import itertools
+import logging
+import re
+import uuid
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel
+
+from blackboard._zenoh import ZReply, ZSample, ZSession, open_session
+from blackboard.codec import decode, encode
+from blackboard.errors import BlackboardError, NodeUnavailableError, error_from_wire
+from blackboard.frames import apply_se2
+from blackboard.geometry import Point, Polygon, Polyline, Pose2D
+from blackboard.keys import BlackboardKeys
+from blackboard.network import NetworkConfig
+from blackboard.registry import TypeRegistry, default_registry
+from blackboard.spec import Spec
+from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_wire
+
+__all__ = ["BlackboardClient", "MonitorStream"]
+
+log = logging.getLogger("blackboard.client")
+_SAFE = re.compile(r"[^A-Za-z0-9_-]")
+_EVENT_FIELDS = {"kind", "token"}
+
+
+def _geom_wire(g: Point | Polyline | Polygon | None) -> dict | None:
+    if g is None:
+        return None
+    if isinstance(g, Point):
+        return {"kind": "point", "x": g.x, "y": g.y}
+    if isinstance(g, (Polyline, Polygon)):
+        return {"kind": g.kind, "points": [list(p) for p in g.points]}
+    if isinstance(g, dict):
+        return g
+    raise TypeError(f"geometry must be Point, Polyline, Polygon or None, not {type(g).__name__}")
+
+
+class MonitorStream:
+    """An async iterator of MonitorEvent for one spec; registered on the node until closed.
+
+    Use `async with bb.monitor(spec) as mon: async for ev in mon: ...` (registered on entry), or
+    iterate directly (registered on the first `__anext__`), or `await mon.start()`.
+    """
+
+    def __init__(self, client: "BlackboardClient", spec: Spec) -> None:
+        self._client = client
+        self.spec = spec
+        self.mid = f"m{next(client._mids)}"
+        self.queue: asyncio.Queue[MonitorEvent | None] = asyncio.Queue()
+        self._started = False
+        self._closed = False
+
+    async def start(self) -> "MonitorStream":
+        """Register the monitor on the node (idempotent); events after this are delivered."""
+        if not self._started:
+            self._started = True
+            self._client._monitors[self.mid] = self
+            await self._client._request(
+                self._client.keys.monitor,
+                {"client": self._client.client_id, "mid": self.mid, "spec": self._client._spec_wire(self.spec)},
+            )
+        return self
+
+    async def close(self) -> None:
+        """Cancel the monitor on the node."""
+        if self._closed:
+            return
+        self._closed = True
+        self.queue.put_nowait(None)  # ends any iteration in progress
+        self._client._monitors.pop(self.mid, None)
+        if self._started and not self._client._closed:
+            try:
+                await self._client._request(self._client.keys.monitor, {"client": self._client.client_id, "mid": self.mid, "cancel": True})
+            except BlackboardError:
+                pass
+
+    async def __aenter__(self) -> "MonitorStream":
+        return await self.start()
+
+    async def __aexit__(self, *exc: Any) -> None:
+        await self.close()
+
+    def __aiter__(self) -> "MonitorStream":
+        return self
+
+    async def __anext__(self) -> MonitorEvent:
+        if not self._started and not self._closed:
+            await self.start()
+        ev = await self.queue.get()
+        if ev is None:
+            self.queue.put_nowait(None)
+            raise StopAsyncIteration
+        return ev
+
+    async def next(self, timeout: float | None = None) -> MonitorEvent:
+        """Return the next event; raise TimeoutError after `timeout` [s] (wall clock), StopAsyncIteration once closed."""
+        if timeout is None or not self.queue.empty():
+            return await self.__anext__()
+        async with asyncio.timeout(timeout):
+            return await self.__anext__()
+
+    def _push(self, ev: MonitorEvent) -> None:
+        if not self._closed:
+            self.queue.put_nowait(ev)
+
+
+class BlackboardClient:
+    """Async client of a blackboard node in `net.namespace`."""
+
+    def __init__(
+        self,
+        net: NetworkConfig,
+        *,
+        source: str = "anonymous",
+        registry: TypeRegistry | None = None,
+        timeout: float = 10.0,
+        connect_timeout: float = 10.0,
+        lenient: bool = False,
+    ) -> None:
+        self.net = net
+        self.source = source
+        self.registry = registry if registry is not None else default_registry
+        self.timeout = timeout
+        self.connect_timeout = connect_timeout
+        #: keep attrs of types missing from the registry as plain dicts instead of raising UnknownTypeError
+        self.lenient = lenient
+        self.keys = BlackboardKeys(net.namespace)
+        self.client_id = (_SAFE.sub("_", source)[:24] or "c") + "-" + uuid.uuid4().hex[:10]
+        self._session: ZSession | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._batch: list[tuple[dict, asyncio.Future, Any]] = []
+        self._batch_scheduled = False
+        self._monitors: dict[str, MonitorStream] = {}
+        self._mids = itertools.count(1)
+        self._closed = False
+        self._spec_cache: dict[int, tuple[Spec, dict]] = {}
+
+    # ------------------------------------------------------------------ lifecycle
+    @classmethod
+    async def connect(cls, net: NetworkConfig, **kw: Any) -> "BlackboardClient":
+        """Open a client and wait until the node is reachable (NodeUnavailableError after connect_timeout)."""
+        self = cls(net, **kw)
+        await self.open()
+        return self
+
+    async def open(self) -> None:
+        """Open the zenoh session, declare this client's liveliness and wait for the node."""
+        self._loop = loop = asyncio.get_running_loop()
+        self._session = s = await loop.run_in_executor(None, open_session, self.net)
+        s.liveliness_token(self.keys.client_alive(self.client_id))
+        s.subscribe(self.keys.events(self.client_id), lambda smp: loop.call_soon_threadsafe(self._on_events, smp))
+        seen = loop.create_future()
+
+        def on_alive(key: str, alive: bool) -> None:
+            if alive:
+                loop.call_soon_threadsafe(lambda: seen.done() or seen.set_result(True))
+
+        tok = s.liveliness_subscribe(self.keys.alive, on_alive, history=True)
+        try:
+            await asyncio.wait_for(seen, self.connect_timeout)
+        except (asyncio.TimeoutError, TimeoutError):
+            await self.close()
+            raise NodeUnavailableError(
+                f"no blackboard node in namespace {self.net.namespace!r} within {self.connect_timeout} s "
+                f"(endpoints {list(self.net.connect or self.net.listen)})"
+            ) from None
+        finally:
+            if self._session is not None:
+                self._session.undeclare(tok)
+
+    async def close(self) -> None:
+        """Cancel monitors, fail outstanding requests and close the session."""
+        if self._closed:
+            return
+        for mon in list(self._monitors.values()):
+            await mon.close()
+        self._closed = True
+        for _, fut, _ in self._batch:
+            if not fut.done():
+                fut.set_exception(NodeUnavailableError("client closed"))
+        self._batch.clear()
+        if self._session is not None:
+            s, self._session = self._session, None
+            s.close()
+
+    async def __aenter__(self) -> "BlackboardClient":
+        await self.open()
+        return self
+
+    async def __aexit__(self, *exc: Any) -> None:
+        await self.close()
+
+    # ------------------------------------------------------------------ transport
+    def _query(self, selector: str, payload: bytes | None, as_json: bool = False, deliver: Any = None) -> asyncio.Future:
+        loop = self._loop
+        assert loop is not None
+        if self._session is None:
+            raise NodeUnavailableError("client is closed")
+        fut: asyncio.Future = loop.create_future()
+        if deliver is not None:
+            fut = _Deliver(deliver)  # type: ignore[assignment]
+
+        def on_reply(r: ZReply) -> None:
+            loop.call_soon_threadsafe(_resolve, fut, r)
+
+        def on_done() -> None:
+            loop.call_soon_threadsafe(_finish, fut, selector)
+
+        self._session.get(selector, payload, as_json=as_json, timeout=self.timeout, on_reply=on_reply, on_done=on_done)
+        return fut
+
+    async def _request(self, key: str, obj: Any, *, selector: str | None = None) -> Any:
+        return await self._query(selector or key, encode(obj))
+
+    def _write(self, op: dict, then: Any = None) -> asyncio.Future:
+        """Queue one write; return a future of its result (`then(result)` if given)."""
+        loop = self._loop
+        if loop is None:
+            raise NodeUnavailableError("client not opened")
+        fut = loop.create_future()
+        if self._closed:
+            fut.set_exception(NodeUnavailableError("client is closed"))
+            return fut
+        self._batch.append((op, fut, then))
+        if not self._batch_scheduled:
+            # the first write of a loop iteration goes out at once; later ones in the same
+            # iteration are coalesced into one batch sent at the end of the iteration
+            self._batch_scheduled = True
+            self._send_batch(reschedule=True)
+        return fut
+
+    def _send_batch(self, reschedule: bool = False) -> None:
+        batch, self._batch = self._batch, []
+        if reschedule:
+            assert self._loop is not None
+            self._loop.call_soon(self._send_batch)
+        else:
+            self._batch_scheduled = False
+        if not batch:
+            return
+        try:
+            self._query(self.keys.batch, encode([e[0] for e in batch]), deliver=lambda res, exc: _distribute(batch, res, exc))
+        except BlackboardError as exc:
+            _distribute(batch, None, exc)
+
+    def _on_events(self, smp: ZSample) -> None:
+        mid = smp.key.rsplit("/", 1)[-1]
+        mon = self._monitors.get(mid)
+        if mon is None:
+            return
+        try:
+            evs = decode(smp.payload)
+        except BlackboardError:
+            log.warning("undecodable monitor event on %s", smp.key)
+            return
+        for ev in evs:
+            try:
+                tok = self._token(ev["token"])
+            except (BlackboardError, KeyError, TypeError):
+                log.warning("monitor event with a token this client cannot decode on %s", smp.key)
+                continue
+            mon._push(_trusted(MonitorEvent, {"kind": ev["kind"], "token": tok}, _EVENT_FIELDS))
+
+    # ------------------------------------------------------------------ tokens
+    def _token(self, w: dict, attrs: Any = None) -> Token:
+        if attrs is None:
+            if self.lenient and w["type"] not in self.registry:
+                attrs = w["attrs"]
+            else:
+                attrs = self.registry.decode(w["type"], w["attrs"])
+        return token_from_wire(w, attrs)
+
+    def _spec_wire(self, spec: Spec) -> dict:
+        hit = self._spec_cache.get(id(spec))
+        if hit is not None and hit[0] is spec:
+            return hit[1]
+        if isinstance(spec, dict):
+            return spec
+        w = spec.model_dump(mode="json")
+        if len(self._spec_cache) > 256:
+            self._spec_cache.clear()
+        self._spec_cache[id(spec)] = (spec, w)
+        return w
+
+    def post(
+        self,
+        attrs: BaseModel,
+        *,
+        frame: str = "world",
+        geometry: Point | Polyline | Polygon | None = None,
+        stamp: float,
+        type: str | None = None,
+    ) -> "asyncio.Future[Token]":
+        """Post a token; its type is the model's registered name. Await the Token (id, version 1).
+
+        The request is queued when called (posts go out in call order; those made in the same loop
+        iteration share one message and one commit); the returned future resolves on the ack.
+        """
+        try:
+            name = type or self.registry.name_of(attrs)
+            g = _geom_wire(geometry)
+            op = {
+                "op": "post",
+                "type": name,
+                "attrs": attrs.model_dump(mode="json"),
+                "frame": frame,
+                "stamp": stamp,
+                "source": self.source,
+                "geometry": g,
+                "reply": "id",
+            }
+        except Exception as exc:  # noqa: BLE001 - raised when awaited, like any other failure
+            return self._failed(exc)
+        geom = _geom_from_wire(g) if isinstance(geometry, dict) else geometry
+        source = self.source
+        return self._write(op, lambda tid: make_token(tid, name, 1, float(stamp), source, frame, geom, attrs))
+
+    def _failed(self, exc: BaseException) -> asyncio.Future:
+        loop = self._loop if self._loop is not None else asyncio.get_running_loop()
+        fut = loop.create_future()
+        fut.set_exception(exc)
+        return fut
+
+    def post_raw(
+        self, type: str, attrs: dict, *, frame: str = "world", geometry: Any = None, stamp: float = 0.0
+    ) -> "asyncio.Future[dict]":
+        """Post a token from a raw attribute dict (validated by the node); await its wire dict."""
+        try:
+            g = _geom_wire(geometry)
+        except Exception as exc:  # noqa: BLE001
+            return self._failed(exc)
+        return self._write({"op": "post", "type": type, "attrs": attrs, "frame": frame, "stamp": stamp,
+                            "source": self.source, "geometry": g})
+
+    async def update(
+        self,
+        token_id: str,
+        attrs: BaseModel | None = None,
+        *,
+        expected_version: int,
+        geometry: Point | Polyline | Polygon | None | type(...) = ...,  # type: ignore[valid-type]
+        stamp: float | None = None,
+        frame: str | None = None,
+    ) -> Token:
+        """Replace a token's attrs/geometry/stamp/frame if it is still at `expected_version` (CAS).
+
+        Raise VersionConflictError if someone else updated it first, NotFoundError if it is gone.
+        """
+        op: dict[str, Any] = {"op": "update", "id": token_id, "expected_version": expected_version}
+        if attrs is not None:
+            op["attrs"] = attrs.model_dump(mode="json")
+        if geometry is not ...:
+            op["geometry"] = _geom_wire(geometry)  # type: ignore[arg-type]
+        if stamp is not None:
+            op["stamp"] = stamp
+        if frame is not None:
+            op["frame"] = frame
+        w = await self._write(op)
+        return self._token(w, attrs)
+
+    async def delete(self, token_id: str, *, expected_version: int | None = None) -> None:
+        """Delete a token (optionally only if at `expected_version`)."""
+        op: dict[str, Any] = {"op": "delete", "id": token_id}
+        if expected_version is not None:
+            op["expected_version"] = expected_version
+        await self._write(op)
+
+    def _retrieve_selector(self, frame: str | None, frame_stamp: float | None) -> str:
+        params = []
+        if frame is not None:
+            params.append(f"frame={frame}")
+        if frame_stamp is not None:
+            params.append(f"stamp={frame_stamp!r}")
+        return self.keys.retrieve + ("?" + ";".join(params) if params else "")
+
+    async def retrieve_raw(self, spec: Spec | dict, *, frame: str | None = None, frame_stamp: float | None = None) -> list[dict]:
+        """Return the matching tokens as wire dicts (attrs not decoded)."""
+        return await self._query(self._retrieve_selector(frame, frame_stamp), encode(self._spec_wire(spec)))  # type: ignore[arg-type]
+
+    async def retrieve(self, spec: Spec, *, frame: str | None = None, frame_stamp: float | None = None) -> list[Token]:
+        """Return the tokens matching `spec`; geometry in `frame` (at `frame_stamp`, default each token's stamp)."""
+        ws = await self.retrieve_raw(spec, frame=frame, frame_stamp=frame_stamp)
+        return [self._token(w) for w in ws]
+
+    async def wait(self, spec: Spec, timeout: float | None = None) -> Token:
+        """Return the first token matching `spec`, already there or still to come; TimeoutError after `timeout` [s]."""
+
+        async def run() -> Token:
+            mon = MonitorStream(self, spec)
+            try:
+                await mon.start()
+                now = await self.retrieve(spec)
+                if now:
+                    return now[0]
+                while True:
+                    try:
+                        ev = await mon.__anext__()
+                    except StopAsyncIteration:
+                        raise NodeUnavailableError("client closed while waiting") from None
+                    if ev.kind != "deleted":
+                        return ev.token
+            finally:
+                await mon.close()
+
+        return await asyncio.wait_for(run(), timeout)
+
+    def monitor(self, spec: Spec) -> MonitorStream:
+        """Return an async iterator of new/updated/deleted events of tokens matching `spec`."""
+        return MonitorStream(self, spec)
+
+    # ------------------------------------------------------------------ frames
+    def post_pose(self, *, parent: str, child: str, pose: Pose2D, stamp: float, hold: float | None = 0.0) -> "asyncio.Future[None]":
+        """Record child's pose in parent at `stamp` [s]; `hold` [s] keeps the newest valid that long (None: forever).
+
+        Queued when called, like `post`; await the returned future for the ack.
+        """
+        return self._write({"op": "pose", "parent": parent, "child": child, "pose": [pose.x, pose.y, pose.yaw],
+                            "stamp": stamp, "hold": hold})
+
+    def set_static_frame(self, *, parent: str, child: str, pose: Pose2D) -> "asyncio.Future[None]":
+        """Fix `child` in `parent` for all times (e.g. a sensor on the vehicle); await the ack."""
+        return self._write({"op": "static", "parent": parent, "child": child, "pose": [pose.x, pose.y, pose.yaw]})
+
+    async def lookup(self, target: str, target_stamp: float | None, source: str, source_stamp: float | None) -> Pose2D:
+        """Return T_{target@target_stamp ← source@source_stamp} (None stamp: newest)."""
+        x, y, yaw = await self._request(
+            self.keys.lookup,
+            {"target": target, "target_stamp": target_stamp, "source": source, "source_stamp": source_stamp},
+        )
+        return Pose2D.model_construct(x=x, y=y, yaw=yaw)
+
+    async def lookup_pose(self, *, parent: str, child: str, stamp: float | None = None) -> Pose2D:
+        """Return the pose of `child` in `parent` at `stamp` [s] (None: newest)."""
+        if stamp is None:
+            return await self.lookup(parent, None, child, None)
+        return await self.lookup(parent, stamp, child, stamp)
+
+    async def transform(
+        self,
+        points: np.ndarray,
+        *,
+        src_frame: str,
+        src_stamp: float | None,
+        dst_frame: str,
+        dst_stamp: float | None = None,
+    ) -> np.ndarray:
+        """Map (N,2) float64 points [m] from `src_frame@src_stamp` to `dst_frame@dst_stamp` (None: src_stamp)."""
+        T = await self.lookup(dst_frame, src_stamp if dst_stamp is None else dst_stamp, src_frame, src_stamp)
+        return apply_se2((T.x, T.y, T.yaw), points)
+
+    async def frames(self) -> dict:
+        """Return the node's frame tree (edges; newest and oldest stamps of moving ones)."""
+        return await self._request(self.keys.frames, {})
+
+    async def stats(self) -> dict:
+        """Return the node's counters (posts, retrieves, monitors, events, bytes in/out, tokens, …)."""
+        return await self._query(self.keys.stats, None)
+
+
+class _Deliver:
+    """A future-like sink that hands the result (or error) straight to a function."""
+
+    __slots__ = ("_fn", "_done")
+
+    def __init__(self, fn: Any) -> None:
+        self._fn = fn
+        self._done = False
+
+    def done(self) -> bool:
+        return self._done
+
+    def set_result(self, v: Any) -> None:
+        self._done = True
+        self._fn(v, None)
+
+    def set_exception(self, e: BaseException) -> None:
+        self._done = True
+        self._fn(None, e)
+
+
+def _distribute(batch: list[tuple[dict, asyncio.Future, Any]], results: Any, exc: BaseException | None) -> None:
+    if exc is None and (not isinstance(results, list) or len(results) != len(batch)):
+        exc = NodeUnavailableError(f"malformed batch reply: {str(results)[:200]}")
+    if exc is not None:
+        for _, fut, _ in batch:
+            if not fut.done():
+                fut.set_exception(exc)
+        return
+    for (_, fut, then), res in zip(batch, results):
+        if fut.done():
+            continue
+        if "ok" in res:
+            if then is None:
+                fut.set_result(res["ok"])
+            else:
+                try:
+                    fut.set_result(then(res["ok"]))
+                except Exception as e:  # noqa: BLE001
+                    fut.set_exception(e)
+        else:
+            fut.set_exception(error_from_wire(res))
+
+
+def _resolve(fut: asyncio.Future, r: ZReply) -> None:
+    if fut.done():
+        return
+    try:
+        obj = decode(r.payload, as_json=r.is_json)
+    except BlackboardError as exc:
+        fut.set_exception(exc)
+        return
+    if r.ok:
+        fut.set_result(obj)
+    else:
+        fut.set_exception(error_from_wire(obj))
+
+
+def _finish(fut: asyncio.Future, selector: str) -> None:
+    if not fut.done():
+        fut.set_exception(NodeUnavailableError(f"no reply from the blackboard node to {selector}"))
+
+

@@ -1,0 +1,391 @@
+"""The blackboard node: answers Zenoh queries on `sidewalk/<ns>/bb/…`; an asyncio loop runs its life.
+
+Requests go into one inbox. Whoever drains it holds the state lock; it takes every request
+waiting, applies consecutive writes in one transaction (group commit), publishes monitor events
+right after the commit, then acknowledges them; reads are answered in arrival order from
+committed state (pending writes are committed first, so a client reads its own writes).
+
+Dispatch modes:
+- `"loop"`: zenoh callbacks hand the request to the asyncio loop with `call_soon_threadsafe`
+  and the loop drains the inbox.
+- `"inline"` (default): the zenoh callback that finds the lock free drains the inbox itself
+  (try-acquire, never waits: a callback that finds it taken just leaves its request for the
+  current drainer, which re-checks the inbox after releasing). This saves a thread hand-off
+  per request — measured on the 2-core box: a raw get answered in the callback took 127 µs p50,
+  answered after a hop to an asyncio loop 247 µs — which the issue's latency ratios cannot absorb.
+  The work done in the callback is bounded CPU work plus the SQLite commit (a WAL append to the
+  page cache under `synchronous=NORMAL`); nothing waits on another thread or on the network.
+  With `sync="full"` every commit fsyncs, which would block the callback, so the node then uses
+  `"loop"` whatever was asked.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import collections
+import gc
+import logging
+import threading
+import signal
+import sys
+import time
+from typing import Any, Callable, Literal
+
+from blackboard._zenoh import ZQuery, ZSession, open_session
+from blackboard.codec import decode, encode
+from blackboard.core import BlackboardCore, Monitor
+from blackboard.errors import BadRequestError, BlackboardError
+from blackboard.frames import FrameTree
+from blackboard.keys import BlackboardKeys
+from blackboard.network import NetworkConfig
+from blackboard.registry import TypeRegistry, default_registry
+from blackboard.store import Store, SyncMode
+
+__all__ = ["BlackboardNode", "serve"]
+
+log = logging.getLogger("blackboard.node")
+
+
+class BlackboardNode:
+    """Serve one blackboard (store + frame tree) over Zenoh in namespace `net.namespace`."""
+
+    def __init__(
+        self,
+        net: NetworkConfig,
+        *,
+        db: str = ":memory:",
+        sync: SyncMode = "normal",
+        registry: TypeRegistry | None = None,
+        frames: FrameTree | None = None,
+        heartbeat_period: float = 1.0,
+        dispatch: Literal["inline", "loop"] = "inline",
+    ) -> None:
+        if dispatch not in ("inline", "loop"):
+            raise ValueError(f"dispatch must be 'inline' or 'loop', not {dispatch!r}")
+        if sync == "full" and dispatch == "inline":
+            # an fsync per commit would block the Zenoh callback thread: hand requests to the loop
+            log.info("--sync full: dispatching requests on the asyncio loop, not in Zenoh callbacks")
+            dispatch = "loop"
+        self.net = net
+        self.keys = BlackboardKeys(net.namespace)
+        self.store = Store(db, sync=sync)
+        self.core = BlackboardCore(self.store, registry if registry is not None else default_registry, frames)
+        self.heartbeat_period = heartbeat_period
+        self._session: ZSession | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self.dispatch = dispatch
+        self._pending: list[tuple[ZQuery, list[Any], bool, bool]] = []
+        self._inbox: collections.deque[tuple[Callable[..., None], Any]] = collections.deque()
+        self._lock = threading.Lock()
+        self._closing = False
+        self._write_handlers = {self._on_post, self._on_update, self._on_delete, self._on_batch}
+        self._publishers: dict[tuple[str, str], Any] = {}
+        self._stop = asyncio.Event()
+        self.ready = asyncio.Event()
+
+    # ------------------------------------------------------------------ lifecycle
+    async def run(self, on_ready: Callable[[], None] | None = None) -> None:
+        """Serve until `stop()` (or SIGINT/SIGTERM when installed by `serve`)."""
+        self._loop = asyncio.get_running_loop()
+        s = self._session = open_session(self.net)
+        try:
+            k = self.keys
+            handlers: dict[str, Callable[[ZQuery], None]] = {
+                k.post: self._on_post,
+                k.batch: self._on_batch,
+                k.update: self._on_update,
+                k.delete: self._on_delete,
+                k.retrieve: self._on_retrieve,
+                k.lookup: self._on_lookup,
+                k.frames: self._on_frames,
+                k.monitor: self._on_monitor,
+                k.stats: self._on_stats,
+            }
+            for key, h in handlers.items():
+                s.queryable(key, lambda q, h=h: self._submit(self._guard, h, q))
+            s.liveliness_subscribe(
+                f"{k.client_alive_prefix}/*",
+                lambda key, alive: None if alive else self._submit(self._client_gone, key),
+            )
+            s.liveliness_token(k.alive)
+            hb = asyncio.create_task(self._heartbeat())
+            self.ready.set()
+            if on_ready is not None:
+                on_ready()
+            await self._stop.wait()
+            hb.cancel()
+        finally:
+            self.close()
+
+    def stop(self) -> None:
+        """Ask `run` to return (thread-safe)."""
+        if self._loop is not None:
+            self._loop.call_soon_threadsafe(self._stop.set)
+
+    def close(self) -> None:
+        """Close the zenoh session (no new requests), finish what is queued, close the store."""
+        if self._session is not None:
+            self._session.close()
+        with self._lock:
+            self._closing = True
+            self._process_inbox()
+            self._session = None
+            self.store.close()
+
+    async def _heartbeat(self) -> None:
+        s = self._session
+        assert s is not None
+        while True:
+            s.put(self.keys.heartbeat, encode({"t": time.time(), "tokens": len(self.store)}))
+            await asyncio.sleep(self.heartbeat_period)
+
+    # ------------------------------------------------------------------ dispatch
+    def _submit(self, fn: Callable[..., None], *args: Any) -> None:
+        """Queue a request (any thread) and get it drained per the dispatch mode."""
+        self._inbox.append((fn, args))
+        if self.dispatch == "inline":
+            self._drain()
+        elif self._loop is not None:
+            self._loop.call_soon_threadsafe(self._drain)
+
+    def _drain(self) -> None:
+        """Drain the inbox if nobody else is (never waits for the lock)."""
+        while self._inbox and not self._closing:
+            if not self._lock.acquire(blocking=False):
+                return  # the holder re-checks the inbox after releasing
+            t0 = time.perf_counter()
+            try:
+                if not self._closing:
+                    self._process_inbox()
+            finally:
+                self.core.stats.busy_us += int((time.perf_counter() - t0) * 1e6)
+                self._lock.release()
+
+    def _process_inbox(self) -> None:
+        inbox = self._inbox
+        while inbox:
+            fn, args = inbox.popleft()
+            if fn is not self._guard or args[0] not in self._write_handlers:
+                self._flush()  # reads and admin see every write that arrived before them
+            try:
+                fn(*args)
+            except Exception:  # noqa: BLE001 - the node must keep serving
+                log.exception("request failed")
+        self._flush()
+
+    def _guard(self, handler: Callable[[ZQuery], None], q: ZQuery) -> None:
+        self.core.stats.bytes_in += len(q.payload)
+        try:
+            handler(q)
+        except BlackboardError as exc:
+            self.core.stats.errors += 1
+            self._reply_err(q, exc.to_wire())
+        except Exception as exc:  # noqa: BLE001 - the node must keep serving
+            log.exception("internal error answering %s", q.key)
+            self.core.stats.errors += 1
+            self._reply_err(q, {"error": "blackboard_error", "message": f"internal error: {type(exc).__name__}: {exc}"[:300]})
+
+    def _reply(self, q: ZQuery, obj: Any) -> None:
+        data = encode(obj, as_json=q.is_json)
+        self.core.stats.bytes_out += len(data)
+        try:
+            q.reply(data, as_json=q.is_json)
+        finally:
+            q.finish()
+
+    def _reply_bytes(self, q: ZQuery, data: bytes) -> None:
+        self.core.stats.bytes_out += len(data)
+        try:
+            q.reply(data, as_json=False)
+        finally:
+            q.finish()
+
+    def _reply_err(self, q: ZQuery, obj: dict) -> None:
+        data = encode(obj, as_json=q.is_json)
+        self.core.stats.bytes_out += len(data)
+        try:
+            q.reply_err(data, as_json=q.is_json)
+        except Exception:  # noqa: BLE001 - the querier may be gone
+            log.debug("could not send error reply", exc_info=True)
+        finally:
+            q.finish()
+
+    def _body(self, q: ZQuery, *, empty: Any = None) -> Any:
+        if not q.payload:
+            if empty is not None:
+                return empty
+            raise BadRequestError(f"{q.key}: empty payload")
+        return decode(q.payload, as_json=q.is_json)
+
+    # writes ----------------------------------------------------------------
+    def _enqueue(self, q: ZQuery, ops: list[Any], single: bool) -> None:
+        self._pending.append((q, ops, single, q.is_json))
+
+    def _on_post(self, q: ZQuery) -> None:
+        op = self._body(q)
+        if isinstance(op, dict):
+            op = {**op, "op": "post"} if op.get("op", "post") == "post" else op
+        self._enqueue(q, [op], True)
+
+    def _on_update(self, q: ZQuery) -> None:
+        op = self._body(q)
+        if isinstance(op, dict):
+            op = {**op, "op": "update"}
+        self._enqueue(q, [op], True)
+
+    def _on_delete(self, q: ZQuery) -> None:
+        op = self._body(q)
+        if isinstance(op, dict):
+            op = {**op, "op": "delete"}
+        self._enqueue(q, [op], True)
+
+    def _on_batch(self, q: ZQuery) -> None:
+        ops = self._body(q)
+        if not isinstance(ops, list):
+            raise BadRequestError(f"{q.key}: payload must be a list of operations")
+        self._enqueue(q, ops, False)
+
+    def _flush(self) -> None:
+        pending, self._pending = self._pending, []
+        if not pending:
+            return
+        try:
+            results, changes = self.core.apply_requests([p[1] for p in pending])
+        except Exception as exc:  # noqa: BLE001 - e.g. disk full: nothing acknowledged
+            log.exception("commit failed")
+            err = {"error": "blackboard_error", "message": f"commit failed: {type(exc).__name__}: {exc}"[:300]}
+            for q, _, _, _ in pending:
+                self._reply_err(q, err)
+            return
+        if self.core.monitors:
+            try:
+                self._publish(self.core.match_changes(changes))  # notifications right after commit
+            except Exception:  # noqa: BLE001 - acks must still go out
+                log.exception("monitor matching failed")
+        for (q, _, single, _), res in zip(pending, results):
+            try:
+                if single:
+                    r = res[0]
+                    if "ok" in r:
+                        self._reply(q, r["ok"])
+                    else:
+                        self._reply_err(q, r)
+                else:
+                    self._reply(q, res)
+            except Exception:  # noqa: BLE001 - a vanished querier must not stop the others
+                log.debug("reply failed", exc_info=True)
+
+    def _publish(self, events: list[tuple[Monitor, dict]]) -> None:
+        s = self._session
+        if s is None:
+            return
+        # one message per monitor per commit, events in commit order
+        grouped: dict[tuple[str, str], list[dict]] = {}
+        for m, ev in events:
+            grouped.setdefault((m.client, m.mid), []).append(ev)
+        for key, evs in grouped.items():
+            pub = self._publishers.get(key)
+            if pub is None:
+                pub = self._publishers[key] = s.publisher(self.keys.events(key[0], key[1]))
+            data = encode(evs)
+            self.core.stats.bytes_out += len(data)
+            pub.put(data)
+
+    # reads -----------------------------------------------------------------
+    def _on_retrieve(self, q: ZQuery) -> None:
+        spec = self._body(q, empty={})
+        params = q.parameters()
+        frame = params.get("frame") or None
+        stamp: float | None = None
+        if params.get("stamp"):
+            try:
+                stamp = float(params["stamp"])
+            except ValueError:
+                raise BadRequestError(f"stamp parameter {params['stamp']!r} is not a number") from None
+        if isinstance(spec, dict) and "spec" in spec and set(spec) <= {"spec", "frame", "frame_stamp"}:
+            frame = spec.get("frame", frame)
+            stamp = spec.get("frame_stamp", stamp)
+            spec = spec["spec"]
+        if q.is_json:
+            self._reply(q, self.core.retrieve(spec, frame, stamp))
+        else:
+            self._reply_bytes(q, self.core.retrieve_packed(spec, frame, stamp))
+
+    def _on_lookup(self, q: ZQuery) -> None:
+        self._reply(q, self.core.lookup(self._body(q)))
+
+    def _on_frames(self, q: ZQuery) -> None:
+        self._reply(q, self.core.frame_info())
+
+    def _on_stats(self, q: ZQuery) -> None:
+        d = self.core.stats.as_dict()
+        d["tokens"] = len(self.store)
+        d["monitors"] = len(self.core.monitors)
+        self._reply(q, d)
+
+    def _on_monitor(self, q: ZQuery) -> None:
+        req = self._body(q)
+        if not isinstance(req, dict):
+            raise BadRequestError("monitor request must be an object {client, mid, spec} or {client, mid, cancel}")
+        client, mid = req.get("client"), req.get("mid")
+        for name, v in (("client", client), ("mid", mid)):
+            if not isinstance(v, str) or not v or len(v) > 64 or not all(c.isalnum() or c in "_-" for c in v):
+                raise BadRequestError(f"monitor {name} {v!r} must be 1-64 letters, digits, '_' or '-'")
+        if req.get("cancel"):
+            self._drop_publisher((client, mid))
+            self._reply(q, {"cancelled": self.core.cancel_monitor(client, mid)})
+            return
+        self.core.register_monitor(client, mid, req.get("spec"))
+        self._reply(q, {"registered": mid})
+
+    def _drop_publisher(self, key: tuple[str, str]) -> None:
+        pub = self._publishers.pop(key, None)
+        if pub is not None and self._session is not None:
+            self._session.undeclare(pub)
+
+    def _client_gone(self, key: str) -> None:
+        client = key.rsplit("/", 1)[-1]
+        n = self.core.drop_client(client)
+        for k in [k for k in self._publishers if k[0] == client]:
+            self._drop_publisher(k)
+        if n:
+            log.info("client %s gone: dropped %d monitors", client, n)
+
+
+def serve(
+    net: NetworkConfig,
+    *,
+    db: str = ":memory:",
+    sync: SyncMode = "normal",
+    types: tuple[str, ...] = (),
+    registry: TypeRegistry | None = None,
+    history: float = 60.0,
+    dispatch: Literal["inline", "loop"] = "inline",
+    ready_stream: Any = None,
+) -> None:
+    """Run a node until SIGINT/SIGTERM; print one line starting with "blackboard ready" when serving."""
+    reg = registry if registry is not None else default_registry
+    for mod in types:
+        reg.import_module(mod)
+    out = ready_stream if ready_stream is not None else sys.stdout
+
+    async def main() -> None:
+        node = BlackboardNode(net, db=db, sync=sync, registry=reg, frames=FrameTree(history=history), dispatch=dispatch)
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            loop.add_signal_handler(sig, node._stop.set)
+
+        def ready() -> None:
+            eps = ",".join(net.listen or net.connect) or "-"
+            print(
+                f"blackboard ready ns={net.namespace} endpoints={eps} db={db} sync={sync} "
+                f"tokens={len(node.store)} types={','.join(reg.names()) or '-'}",
+                file=out,
+                flush=True,
+            )
+
+        gc.collect()
+        gc.freeze()  # what was loaded at start is long-lived: keep it out of the collector's scans
+        await node.run(on_ready=ready)
+
+    asyncio.run(main())

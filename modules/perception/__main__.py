@@ -1,0 +1,45 @@
+"""Run the PERCEPTION module: `python -m modules.perception [--vehicle navlab|terregator] [--speed M/S] …`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from pydantic import ValidationError
+
+from modules.perception.module import PerceptionConfig, PerceptionModule
+from modules.runtime import add_network_args, network_from_args, run_module, setup_logging
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the PERCEPTION argument parser (network flags included)."""
+    p = argparse.ArgumentParser(prog="python -m modules.perception", description=__doc__)
+    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator", help="sensor mounting")
+    p.add_argument("--speed", type=float, default=1.0, help="desired speed for the view/resolution table [m/s]")
+    p.add_argument("--max-wait", type=float, default=6.0, help="longest wait for the image input position [s] sim")
+    p.add_argument("--name", default="perception", help="module name (liveliness, heartbeat)")
+    add_network_args(p)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse flags and run PERCEPTION until SIGINT/SIGTERM; return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    setup_logging()
+    net = network_from_args(parser, args)
+    try:
+        cfg = PerceptionConfig(vehicle=args.vehicle, speed=args.speed, max_wait_s=args.max_wait)
+    except ValidationError as exc:
+        parser.error("; ".join(f"--{e['loc'][0]}: {e['msg']}" for e in exc.errors()))
+
+    async def body(rt) -> None:
+        await PerceptionModule(rt, cfg).run()
+
+    return run_module(args.name, body, net)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

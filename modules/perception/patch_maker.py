@@ -1,0 +1,86 @@
+"""PATCH MAKER: colour, range and colored-range segmentation modules behind one interface.
+
+Seed: Sidewalk 1986 §3.2.1 and §3.4; each returns a `PatchSet` plus its label image.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+
+from modules.perception.colour import ColourModel
+from modules.perception.image import ColoredRangeImage
+from modules.perception.overlap import overlap_labels, split_label
+from modules.perception.patches import PatchSet, make_patches
+from modules.perception.range_seg import RangeSegParams, SurfaceType, segment_range
+
+__all__ = ["Segmentation", "SegmentationParams", "Segmented", "make_segmentation"]
+
+
+class Segmentation(str, Enum):
+    """Which segmentation module makes the patches."""
+
+    COLOUR = "colour"
+    RANGE = "range"
+    COLORED_RANGE = "colored_range"
+
+
+@dataclass(frozen=True)
+class SegmentationParams:
+    """Parameters the PERCEPTION MONITOR derives from the predicted objects (§3.3.4)."""
+
+    min_area_m2: float = 0.3
+    range: RangeSegParams = RangeSegParams()
+    adapt_rate: float = 0.3
+
+
+@dataclass(frozen=True)
+class Segmented:
+    """One frame's segmentation: the label image (H, W) int32 and its patches."""
+
+    method: Segmentation
+    labels: np.ndarray
+    patches: PatchSet
+
+
+def make_segmentation(
+    method: Segmentation,
+    img: ColoredRangeImage,
+    params: SegmentationParams,
+    model: ColourModel | None = None,
+    adapt: bool = True,
+) -> Segmented:
+    """Segment one colored-range frame with the chosen module; colour modules adapt `model` in place."""
+    colour_lab = None
+    if method in (Segmentation.COLOUR, Segmentation.COLORED_RANGE):
+        if model is None:
+            raise ValueError(f"{method.value} segmentation needs a ColourModel")
+        mask = img.valid if method is Segmentation.COLORED_RANGE else np.all(np.isfinite(img.ground_xy), axis=-1) & img.valid
+        colour_lab, cls_idx, post = model.classify(img.rgb, mask)
+        if adapt and params.adapt_rate > 0:
+            model.adapt(img.rgb, cls_idx, post, rate=params.adapt_rate)
+    if method is Segmentation.COLOUR:
+        assert model is not None and colour_lab is not None
+        colour_of = {i + 1: t for i, t in enumerate(model.types)}
+        ps = make_patches(colour_lab, img.ground_xy, img.valid, colour_of=colour_of, min_area_m2=params.min_area_m2)
+        return Segmented(method, colour_lab.astype(np.int32), ps)
+    surf, feats = segment_range(img.xyz, img.range_m, img.valid, params.range)
+    xy = img.xyz[..., :2]
+    if method is Segmentation.RANGE:
+        surface_of = {int(s): int(s) for s in SurfaceType if s > 0}
+        ps = make_patches(surf.astype(np.int32), xy, img.valid, surface_of=surface_of, normals=feats.normal, z=img.xyz[..., 2], min_area_m2=params.min_area_m2)
+        return Segmented(method, surf.astype(np.int32), ps)
+    assert model is not None and colour_lab is not None
+    lab = overlap_labels(colour_lab, surf)
+    colour_of: dict[int, str] = {}
+    surface_of: dict[int, int] = {}
+    for v in np.unique(lab):
+        if v <= 0:
+            continue
+        c, s = split_label(int(v))
+        colour_of[int(v)] = model.types[c - 1]
+        surface_of[int(v)] = s
+    ps = make_patches(lab, xy, img.valid, colour_of=colour_of, surface_of=surface_of, normals=feats.normal, z=img.xyz[..., 2], min_area_m2=params.min_area_m2)
+    return Segmented(method, lab, ps)

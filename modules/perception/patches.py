@@ -1,0 +1,199 @@
+"""PATCH MAKER output: patches (connected regions of one label) with their common patch data.
+
+Seed: Sidewalk 1986 §3.2.1 — colour type, surface type and normal, boundary polygon, neighbours; the
+same structure whichever segmentation module made it, so one OBJECT FINDER serves all of them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import cv2
+import numpy as np
+from shapely.geometry import Polygon as ShapelyPolygon
+
+__all__ = ["Patch", "PatchSet", "make_patches"]
+
+
+@dataclass(frozen=True, eq=False)
+class Patch:
+    """One segment: labels, normal (vehicle frame), boundary polygon (vehicle frame [m]) and neighbours.
+
+    `edge_flags[i]` is True when boundary vertex i lies on a real object edge (beside another valid
+    patch of another colour type, or surface for range-only patches), False when it lies on the
+    border of the view frame or beside missing data; `boundary` / `boundary_flags` give the same
+    along the whole outline, densely.
+    """
+
+    id: int
+    label: int
+    colour_type: str | None
+    surface: int | None  # SurfaceType value, None for colour-only patches
+    normal: tuple[float, float, float] | None
+    polygon: tuple[tuple[float, float], ...]
+    edge_flags: tuple[bool, ...]
+    area_m2: float
+    pixels: int
+    centroid: tuple[float, float]
+    height: float  # mean z of the patch [m] (0 for colour-only patches)
+    neighbours: tuple[int, ...]
+    boundary: np.ndarray | None = None  # (K, 2) [m] vehicle frame: every other outline pixel, in order
+    boundary_flags: np.ndarray | None = None  # (K,) bool: that outline pixel is on a real object edge
+
+    def shape(self) -> ShapelyPolygon:
+        """Return the boundary as a shapely polygon (vehicle frame)."""
+        return self._shape
+
+    @cached_property
+    def _shape(self) -> ShapelyPolygon:
+        poly = ShapelyPolygon(self.polygon)
+        return poly if poly.is_valid else poly.buffer(0)
+
+
+@dataclass(frozen=True)
+class PatchSet:
+    """All patches of one frame and the (H, W) int32 patch-id image (0 = no patch)."""
+
+    patches: tuple[Patch, ...]
+    ids: np.ndarray
+
+    def by_id(self, pid: int) -> Patch:
+        """Return the patch with id `pid` (KeyError if absent)."""
+        for p in self.patches:
+            if p.id == pid:
+                return p
+        raise KeyError(pid)
+
+
+def _neighbour_pairs(ids: np.ndarray, reach: int = 2) -> set[tuple[int, int]]:
+    h, w = ids.shape
+    pairs: set[tuple[int, int]] = set()
+    for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        for k in range(1, reach + 1):
+            sy, sx = dy * k, dx * k
+            if sx >= 0:
+                a, b = ids[: h - sy, : w - sx], ids[sy:, sx:]
+            else:
+                a, b = ids[: h - sy, -sx:], ids[sy:, : w + sx]
+            m = (a != b) & (a > 0) & (b > 0)
+            if m.any():
+                lo = np.minimum(a[m], b[m]).astype(np.int64)
+                hi = np.maximum(a[m], b[m]).astype(np.int64)
+                for code in np.unique(lo * (1 << 31) + hi):
+                    pairs.add((int(code >> 31), int(code & ((1 << 31) - 1))))
+    return pairs
+
+
+def make_patches(
+    labels: np.ndarray,
+    xy: np.ndarray,
+    valid: np.ndarray,
+    *,
+    colour_of: dict[int, str] | None = None,
+    surface_of: dict[int, int] | None = None,
+    normals: np.ndarray | None = None,
+    z: np.ndarray | None = None,
+    min_area_m2: float = 0.2,
+    min_pixels: int = 6,
+) -> PatchSet:
+    """Split a label image (H, W) int into connected patches with polygons in the vehicle frame.
+
+    `xy` (H, W, 2) [m] vehicle-frame ground position of each pixel; `valid` (H, W) bool pixels with
+    data; `colour_of` / `surface_of` map a label to its colour type / SurfaceType; `normals`
+    (H, W, 3) and `z` (H, W) give patch normals and heights when range exists.
+    """
+    h, w = labels.shape
+    ids = np.zeros((h, w), dtype=np.int32)
+    found: list[dict] = []
+    next_id = 1
+    good_xy = np.all(np.isfinite(xy), axis=-1) & valid
+    for lab in np.unique(labels[good_xy]):
+        if lab <= 0:
+            continue
+        mask = ((labels == lab) & good_xy).astype(np.uint8)
+        n, cc, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=4)
+        for c in range(1, n):
+            if stats[c, cv2.CC_STAT_AREA] < min_pixels:
+                continue
+            m = cc == c
+            contours, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+            if not contours:
+                continue
+            cont = max(contours, key=len)
+            approx = cv2.approxPolyDP(cont, 1.0, True).reshape(-1, 2)
+            if len(approx) < 3:
+                continue
+            pts = xy[approx[:, 1], approx[:, 0]].astype(np.float64)
+            poly = ShapelyPolygon(pts)
+            if not poly.is_valid:
+                poly = poly.buffer(0)
+                if poly.geom_type == "MultiPolygon":
+                    poly = max(poly.geoms, key=lambda g: g.area)
+            if poly.is_empty or poly.area < min_area_m2:
+                continue
+            found.append(dict(label=int(lab), mask=m, approx=approx, poly=poly, pts=pts, contour=cont.reshape(-1, 2)[::2]))
+    for f in found:
+        ids[f["mask"]] = next_id
+        f["id"] = next_id
+        next_id += 1
+    pairs = _neighbour_pairs(ids)
+    nb: dict[int, set[int]] = {f["id"]: set() for f in found}
+    for a, b in pairs:
+        nb[a].add(b)
+        nb[b].add(a)
+    # a real object edge is sharp where the colour type changes (colour boundaries are pixel-exact;
+    # boundaries that only the surface label draws are smeared by the plane-fit window)
+    if colour_of:
+        key = {lab: colour_of.get(lab) for lab in np.unique(labels)}
+    else:
+        key = {lab: (surface_of or {}).get(lab, lab) for lab in np.unique(labels)}
+    keys = sorted({str(v) for v in key.values()})
+    key_img = np.full(labels.shape, -1, np.int32)  # pixels no class claimed (rejected colours, shadows) tell nothing
+    for lab, v in key.items():
+        if lab > 0:
+            key_img[labels == lab] = keys.index(str(v))
+    key_img[~valid] = -1
+    # per pixel: every 5x5 neighbour has data, and some neighbour has another colour type (or surface)
+    ker = np.ones((5, 5), np.uint8)
+    all_valid = cv2.erode(valid.astype(np.uint8), ker, borderType=cv2.BORDER_CONSTANT, borderValue=0).astype(bool)
+    kmax = cv2.dilate(key_img.astype(np.float32), ker, borderType=cv2.BORDER_CONSTANT, borderValue=-1)
+    kmin = cv2.erode(np.where(key_img >= 0, key_img, 1 << 20).astype(np.float32), ker, borderType=cv2.BORDER_CONSTANT, borderValue=1 << 20)
+    edge_px = all_valid & ((kmax != key_img) | (kmin != key_img)) & (key_img >= 0)
+    patches = []
+    for f in found:
+        approx = f["approx"]
+        flags = [bool(edge_px[cy, cx]) for cx, cy in approx]
+        m = f["mask"]
+        nrm = None
+        if normals is not None:
+            v = normals[m].mean(axis=0)
+            nv = float(np.linalg.norm(v))
+            nrm = tuple(float(a) for a in (v / nv if nv > 1e-9 else v))
+        poly = f["poly"]
+        if poly.geom_type == "Polygon" and len(poly.exterior.coords) - 1 != len(f["pts"]):
+            coords = tuple((float(a), float(b)) for a, b in list(poly.exterior.coords)[:-1])
+            flags = [False] * len(coords)
+        else:
+            coords = tuple((float(a), float(b)) for a, b in f["pts"])
+        c = poly.centroid
+        lab = f["label"]
+        patches.append(
+            Patch(
+                id=f["id"],
+                label=lab,
+                colour_type=(colour_of or {}).get(lab),
+                surface=(surface_of or {}).get(lab),
+                normal=nrm,  # type: ignore[arg-type]
+                polygon=coords,
+                edge_flags=tuple(flags),
+                area_m2=float(poly.area),
+                pixels=int(m.sum()),
+                centroid=(float(c.x), float(c.y)),
+                height=float(z[m].mean()) if z is not None else 0.0,
+                neighbours=tuple(sorted(nb[f["id"]])),
+                boundary=np.ascontiguousarray(xy[f["contour"][:, 1], f["contour"][:, 0]], dtype=np.float64),
+                boundary_flags=edge_px[f["contour"][:, 1], f["contour"][:, 0]].copy(),
+            )
+        )
+    return PatchSet(patches=tuple(patches), ids=ids)

@@ -1,0 +1,278 @@
+"""One PERCEPTION cycle on one frame: monitor decisions, PATCH MAKER, OBJECT FINDER, POSITION CALIBRATOR.
+
+Seed: Sidewalk 1986 §3.3 — "It progresses in order of segmentation, object finding, and position
+calibration." Pure: no network; the process in `module.py` feeds it frames and driving units.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import shapely
+from shapely.geometry import Polygon as ShapelyPolygon
+from shapely.ops import unary_union
+
+from modules.perception.calibrator import CalibrationError, CalibrationResult, EdgeObservation, PointObservation, calibrate
+from modules.perception.colour import ColourModel
+from modules.perception.image import ColoredRangeImage
+from modules.perception.monitor import ResolutionTable, ViewPlan, colour_model_for, segmentation_params, select_segmentation
+from modules.perception.object_finder import FoundObject, find_objects
+from modules.perception.patch_maker import Segmentation, SegmentationParams, Segmented, make_segmentation
+from modules.perception.predicted import PredictedObject, predict
+from modules.vocabulary import MapObject
+
+__all__ = ["PipelineOutput", "PerceptionPipeline", "edge_observations", "visible_regions"]
+
+
+@dataclass(frozen=True)
+class PipelineOutput:
+    """What one cycle produced; polygons in the vehicle frame at capture, the fix in the world frame."""
+
+    method: Segmentation
+    plan: ViewPlan
+    segmented: Segmented
+    found: tuple[FoundObject, ...]
+    navigable: ShapelyPolygon | None
+    calibration: CalibrationResult | None
+    failure: str
+    fix_note: str
+    seconds: float
+
+
+def _densify(ring: np.ndarray, flags: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Sample points every `step` [m] along edges whose both ends are flagged; return points and outward normals."""
+    x, y = ring[:, 0], ring[:, 1]
+    ccw = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) > 0
+    pts, nrm = [], []
+    for i in range(len(ring)):
+        j = (i + 1) % len(ring)
+        if not (flags[i] and flags[j]):
+            continue
+        a, b = ring[i], ring[j]
+        d = b - a
+        ln = float(np.hypot(*d))
+        if ln < 1e-6:
+            continue
+        n = np.array([d[1], -d[0]]) / ln
+        if not ccw:
+            n = -n
+        k = max(1, int(ln / step))
+        for t in (np.arange(k) + 0.5) / k:
+            pts.append(a + t * d)
+            nrm.append(n)
+    if not pts:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    return np.asarray(pts), np.asarray(nrm)
+
+
+def _outline_samples(p, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """Return object-edge points of a patch's outline about `step` [m] apart, with outward unit normals."""
+    if p.boundary is None or p.boundary_flags is None or len(p.boundary) < 4:
+        return _densify(np.asarray(p.polygon), np.asarray(p.edge_flags, bool), step)
+    b = p.boundary
+    x, y = b[:, 0], b[:, 1]
+    ccw = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y)) > 0
+    tangent = np.roll(b, -2, axis=0) - np.roll(b, 2, axis=0)
+    ln = np.linalg.norm(tangent, axis=1)
+    ok = p.boundary_flags & (ln > 1e-6)
+    n = np.stack([tangent[:, 1], -tangent[:, 0]], axis=1) / np.maximum(ln, 1e-9)[:, None]
+    if not ccw:
+        n = -n
+    idx = np.flatnonzero(ok)
+    if idx.size == 0:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    # thin to about one sample per `step` along the outline
+    seg = np.linalg.norm(np.diff(b, axis=0, append=b[:1]), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)[:-1]])
+    keep = idx[np.concatenate([[True], np.diff(np.floor(s[idx] / step)) > 0])]
+    return b[keep], n[keep]
+
+
+def _class_key(obj: PredictedObject, method: Segmentation = Segmentation.COLORED_RANGE) -> tuple:
+    """Return what the segmentation can tell this object by: colour type, surface types, or both."""
+    colour = obj.colour_type if method is not Segmentation.RANGE else None
+    surfaces = tuple(sorted(obj.surfaces)) if method is not Segmentation.COLOUR else ()
+    return (colour, surfaces)
+
+
+def visible_regions(predicted: list[PredictedObject] | tuple[PredictedObject, ...],
+                    method: Segmentation = Segmentation.COLORED_RANGE) -> dict[tuple, object]:
+    """Return, per class the segmentation can tell apart, the world-frame region where that class shows.
+
+    A large ground object (a lawn) is painted under the smaller ones that overlap it (the sidewalks
+    crossing it), so each object shows only outside the smaller overlapping objects of another class.
+    """
+    ground = [p for p in predicted if p.ground]
+    regions: dict[tuple, list] = {}
+    for o in ground:
+        fp = o.world_footprint
+        covers = [q.world_footprint for q in ground if q is not o and _class_key(q, method) != _class_key(o, method)
+                  and q.world_footprint.area < fp.area and q.world_footprint.intersects(fp)]
+        vis = fp.difference(unary_union(covers)) if covers else fp
+        regions.setdefault(_class_key(o, method), []).append(vis)
+    return {k: unary_union(v) for k, v in regions.items()}
+
+
+def _segments(region) -> np.ndarray:
+    """Return (M, 2, 2) edges of a (multi)polygon, oriented so the region lies on each edge's left."""
+    polys = [region] if region.geom_type == "Polygon" else [g for g in getattr(region, "geoms", []) if g.geom_type == "Polygon"]
+    segs = []
+    for poly in polys:
+        poly = shapely.geometry.polygon.orient(poly, sign=1.0)
+        for ring in [poly.exterior, *poly.interiors]:
+            c = np.asarray(ring.coords)
+            segs.append(np.stack([c[:-1], c[1:]], axis=1))
+    return np.concatenate(segs) if segs else np.zeros((0, 2, 2))
+
+
+def edge_observations(
+    found: tuple[FoundObject, ...] | list[FoundObject],
+    predicted: list[PredictedObject] | tuple[PredictedObject, ...] | None = None,
+    *,
+    ids: np.ndarray | None = None,
+    xyz: np.ndarray | None = None,
+    step: float = 0.3,
+    inner: float = 0.25,
+    trunk_height: float = 1.5,
+    method: Segmentation = Segmentation.COLORED_RANGE,
+) -> tuple[list[EdgeObservation], list[PointObservation]]:
+    """Turn found objects into calibrator observations.
+
+    Ground objects: the object-edge points of their patches, grouped by class (colour type and
+    surface) and paired with the edges of that class's predicted visible region. Round objects
+    (trunks, posts): the centre of the patch's low points (below `trunk_height` [m]), pushed back by
+    the radius since the scanner sees only the near side.
+    """
+    predicted = list(predicted) if predicted is not None else [f.predicted for f in found]
+    regions = visible_regions(predicted, method)
+    edges: list[EdgeObservation] = []
+    points: list[PointObservation] = []
+    by_class: dict[tuple, list[FoundObject]] = {}
+    for f in found:
+        obj = f.predicted.obj
+        if f.predicted.center is not None:
+            if obj.center is None:
+                continue
+            best = max(f.patches, key=lambda p: p.pixels)
+            c = np.asarray(best.centroid, dtype=np.float64)
+            if ids is not None and xyz is not None:
+                m = (ids == best.id) & (xyz[..., 2] < trunk_height)
+                if m.sum() >= 3:
+                    c = xyz[m][:, :2].astype(np.float64).mean(axis=0)
+            r = float(np.sqrt(f.predicted.footprint.area / np.pi))
+            c = c + (math.pi / 4) * r * c / max(float(np.linalg.norm(c)), 1e-6)
+            points.append(PointObservation(point=(float(c[0]), float(c[1])), target=(float(obj.center[0]), float(obj.center[1]))))
+            continue
+        if f.predicted.ground:
+            by_class.setdefault(_class_key(f.predicted, method), []).append(f)
+    for key, fs in by_class.items():
+        region = regions.get(key)
+        if region is None or region.is_empty:
+            continue
+        segs = _segments(region)
+        if len(segs) == 0:
+            continue
+        outline = unary_union([f.outline for f in fs])
+        boundary = outline.boundary
+        all_p, all_n = [], []
+        for f in fs:
+            for p in f.patches:
+                pts, nrm = _outline_samples(p, step)
+                if len(pts) == 0:
+                    continue
+                keep = shapely.distance(shapely.points(pts), boundary) <= inner  # not between two patches of the class
+                all_p.append(pts[keep])
+                all_n.append(nrm[keep])
+        if all_p:
+            P, N = np.vstack(all_p), np.vstack(all_n)
+            if len(P):
+                edges.append(EdgeObservation(points=P, normals=N, segments=segs))
+    return edges, points
+
+
+class PerceptionPipeline:
+    """Run PERCEPTION cycles; keeps the adapted colour classes and the measured processing times."""
+
+    def __init__(
+        self,
+        table: ResolutionTable | None = None,
+        base: SegmentationParams = SegmentationParams(),
+        shade_factor: float = 0.42,
+        speed: float = 1.0,
+    ) -> None:
+        """Start with a resolution table (sensor geometry), base segmentation parameters and the desired speed [m/s]."""
+        self.table = table or ResolutionTable()
+        self.speed = speed
+        self.base = base
+        self.shade_factor = shade_factor
+        self._models: dict[tuple[str, ...], ColourModel] = {}
+
+    def params_for(self, objects: tuple[MapObject, ...]) -> SegmentationParams:
+        """Return the segmentation parameters for these predicted objects (§3.3.4)."""
+        return segmentation_params(objects, self.base)
+
+    def colour_model_for(self, objects: tuple[MapObject, ...]) -> ColourModel:
+        """Return fresh colour classes for these predicted objects."""
+        return colour_model_for(objects, self.shade_factor)
+
+    def _adapted_model(self, objects: tuple[MapObject, ...]) -> ColourModel:
+        fresh = self.colour_model_for(objects)
+        key = tuple(sorted(c.name for c in fresh.classes))
+        if key not in self._models:
+            self._models[key] = fresh
+        return self._models[key]
+
+    def process(
+        self,
+        img: ColoredRangeImage,
+        objects: tuple[MapObject, ...],
+        prior_pose: tuple[float, float, float],
+        *,
+        error_allowance: float = 0.5,
+        method: Segmentation | None = None,
+        step: int | None = None,
+    ) -> PipelineOutput:
+        """Segment, find the predicted objects and fix the pose (world←vehicle) for one frame."""
+        t0 = time.perf_counter()
+        method = method or select_segmentation(objects)
+        if method is not Segmentation.RANGE and not any(o.colour is not None for o in objects):
+            method = Segmentation.RANGE  # nothing predicted says what colour to look for: range alone
+        plan = self.table.plan(error_allowance, self.speed)
+        if step is not None:
+            plan = replace(plan, step=step)
+        work = img.subsample(plan.step)
+        # the view frame: nothing beyond the perception distance
+        x = work.xyz[..., 0] if method is not Segmentation.COLOUR else work.ground_xy[..., 0]
+        inside = work.valid & np.isfinite(x) & (x <= plan.distance + self.table.sensor.x_offset)
+        work = replace(work, valid=inside)
+        params = self.params_for(objects)
+        model = self._adapted_model(objects) if method is not Segmentation.RANGE else None
+        seg = make_segmentation(method, work, params, model)
+        predicted = predict(objects, prior_pose)
+        found, _ = find_objects(seg.patches, predicted, allowance=error_allowance + 0.5)
+        nav_parts = [f.outline for f in found if f.predicted.obj.role == "path"]
+        navigable = None
+        if nav_parts:
+            u = unary_union(nav_parts)
+            if u.geom_type == "MultiPolygon":
+                u = max(u.geoms, key=lambda g: g.area)
+            navigable = u if u.geom_type == "Polygon" and not u.is_empty else None
+        failure = ""
+        if not any(f.predicted.obj.role == "path" for f in found) and any(o.role == "path" for o in objects):
+            failure = f"no predicted path object found among {len(seg.patches.patches)} {method.value} patches"
+        cal = None
+        note = ""
+        edges, points = edge_observations(found, predicted, ids=seg.patches.ids, xyz=work.xyz, method=method)
+        if edges or points:
+            try:
+                cal = calibrate(edges, points, prior_pose, gate=error_allowance + 1.5, final_gate=max(0.4, error_allowance))
+            except CalibrationError as exc:
+                note = str(exc)
+        else:
+            note = "no object edges or landmarks to calibrate with"
+        dt = time.perf_counter() - t0
+        self.table.record(plan.step, dt)
+        return PipelineOutput(method, plan, seg, tuple(found), navigable, cal, failure, note, dt)

@@ -1,0 +1,97 @@
+"""Predicted objects in the vehicle frame: what the PERCEPTION MONITOR puts into the WORKING MEMORY.
+
+Seed: Sidewalk 1986 §3.2.2 — predicted object shape and features (colour, surface type, shape).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from shapely.geometry import Point as ShapelyPoint
+from shapely.geometry import Polygon as ShapelyPolygon
+
+from modules.perception.colour import colour_type_name
+from modules.perception.range_seg import SurfaceType
+from modules.vocabulary import MapObject
+
+__all__ = ["PredictedObject", "predict", "world_to_vehicle", "vehicle_to_world", "expected_surfaces", "is_ground_kind"]
+
+_GROUND_SHAPES = ("flat", "slope", "stairs")
+
+
+def world_to_vehicle(pts: np.ndarray, pose: tuple[float, float, float]) -> np.ndarray:
+    """Map (N, 2) world points [m] into the vehicle frame of `pose` = world←vehicle (x, y, yaw)."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    d = np.asarray(pts, dtype=np.float64) - (x, y)
+    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+
+
+def vehicle_to_world(pts: np.ndarray, pose: tuple[float, float, float]) -> np.ndarray:
+    """Map (N, 2) vehicle-frame points [m] into the world frame with `pose` = world←vehicle (x, y, yaw)."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    p = np.asarray(pts, dtype=np.float64)
+    return np.stack([c * p[:, 0] - s * p[:, 1] + x, s * p[:, 0] + c * p[:, 1] + y], axis=1)
+
+
+def is_ground_kind(obj: MapObject) -> bool:
+    """Return whether the object is a ground surface (flat, slope or stairs) rather than something standing."""
+    return obj.shape.type in _GROUND_SHAPES
+
+
+def expected_surfaces(obj: MapObject) -> frozenset[int]:
+    """Return the SurfaceType values range segmentation may give this object."""
+    t = obj.shape.type
+    if t == "flat":
+        return frozenset({SurfaceType.FLAT})
+    if t == "slope":
+        return frozenset({SurfaceType.TILTED})
+    if t == "stairs":
+        return frozenset({SurfaceType.ROUGH})
+    return frozenset({SurfaceType.VERTICAL, SurfaceType.ROUGH})
+
+
+@dataclass(frozen=True)
+class PredictedObject:
+    """A map object as expected in the vehicle frame: footprint, colour type, expected surfaces."""
+
+    obj: MapObject
+    footprint: ShapelyPolygon  # vehicle frame [m]
+    world_footprint: ShapelyPolygon  # world frame [m]
+    colour_type: str | None
+    surfaces: frozenset[int]
+    center: tuple[float, float] | None  # round objects: vehicle-frame centre [m]
+
+    @property
+    def ground(self) -> bool:
+        """Return whether this is a ground surface object."""
+        return is_ground_kind(self.obj)
+
+
+def _footprint_world(obj: MapObject) -> ShapelyPolygon:
+    if obj.polygon is not None:
+        poly = ShapelyPolygon(obj.polygon)
+        return poly if poly.is_valid else poly.buffer(0)
+    assert obj.center is not None and obj.radius is not None
+    r = obj.radius
+    if obj.shape.type == "tree":
+        r = obj.shape.trunk_radius  # type: ignore[union-attr]
+    return ShapelyPoint(obj.center).buffer(max(r, 0.05), 16)
+
+
+def predict(objects: tuple[MapObject, ...] | list[MapObject], pose: tuple[float, float, float]) -> list[PredictedObject]:
+    """Put map objects into the vehicle frame of the prior pose (world←vehicle)."""
+    out = []
+    for o in objects:
+        wf = _footprint_world(o)
+        vf = ShapelyPolygon(world_to_vehicle(np.asarray(wf.exterior.coords), pose))
+        center = None
+        if o.center is not None:
+            c = world_to_vehicle(np.asarray([o.center]), pose)[0]
+            center = (float(c[0]), float(c[1]))
+        ctype = colour_type_name(o.colour.mean) if o.colour is not None else None
+        out.append(PredictedObject(o, vf, wf, ctype, expected_surfaces(o), center))
+    return out

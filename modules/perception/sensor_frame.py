@@ -1,0 +1,171 @@
+"""The simulator's capture as PERCEPTION reads it: decode the `sidewalk.capture/1` wire format and
+build the registered colored-range image (seed: Sidewalk 1986 §3.4.1; Navlab 1990 §2.3.1).
+
+The capture is self-describing (extrinsics, intrinsics, ray angles), so nothing here imports the
+simulator. The range is unwrapped past the ambiguity interval before the points are registered
+into the camera, and the view is limited to one ambiguity interval of horizontal range.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import msgpack
+import numpy as np
+
+from modules.perception.image import ColoredRangeImage
+from modules.perception.range_seg import unwrap_range
+
+__all__ = ["WIRE_FORMAT", "SensorFrameError", "SensorFrame", "decode_sensor_frame", "colored_range_image", "sensor_geometry"]
+
+WIRE_FORMAT = "sidewalk.capture/1"
+
+_NEEDED = {
+    "T_vehicle_laser": ("float64", (4, 4)),
+    "T_vehicle_camera": ("float64", (4, 4)),
+    "camera_K": ("float64", (3, 3)),
+    "laser_az": ("float32", None),
+    "laser_el": ("float32", None),
+    "laser_range": ("float32", "laser"),
+    "laser_valid": ("bool", "laser"),
+    "camera_image": ("uint8", None),
+}
+_OPTIONAL = {"laser_labels": ("uint8", "laser"), "truth_pose": ("float64", (3,))}
+
+
+class SensorFrameError(ValueError):
+    """A capture payload PERCEPTION cannot use; the message names the field and what is wrong."""
+
+
+@dataclass(frozen=True)
+class SensorFrame:
+    """One capture: laser range (H, W) [m] wrapped, validity, ray angles [rad], camera image, calibration.
+
+    `T_vehicle_laser`, `T_vehicle_camera` (4, 4) vehicle ← sensor; `camera_K` (3, 3); `stamp` [s] sim;
+    `ambiguity` [m]; `laser_labels` (H, W) truth class indices and `truth_pose` (3,) only for evaluation.
+    """
+
+    stamp: float
+    ambiguity: float
+    T_vehicle_laser: np.ndarray
+    T_vehicle_camera: np.ndarray
+    camera_K: np.ndarray
+    laser_az: np.ndarray
+    laser_el: np.ndarray
+    laser_range: np.ndarray
+    laser_valid: np.ndarray
+    camera_image: np.ndarray
+    laser_labels: np.ndarray | None = None
+    truth_pose: np.ndarray | None = None
+    range_step: float = 0.08  # range quantum [m]
+
+    @classmethod
+    def from_fields(cls, obj: Any) -> "SensorFrame":
+        """Build from any object with the capture's attribute names (e.g. the simulator's CaptureResult)."""
+        kw = {}
+        for name in ("stamp", "ambiguity", "range_step", *_NEEDED, *_OPTIONAL):
+            v = getattr(obj, name, None)
+            if v is None and name in _NEEDED:
+                raise SensorFrameError(f"capture: field {name!r} is missing (request both laser and camera)")
+            if v is not None or name != "range_step":
+                kw[name] = v
+        return cls(**kw)
+
+
+def decode_sensor_frame(payload: bytes) -> SensorFrame:
+    """Decode the simulator's capture bytes (`sidewalk.capture/1`); SensorFrameError names what is wrong."""
+    try:
+        d = msgpack.unpackb(payload, raw=False)
+    except Exception as exc:  # msgpack raises several unrelated types
+        raise SensorFrameError(f"capture payload: not msgpack ({type(exc).__name__}: {exc})") from None
+    if not isinstance(d, dict) or d.get("format") != WIRE_FORMAT:
+        raise SensorFrameError(f"capture payload: format must be {WIRE_FORMAT!r}, got {d.get('format') if isinstance(d, dict) else type(d).__name__!r}")
+    arrays = d.get("arrays")
+    if not isinstance(arrays, dict):
+        raise SensorFrameError("capture payload: field 'arrays' must be a map")
+    out: dict[str, Any] = {}
+    for key in ("stamp", "ambiguity", "range_step"):
+        v = d.get(key, 0.08 if key == "range_step" else None)
+        if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
+            raise SensorFrameError(f"capture payload: field {key!r} must be a finite number, got {v!r}")
+        out[key] = float(v)
+    for name, (dtype, _shape) in {**_NEEDED, **_OPTIONAL}.items():
+        spec = arrays.get(name)
+        if spec is None:
+            if name in _NEEDED:
+                raise SensorFrameError(f"capture payload: array {name!r} is missing (request both laser and camera)")
+            out[name] = None
+            continue
+        if not isinstance(spec, dict) or spec.get("dtype") != dtype or not isinstance(spec.get("data"), bytes):
+            raise SensorFrameError(f"capture payload: array {name!r} needs dtype {dtype}, shape and data bytes")
+        shape = spec.get("shape")
+        dt = np.dtype(dtype).newbyteorder("<")
+        if not isinstance(shape, list) or not all(isinstance(n, int) and n >= 0 for n in shape):
+            raise SensorFrameError(f"capture payload: array {name!r} has a bad shape {shape!r}")
+        if len(spec["data"]) != int(np.prod(shape, dtype=np.int64)) * dt.itemsize:
+            raise SensorFrameError(f"capture payload: array {name!r}: {len(spec['data'])} bytes do not fit shape {shape}")
+        out[name] = np.frombuffer(spec["data"], dtype=dt).reshape(shape).astype(np.dtype(dtype))
+    lshape = (len(out["laser_el"]), len(out["laser_az"]))
+    for name, (_, shape) in {**_NEEDED, **_OPTIONAL}.items():
+        a = out.get(name)
+        if a is None:
+            continue
+        want = lshape if shape == "laser" else shape
+        if want is not None and a.shape != tuple(want):
+            raise SensorFrameError(f"capture payload: array {name!r} must have shape {tuple(want)}, got {a.shape}")
+    if out["camera_image"].ndim != 3 or out["camera_image"].shape[2] != 3:
+        raise SensorFrameError(f"capture payload: camera_image must be (h, w, 3), got {out['camera_image'].shape}")
+    return SensorFrame(**out)
+
+
+def colored_range_image(frame: SensorFrame, max_horizontal: float | None = None) -> ColoredRangeImage:
+    """Unwrap the range, put the points in the vehicle frame and colour them from the camera (§3.4.1).
+
+    Pixels count as valid when the laser returned, the point projects into the camera and its
+    horizontal range is within `max_horizontal` [m] (default: one ambiguity interval).
+    """
+    limit = frame.ambiguity if max_horizontal is None else max_horizontal
+    az = frame.laser_az.astype(np.float64)
+    el = frame.laser_el.astype(np.float64)
+    ce = np.cos(el)[:, None]
+    dirs = np.stack([ce * np.cos(az)[None, :], ce * np.sin(az)[None, :], np.broadcast_to(np.sin(el)[:, None], (len(el), len(az)))], axis=-1)
+    R = frame.T_vehicle_laser[:3, :3]
+    t = frame.T_vehicle_laser[:3, 3]
+    dv = dirs @ R.T  # ray directions, vehicle frame
+    valid = frame.laser_valid.astype(bool)
+    r = unwrap_range(frame.laser_range, valid, frame.ambiguity)
+    xyz = (dv * r[..., None] + t).astype(np.float32)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(dv[..., 2] < -1e-3, -t[2] / dv[..., 2], np.nan)
+    ground_xy = (t[:2] + s[..., None] * dv[..., :2]).astype(np.float32)
+    Tcv = np.linalg.inv(frame.T_vehicle_camera)
+    pc = xyz.astype(np.float64) @ Tcv[:3, :3].T + Tcv[:3, 3]
+    z = pc[..., 2]
+    K = frame.camera_K
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = K[0, 0] * pc[..., 0] / z + K[0, 2]
+        v = K[1, 1] * pc[..., 1] / z + K[1, 2]
+    h, w = frame.camera_image.shape[:2]
+    horiz = np.hypot(xyz[..., 0] - t[0], xyz[..., 1] - t[1])
+    ok = valid & (z > 0.1) & (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1) & (horiz <= limit)
+    mx = np.where(ok, u, -1).astype(np.float32)
+    my = np.where(ok, v, -1).astype(np.float32)
+    rgb = cv2.remap(frame.camera_image.astype(np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+    return ColoredRangeImage(xyz=xyz, ground_xy=ground_xy, range_m=r.astype(np.float32), valid=ok, rgb=rgb, stamp=frame.stamp)
+
+
+def sensor_geometry(frame: SensorFrame) -> "SensorGeometry":
+    """Return the laser geometry the capture describes (mount height, pitch, fields of view) for the view table."""
+    from modules.perception.monitor import SensorGeometry
+
+    el = frame.laser_el.astype(np.float64)
+    az = frame.laser_az.astype(np.float64)
+    rows, cols = len(el), len(az)
+    vfov = float(abs(el[0] - el[-1]) * rows / max(rows - 1, 1))
+    hfov = float(abs(az[0] - az[-1]) * cols / max(cols - 1, 1))
+    t = frame.T_vehicle_laser[:3, 3]
+    return SensorGeometry(height=float(t[2]), pitch_down=float(-np.mean(el)), hfov=hfov, vfov=vfov, rows=rows, cols=cols,
+                          range_step=float(frame.range_step), x_offset=float(t[0]))

@@ -113,8 +113,12 @@ def plot_trajectory(
     truth: Optional[np.ndarray],
     estimate: Optional[np.ndarray],
     title: str,
+    margin_m: float = 20.0,
 ) -> Path:
-    """Draw the map, planned route, true and estimated paths (all `world` [m]) into a PNG."""
+    """Draw the map, planned route, true and estimated paths (all `world` [m]) into a PNG.
+
+    The view spans the route and both paths plus `margin_m` [m].
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -140,6 +144,12 @@ def plot_trajectory(
         ax.plot(estimate[:, 0], estimate[:, 1], "-", color="#1840c0", lw=1.0, label="estimated path")
     ax.set_aspect("equal")
     ax.autoscale_view()
+    shown = [a for a in (route, truth, estimate) if a is not None and len(a)]
+    if shown:
+        pts = np.concatenate([np.asarray(a, dtype=float)[:, :2] for a in shown])
+        (x0, y0), (x1, y1) = pts.min(axis=0) - margin_m, pts.max(axis=0) + margin_m
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
     ax.set_xlabel("x [m] (world)")
     ax.set_ylabel("y [m] (world)")
     ax.set_title(title)

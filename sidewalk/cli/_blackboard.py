@@ -19,7 +19,7 @@ blackboard_app = typer.Typer(help="The CODGER blackboard node.", no_args_is_help
 def serve_cmd(
     net: NetworkConfig,
     db: Annotated[str, typer.Option("--db", help="SQLite database file, or :memory: for a throwaway store")] = ":memory:",
-    types: Annotated[Optional[list[str]], typer.Option("--types", help="Module whose @token_type models to register (repeatable)")] = None,
+    types: Annotated[Optional[list[str]], typer.Option("--types", help="Module whose @token_type models to register (repeatable; default: the Sidewalk vocabulary, modules.vocabulary)")] = None,
     sync: Annotated[str, typer.Option("--sync", help="normal: acknowledged writes survive a crash/SIGKILL; full: also power loss (fsync per commit)")] = "normal",
     history: Annotated[float, typer.Option("--history", help="Pose history kept per moving frame [s]")] = 60.0,
     dispatch: Annotated[str, typer.Option("--dispatch", help="inline: answer in the zenoh callback (fast); loop: hand every request to the asyncio loop")] = "inline",
@@ -34,6 +34,6 @@ def serve_cmd(
     if history <= 0:
         raise typer.BadParameter("--history must be > 0 [s]")
     try:
-        serve(net, db=db, sync=sync, types=tuple(types or ()), history=history, dispatch=dispatch)  # type: ignore[arg-type]
+        serve(net, db=db, sync=sync, types=tuple(types or ("modules.vocabulary",)), history=history, dispatch=dispatch)  # type: ignore[arg-type]
     except ImportError as exc:
         raise typer.BadParameter(str(exc), param_hint="--types") from None

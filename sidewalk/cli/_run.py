@@ -16,9 +16,8 @@ from sidewalk.cli._network import with_network
 
 __all__ = ["register", "UP_TARGETS"]
 
-#: `sidewalk up NAME` → (module, function taking argv). The simulator goes through its Typer command.
+#: `sidewalk up NAME` → (module, function taking argv). The node and the simulator go through their Typer commands.
 UP_TARGETS: dict[str, tuple[str, str]] = {
-    "blackboard": ("blackboard.__main__", "main"),
     "captain": ("modules.captain.main", "main"),
     "map_navigator": ("modules.map_navigator.main", "main"),
     "pilot": ("modules.pilot.__main__", "main"),
@@ -110,15 +109,17 @@ def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="blackboar
     """Run one part of the system on this host; the rest of the arguments go to it (try `up pilot --help`)."""
     name = module.replace("-", "_")
     argv = list(ctx.args)
-    if name == "sim":
+    if name in ("blackboard", "sim"):
         from typer.main import get_command
 
-        from sidewalk.cli._sim import sim_app
-
-        get_command(sim_app).main(args=["serve", *argv], prog_name="sidewalk up sim", standalone_mode=True)
+        sub = importlib.import_module(f"sidewalk.cli._{name}")
+        cmd = get_command(getattr(sub, f"{name}_app"))
+        # a Typer app with a single command collapses into that command
+        args = ["serve", *argv] if hasattr(cmd, "commands") else argv
+        cmd.main(args=args, prog_name=f"sidewalk up {name}", standalone_mode=True)
         return
     if name not in UP_TARGETS:
-        known = ", ".join(["sim", *UP_TARGETS])
+        known = ", ".join(["blackboard", "sim", *UP_TARGETS])
         raise typer.BadParameter(f"unknown module {module!r}; known: {known}", param_hint="MODULE")
     modname, fn = UP_TARGETS[name]
     main: Callable[[list[str]], int] = getattr(importlib.import_module(modname), fn)

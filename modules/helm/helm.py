@@ -1,0 +1,177 @@
+"""The HELM process: track the newest local path plan, drive the vehicle, post the moving vehicle position.
+
+Reads odometry (local←vehicle) from the simulator's drive interface and local path plans (frame
+`local`) from the blackboard; sends DriveCommand (speed [m/s], curvature [1/m]) on the drive key
+and posts `local←vehicle` poses at `pose_hz` (sim time). Whenever a new plan appears the old one
+is dropped (seed §2.3.4). With no plan, or at its end, it commands stops.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from typing import Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from blackboard import Pose2D, Spec
+from blackboard.errors import BlackboardError
+from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError
+from modules.vocabulary import LocalPathPlan
+from vehicle_sim.drive import DriveCommand, Odometry, WireError, decode, encode
+
+__all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys"]
+
+log = logging.getLogger(__name__)
+
+
+class DriveKeys(BaseModel):
+    """Zenoh keys of the simulator's drive interface, relative to `sidewalk/<ns>/`."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    command: str = "sim/cmd"
+    odometry: str = "sim/odom"
+
+    def resolve(self, namespace: str) -> tuple[str, str]:
+        """Return the absolute (command, odometry) keys in `namespace`."""
+        root = f"sidewalk/{namespace}"
+        return f"{root}/{self.command}", f"{root}/{self.odometry}"
+
+
+class HelmConfig(BaseModel):
+    """HELM settings: control and pose rates [Hz] (sim time), tracker, drive keys."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    vehicle: Literal["navlab", "terregator"] = "navlab"
+    control_hz: float = Field(10.0, ge=10.0, description="drive commands (and poses) per sim second [Hz] (≥ 10)")
+    pose_hz: float = Field(10.0, ge=10.0, description="local←vehicle poses per sim second [Hz] (≥ 10)")
+    pose_hold_s: float = Field(0.5, ge=0.0, description="the newest pose answers lookups this long [s]")
+    resume_plan_age_s: float = Field(5.0, ge=0.0, description="on start, resume a plan at most this old [s] sim")
+    tracker: TrackerConfig = TrackerConfig()
+    keys: DriveKeys = DriveKeys()
+
+
+def helm_config_for(vehicle: Literal["navlab", "terregator"], **overrides) -> HelmConfig:
+    """Return the HELM preset for `vehicle` (Navlab: 7 m turning radius; Terregator: turns in place)."""
+    if vehicle == "navlab":
+        tr = TrackerConfig(max_curvature=1.0 / 7.0, max_speed=7.5, lookahead_base=3.0, lookahead_gain=1.0,
+                           lookahead_max=10.0, max_accel=0.8, max_decel=1.5, speed_lag=0.4)
+    else:
+        tr = TrackerConfig(max_curvature=2.0, max_speed=1.0, lookahead_base=1.0, lookahead_gain=0.8, max_accel=0.4, speed_lag=0.3,
+                           turn_in_place_angle=math.radians(50.0), max_turn_rate=0.4)
+    base = dict(vehicle=vehicle, tracker=tr)
+    base.update({k: v for k, v in overrides.items() if v is not None})
+    return HelmConfig(**base)
+
+
+class Helm:
+    """Run the HELM on a module runtime `rt` (Zenoh link `rt.link`, blackboard `rt.bb`, clock `rt.clock`)."""
+
+    def __init__(self, rt, cfg: HelmConfig) -> None:
+        """Prepare the tracker; nothing touches the network until run()."""
+        self.rt = rt
+        self.cfg = cfg
+        self.tracker = PathTracker(cfg.tracker)
+        self.cmd_key, self.odom_key = cfg.keys.resolve(rt.net.namespace)
+        self.odom: Odometry | None = None
+        self._odom_event = asyncio.Event()
+        self._seq = 0
+        self._last_pose_stamp = -math.inf
+        self.plans_taken = 0
+        self.bad_payloads = 0
+        self.plan_seq: int | None = None
+        self.last_command: DriveCommand | None = None
+
+    def _on_odom(self, _key: str, payload: bytes) -> None:
+        try:
+            od = decode(Odometry, payload)
+        except WireError as exc:
+            self.bad_payloads += 1
+            log.warning("helm: bad odometry on %s: %s", self.odom_key, exc)
+            return
+        if self.odom is None or od.stamp >= self.odom.stamp:
+            self.odom = od
+            self._odom_event.set()
+
+    def take_plan(self, plan: LocalPathPlan) -> bool:
+        """Replace the plan being tracked with `plan` (frame local); return False if unusable."""
+        if plan.frame != "local":
+            log.warning("helm: ignoring plan %d in frame %s (the HELM tracks in local)", plan.seq, plan.frame)
+            return False
+        poses = np.array([[p.x, p.y, p.yaw] for p in plan.poses], dtype=np.float64)
+        speeds = np.array([p.speed for p in plan.poses], dtype=np.float64)
+        try:
+            self.tracker.set_plan(poses, speeds)
+        except TrackerError as exc:
+            log.warning("helm: plan %d rejected: %s", plan.seq, exc)
+            return False
+        self.plans_taken += 1
+        self.plan_seq = plan.seq
+        return True
+
+    def _send(self, speed: float, curvature: float, turn_rate: float | None = None) -> None:
+        self._seq += 1
+        cmd = DriveCommand(speed=speed, curvature=curvature, mode="immediate", turn_rate=turn_rate, seq=self._seq)
+        self.last_command = cmd
+        self.rt.link.put(self.cmd_key, encode(cmd))
+
+    async def _plans(self) -> None:
+        async for ev in self.rt.bb.monitor(Spec(type="local_path_plan")):
+            if ev.kind == "new":
+                self.take_plan(ev.token.attrs)
+
+    async def _post_pose(self, od: Odometry) -> None:
+        try:
+            await self.rt.bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=od.x, y=od.y, yaw=od.yaw),
+                                       stamp=od.stamp, hold=self.cfg.pose_hold_s)
+        except BlackboardError as exc:
+            log.warning("helm: posting the moving vehicle position failed: %s", exc)
+
+    async def run(self) -> None:
+        """Track plans until the runtime asks to stop; always leave the vehicle commanded to stop."""
+        rt = self.rt
+        rt.link.subscribe(self.odom_key, self._on_odom)
+        await rt.clock.wait_running()
+        await self._odom_event.wait()
+        plan_task = asyncio.ensure_future(self._plans())
+        # Take the newest plan already on the blackboard (a restarted HELM picks up where it was).
+        try:
+            toks = await rt.bb.retrieve(Spec(type="local_path_plan", newest=True))
+            if toks and toks[0].stamp >= rt.clock.now() - self.cfg.resume_plan_age_s:
+                self.take_plan(toks[0].attrs)
+        except BlackboardError as exc:
+            log.warning("helm: cannot read the newest plan: %s", exc)
+        rt.ready()
+        period = 1.0 / self.cfg.control_hz
+        pose_period = 1.0 / self.cfg.pose_hz
+        last_t = rt.clock.now()
+        pose_task: asyncio.Task | None = None
+        try:
+            while not rt.stopping:
+                od = self.odom
+                now = rt.clock.now()
+                dt = max(0.0, now - last_t)
+                last_t = now
+                cmd = self.tracker.command(np.array([od.x, od.y, od.yaw]), dt)
+                if cmd.done:
+                    self._send(0.0, 0.0)
+                else:
+                    self._send(cmd.speed, cmd.curvature, cmd.turn_rate)
+                # The pose goes out without holding up control: the drive command never waits for the
+                # blackboard's acknowledgement (at a high RTF the watchdog would stop the vehicle).
+                if od.stamp - self._last_pose_stamp >= pose_period - 1e-6 and (pose_task is None or pose_task.done()):
+                    self._last_pose_stamp = od.stamp
+                    pose_task = asyncio.ensure_future(self._post_pose(od))
+                await rt.clock.sleep(period)
+        finally:
+            plan_task.cancel()
+            if pose_task is not None:
+                pose_task.cancel()
+            try:
+                self._send(0.0, 0.0)
+            except Exception as exc:  # the session may already be closing
+                log.warning("helm: final stop command not sent: %s", exc)

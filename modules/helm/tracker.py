@@ -1,0 +1,166 @@
+"""HELM core: pure pursuit with speed-dependent lookahead and a curvature clamp, on the `local` frame.
+
+The plan is a pose sequence (N,3) (x [m], y [m], yaw [rad]) with signed speeds (N,) [m/s]; the
+vehicle pose is local←vehicle from odometry. Each call returns a speed [m/s] and a curvature
+[1/m] for the drive interface, slowing so that the vehicle comes to rest at the plan's end.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+__all__ = ["TrackerConfig", "TrackCommand", "PathTracker", "TrackerError"]
+
+
+class TrackerError(ValueError):
+    """A plan is unusable (fewer than 2 poses, mismatched speeds, non-finite values)."""
+
+
+class TrackerConfig(BaseModel):
+    """Pure pursuit settings: lookahead [m] = clamp(base + gain·|v|), limits on curvature, speed, acceleration."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    lookahead_base: float = Field(1.5, gt=0.0, description="lookahead at standstill [m]")
+    lookahead_gain: float = Field(0.8, ge=0.0, description="lookahead growth with speed [s]")
+    lookahead_max: float = Field(8.0, gt=0.0, description="[m]")
+    max_curvature: float = Field(1.0 / 7.0, gt=0.0, description="vehicle curvature limit [1/m] (Navlab: 1/7)")
+    max_speed: float = Field(2.0, gt=0.0, description="vehicle speed limit [m/s]")
+    max_accel: float = Field(0.5, gt=0.0, description="commanded speed rise per second [m/s²]")
+    max_decel: float = Field(1.0, gt=0.0, description="braking used to stop at the plan's end [m/s²]")
+    max_lateral_accel: float = Field(1.0, gt=0.0, description="[m/s²]")
+    goal_tolerance: float = Field(0.15, gt=0.0, description="the plan is done this close to its end [m]")
+    min_speed: float = Field(0.1, ge=0.0, description="creep speed while the end is still ahead [m/s]")
+    search_window: int = Field(80, gt=0, description="poses searched ahead for the closest pose")
+    turn_in_place_angle: float | None = Field(
+        None, gt=0.0, description="skid steer: turn on the spot when the target is this far off the heading [rad]"
+    )
+    max_turn_rate: float = Field(0.5, gt=0.0, description="turn-in-place rate [rad/s]")
+    speed_lag: float = Field(0.0, ge=0.0, description="drive's speed response time [s]: braking starts this much earlier")
+
+
+@dataclass(frozen=True)
+class TrackCommand:
+    """One control output: speed [m/s] (signed), curvature [1/m], cross-track error [m], remaining [m], done.
+
+    `turn_rate` [rad/s] is set (with speed 0) when a skid-steer vehicle should turn on the spot.
+    """
+
+    speed: float
+    curvature: float
+    cross_track: float
+    remaining: float
+    done: bool
+    turn_rate: float | None = None
+
+
+class PathTracker:
+    """Track the newest plan: call set_plan() when one arrives, command() every control tick."""
+
+    def __init__(self, cfg: TrackerConfig = TrackerConfig()) -> None:
+        """Start with no plan (commands are stops)."""
+        self.cfg = cfg
+        self._poses: np.ndarray | None = None
+        self._speeds: np.ndarray | None = None
+        self._s: np.ndarray | None = None
+        self._idx = 0
+        self._fresh = True
+        self._last_speed = 0.0
+
+    @property
+    def has_plan(self) -> bool:
+        """Return whether a plan is loaded."""
+        return self._poses is not None
+
+    def set_plan(self, poses: np.ndarray, speeds: np.ndarray) -> None:
+        """Replace the plan: poses (N,3) [m, m, rad] in the local frame, speeds (N,) [m/s]."""
+        poses = np.asarray(poses, dtype=np.float64)
+        speeds = np.asarray(speeds, dtype=np.float64)
+        if poses.ndim != 2 or poses.shape[1] != 3 or len(poses) < 2:
+            raise TrackerError(f"plan needs at least 2 poses of (x, y, yaw), got shape {poses.shape}")
+        if speeds.shape != (len(poses),):
+            raise TrackerError(f"plan has {len(poses)} poses but {speeds.shape} speeds")
+        if not (np.all(np.isfinite(poses)) and np.all(np.isfinite(speeds))):
+            raise TrackerError("plan has non-finite values")
+        self._poses = poses
+        self._speeds = speeds
+        self._s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
+        self._idx = 0
+        self._fresh = True
+
+    def clear(self) -> None:
+        """Drop the plan (commands become stops)."""
+        self._poses = self._speeds = self._s = None
+
+    def _nearest(self, p: np.ndarray) -> tuple[int, float, float]:
+        """Return (segment index, fraction along it, signed cross-track [m], left +) of the closest point."""
+        poses = self._poses
+        n = len(poses)
+        lo, hi = (0, n - 1) if self._fresh else (self._idx, min(n - 1, self._idx + self.cfg.search_window))
+        a = poses[lo:hi, :2]
+        b = poses[lo + 1 : hi + 1, :2]
+        d = b - a
+        ll = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
+        t = np.clip(np.einsum("ij,ij->i", p - a, d) / ll, 0.0, 1.0)
+        c = a + t[:, None] * d
+        dist = np.hypot(*(p - c).T)
+        k = int(np.argmin(dist))
+        cross = d[k, 0] * (p[1] - a[k, 1]) - d[k, 1] * (p[0] - a[k, 0])
+        self._idx = lo + k
+        self._fresh = False
+        return lo + k, float(t[k]), float(math.copysign(dist[k], cross))
+
+    def command(self, pose: np.ndarray, dt: float) -> TrackCommand:
+        """Return the drive command for local←vehicle `pose` (3,) after a control period `dt` [s]."""
+        if self._poses is None:
+            self._last_speed = 0.0
+            return TrackCommand(0.0, 0.0, 0.0, 0.0, True)
+        cfg = self.cfg
+        pose = np.asarray(pose, dtype=np.float64).reshape(3)
+        i, t, cross = self._nearest(pose[:2])
+        s_here = self._s[i] + t * (self._s[i + 1] - self._s[i])
+        remaining = float(self._s[-1] - s_here)
+        end = self._poses[-1]
+        # Past the end (projected beyond the last pose along its heading) counts as arrived.
+        beyond = (pose[0] - end[0]) * math.cos(end[2]) + (pose[1] - end[1]) * math.sin(end[2])
+        if remaining <= cfg.goal_tolerance or (i >= len(self._poses) - 2 and beyond >= 0.0):
+            self._last_speed = 0.0
+            return TrackCommand(0.0, 0.0, cross, max(0.0, remaining), True)
+        plan_v = float(self._speeds[min(i + 1, len(self._speeds) - 1)])
+        ahead = self._speeds[i : min(len(self._speeds), i + 8)]
+        v_ref = float(np.max(np.abs(ahead))) if plan_v != 0.0 or np.any(ahead != 0.0) else 0.0
+        reverse = (plan_v if plan_v != 0.0 else float(ahead[np.argmax(np.abs(ahead))])) < 0.0
+        # Brake for the end, counting the distance covered while the drive responds (speed lag).
+        brake_room = max(0.0, remaining - cfg.goal_tolerance - self._last_speed * cfg.speed_lag)
+        v_ref = min(v_ref, cfg.max_speed, math.sqrt(2.0 * cfg.max_decel * brake_room))
+        v_ref = max(v_ref, min(cfg.min_speed, remaining))
+        v_cmd = min(v_ref, self._last_speed + cfg.max_accel * max(dt, 0.0))
+        # Lookahead point: walk along the plan; past the end, extend along the final heading.
+        ld = min(cfg.lookahead_max, cfg.lookahead_base + cfg.lookahead_gain * abs(v_cmd))
+        s_goal = s_here + ld
+        if s_goal <= self._s[-1]:
+            j = int(np.clip(np.searchsorted(self._s, s_goal) - 1, 0, len(self._s) - 2))
+            f = (s_goal - self._s[j]) / max(self._s[j + 1] - self._s[j], 1e-12)
+            target = self._poses[j, :2] + f * (self._poses[j + 1, :2] - self._poses[j, :2])
+        else:
+            extra = s_goal - self._s[-1]
+            target = end[:2] + extra * np.array([math.cos(end[2]), math.sin(end[2])])
+        dx, dy = target[0] - pose[0], target[1] - pose[1]
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        lx, ly = c * dx + s * dy, -s * dx + c * dy
+        bearing = math.atan2(ly, lx if not reverse else -lx)
+        if cfg.turn_in_place_angle is not None and abs(bearing) > cfg.turn_in_place_angle:
+            self._last_speed = 0.0
+            rate = math.copysign(cfg.max_turn_rate, ly if not reverse else -ly)
+            return TrackCommand(0.0, 0.0, cross, remaining, False, turn_rate=rate)
+        # yaw rate = v·kappa, so the same arc through the target serves forward and reverse driving.
+        kappa = 2.0 * ly / max(lx * lx + ly * ly, 1e-9)
+        kappa = max(-cfg.max_curvature, min(cfg.max_curvature, kappa))
+        v_lat = math.sqrt(cfg.max_lateral_accel / max(abs(kappa), 1e-9))
+        v_cmd = min(v_cmd, v_lat)
+        self._last_speed = v_cmd
+        return TrackCommand(-v_cmd if reverse else v_cmd, kappa, cross, remaining, False)

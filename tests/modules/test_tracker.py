@@ -1,0 +1,176 @@
+"""HELM tracker: pure pursuit converges onto a straight line and an arc from an offset start, stops at the end."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError
+
+
+def _unicycle(state: np.ndarray, v: float, kappa: float, dt: float) -> np.ndarray:
+    """Advance (x [m], y [m], yaw [rad]) by speed v [m/s] and curvature kappa [1/m] for dt [s]."""
+    x, y, th = state
+    n = 10
+    h = dt / n
+    for _ in range(n):
+        x += v * math.cos(th) * h
+        y += v * math.sin(th) * h
+        th += v * kappa * h
+    return np.array([x, y, th])
+
+
+def _drive(tracker: PathTracker, start: np.ndarray, steps: int = 4000, dt: float = 0.1):
+    state = start.copy()
+    log = []
+    for _ in range(steps):
+        cmd = tracker.command(state, dt)
+        log.append((state.copy(), cmd))
+        if cmd.done:
+            break
+        state = _unicycle(state, cmd.speed, cmd.curvature, dt)
+    return state, log
+
+
+def test_converges_onto_straight_line_and_stops_at_end():
+    xs = np.arange(0.0, 40.0 + 1e-9, 0.25)
+    poses = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+    speeds = np.full(len(xs), 1.5)
+    speeds[-1] = 0.0
+    tr = PathTracker(TrackerConfig(max_curvature=1 / 7.0, max_speed=2.0))
+    tr.set_plan(poses, speeds)
+    final, log = _drive(tr, np.array([0.0, 1.5, 0.3]))
+    assert log[-1][1].done
+    cross_late = [abs(c.cross_track) for st, c in log if st[0] > 25.0]
+    assert cross_late and max(cross_late) < 0.05
+    assert abs(final[0] - 40.0) < 0.3 and abs(final[1]) < 0.05
+    assert max(abs(c.curvature) for _, c in log) <= 1 / 7.0 + 1e-12
+    assert max(c.speed for _, c in log) <= 2.0 + 1e-9
+    # Braking to rest at the end: near the end, speed never exceeds sqrt(2·decel·remaining).
+    near_end = [c for _, c in log if not c.done and c.remaining < 2.0]
+    assert near_end and all(c.speed <= math.sqrt(2 * 1.0 * c.remaining) + 1e-9 for c in near_end)
+    assert near_end[-1].speed < 1.0
+
+
+def test_converges_onto_arc_from_offset_start():
+    r = 10.0
+    th = np.arange(0.0, math.pi, 0.25 / r)
+    poses = np.stack([r * np.sin(th), r - r * np.cos(th), th], axis=1)  # CCW circle centred (0, r)
+    speeds = np.full(len(th), 1.0)
+    tr = PathTracker(TrackerConfig(max_curvature=1 / 7.0))
+    tr.set_plan(poses, speeds)
+    final, log = _drive(tr, np.array([0.0, -1.0, 0.0]))
+    late = [abs(c.cross_track) for st, c in log if math.atan2(st[0], r - st[1]) > 1.5]
+    assert late and max(late) < 0.15
+    assert log[-1][1].done
+
+
+def test_no_plan_means_stop_and_bad_plan_rejected():
+    tr = PathTracker()
+    cmd = tr.command(np.zeros(3), 0.1)
+    assert cmd.speed == 0.0 and cmd.done
+    with pytest.raises(TrackerError):
+        tr.set_plan(np.zeros((1, 3)), np.zeros(1))
+    with pytest.raises(TrackerError):
+        tr.set_plan(np.zeros((3, 3)), np.zeros(2))
+    with pytest.raises(TrackerError):
+        tr.set_plan(np.array([[0, 0, 0], [1, np.nan, 0]]), np.zeros(2))
+
+
+def test_reverse_plan_drives_backwards():
+    xs = np.arange(0.0, -10.0 - 1e-9, -0.25)
+    poses = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)  # facing +x, moving -x
+    speeds = np.full(len(xs), -0.8)
+    tr = PathTracker()
+    tr.set_plan(poses, speeds)
+    final, log = _drive(tr, np.array([0.0, 0.4, 0.0]))
+    assert all(c.speed <= 0.0 for _, c in log)
+    assert log[-1][1].done and final[0] < -9.5 and abs(final[1]) < 0.1
+
+
+def test_skid_steer_turns_in_place_at_a_corner():
+    # An L-shaped polyline plan (Terregator, SE(2) planner): along +x, then along +y.
+    a = np.stack([np.arange(0, 5.01, 0.25), np.zeros(21), np.zeros(21)], axis=1)
+    b = np.stack([np.full(20, 5.0), np.arange(0.25, 5.01, 0.25), np.full(20, math.pi / 2)], axis=1)
+    poses = np.vstack([a, b])
+    tr = PathTracker(TrackerConfig(max_curvature=2.0, max_speed=0.5, turn_in_place_angle=math.radians(60),
+                                   lookahead_base=0.8, lookahead_gain=0.5))
+    tr.set_plan(poses, np.full(len(poses), 0.5))
+    state = np.array([4.9, 0.0, 0.0])
+    turned = False
+    for _ in range(2000):
+        cmd = tr.command(state, 0.1)
+        if cmd.done:
+            break
+        if cmd.turn_rate is not None:
+            turned = True
+            assert cmd.speed == 0.0
+            state = state + np.array([0.0, 0.0, cmd.turn_rate * 0.1])
+        else:
+            state = _unicycle(state, cmd.speed, cmd.curvature, 0.1)
+    assert turned and cmd.done
+    assert abs(state[0] - 5.0) < 0.3 and abs(state[1] - 5.0) < 0.3
+
+
+def _drive_kinematics(tracker, params, start, steps=6000, dt=0.05, control_every=2):
+    """Close the loop through the simulator's vehicle model (lags, rate limits) with control at dt·control_every."""
+    from vehicle_sim.drive import DriveCommand
+    from vehicle_sim.kinematics import VehicleState, step
+
+    st = VehicleState(x=start[0], y=start[1], yaw=start[2])
+    cmd = DriveCommand(speed=0.0)
+    log = []
+    for k in range(steps):
+        if k % control_every == 0:
+            tc = tracker.command(np.array([st.x, st.y, st.yaw]), dt * control_every)
+            log.append(((st.x, st.y, st.yaw, st.v), tc))
+            if tc.done and abs(st.v) < 0.01:
+                break
+            cmd = DriveCommand(speed=tc.speed, curvature=tc.curvature, turn_rate=tc.turn_rate)
+        st = step(st, cmd, dt, params)
+    return st, log
+
+
+def test_navlab_model_converges_onto_straight_road_and_stops():
+    from vehicle_sim.kinematics import NAVLAB
+
+    xs = np.arange(0.0, 120.0 + 1e-9, 0.25)
+    poses = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+    speeds = np.full(len(xs), 4.0)
+    speeds[-1] = 0.0
+    tr = PathTracker(TrackerConfig(max_curvature=1 / 7.0, max_speed=7.5, lookahead_base=3.0, lookahead_gain=1.0,
+                                   lookahead_max=10.0, max_accel=0.8, max_decel=1.5, speed_lag=0.4))
+    tr.set_plan(poses, speeds)
+    final, log = _drive_kinematics(tr, NAVLAB, (0.0, 1.5, 0.1))
+    late = [abs(c.cross_track) for (x, *_), c in log if x > 60.0 and not c.done]
+    assert late and max(late) < 0.1
+    assert abs(final.x - 120.0) < 0.5 and abs(final.y) < 0.05 and abs(final.v) < 0.05  # stopped at the end
+
+
+def test_navlab_model_converges_onto_an_arc_at_the_turning_limit():
+    from vehicle_sim.kinematics import NAVLAB
+
+    r = 9.0  # a curve just wider than the 7 m minimum turning radius
+    th = np.arange(0.0, 1.5 * math.pi, 0.25 / r)
+    poses = np.stack([r * np.sin(th), r - r * np.cos(th), th], axis=1)
+    tr = PathTracker(TrackerConfig(max_curvature=1 / 7.0, max_speed=3.0, lookahead_base=3.0, lookahead_gain=0.5))
+    tr.set_plan(poses, np.full(len(th), 2.0))
+    final, log = _drive_kinematics(tr, NAVLAB, (0.0, -1.0, 0.0))
+    late = [abs(c.cross_track) for (x, y, *_), c in log if math.atan2(x, r - y) > 2.0]
+    assert late and max(late) < 0.3
+
+
+def test_terregator_model_follows_a_polyline_with_turns_in_place():
+    from vehicle_sim.kinematics import TERREGATOR
+
+    a = np.stack([np.arange(0, 6.01, 0.25), np.zeros(25), np.zeros(25)], axis=1)
+    b = np.stack([np.full(24, 6.0), np.arange(0.25, 6.01, 0.25), np.full(24, math.pi / 2)], axis=1)
+    poses = np.vstack([a, b])
+    tr = PathTracker(TrackerConfig(max_curvature=2.0, max_speed=1.0, lookahead_base=1.0, lookahead_gain=0.8,
+                                   max_accel=0.4, turn_in_place_angle=math.radians(50), max_turn_rate=0.4))
+    tr.set_plan(poses, np.full(len(poses), 0.8))
+    final, log = _drive_kinematics(tr, TERREGATOR, (0.0, 0.3, 0.0))
+    assert math.hypot(final.x - 6.0, final.y - 6.0) < 0.4
+    assert max(abs(c.cross_track) for _, c in log) < 0.8

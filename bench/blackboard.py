@@ -103,7 +103,12 @@ def _floor_main(endpoint: str, ns: str) -> None:
     signal.signal(signal.SIGINT, on_sig)
     print("floor ready", flush=True)
     while not stop:
-        signal.sigtimedwait([signal.SIGTERM, signal.SIGINT], 0.5) if hasattr(signal, "sigtimedwait") else time.sleep(0.5)
+        # sigtimedwait may consume the signal itself (the handler then never runs): a return ends the wait
+        if hasattr(signal, "sigtimedwait"):
+            if signal.sigtimedwait([signal.SIGTERM, signal.SIGINT], 0.5) is not None:
+                stop = True
+        else:
+            time.sleep(0.5)
     for h in (tok, sub, qa, pub):
         h.undeclare()
     s.close()

@@ -109,6 +109,20 @@ class ZSession:
         self._keep.append(sub)
         return sub
 
+    def subscribe_keyed(self, key: str, on_payload: Callable[[str, bytes], None]) -> Any:
+        """Subscribe to `key` where only puts are published; `on_payload(key, payload)` runs on a zenoh thread."""
+        sub = self._s.declare_subscriber(
+            key, zenoh.handlers.Callback(lambda s: on_payload(str(s.key_expr), s.payload.to_bytes()), indirect=False)
+        )
+        self._keep.append(sub)
+        return sub
+
+    def subscribe_bytes(self, key: str, on_payload: Callable[[bytes], None]) -> Any:
+        """Subscribe to `key` where only puts are published; `on_payload(payload)` runs on a zenoh thread."""
+        sub = self._s.declare_subscriber(key, zenoh.handlers.Callback(lambda s: on_payload(s.payload.to_bytes()), indirect=False))
+        self._keep.append(sub)
+        return sub
+
     def undeclare(self, handle: Any) -> None:
         """Undeclare a subscriber, publisher or token returned earlier."""
         try:
@@ -121,8 +135,14 @@ class ZSession:
             pass
 
     def publisher(self, key: str) -> Any:
-        """Declare a reliable publisher on `key` (call `.put(bytes)`)."""
-        pub = self._s.declare_publisher(key, encoding=MSGPACK, congestion_control=zenoh.CongestionControl.BLOCK, express=True)
+        """Declare a reliable, express publisher on `key` that blocks rather than drop (call `.put(bytes)`)."""
+        pub = self._s.declare_publisher(
+            key,
+            encoding=MSGPACK,
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            express=True,
+            reliability=zenoh.Reliability.RELIABLE,
+        )
         self._keep.append(pub)
         return pub
 

@@ -2,7 +2,11 @@
 
 Writes issued in the same loop iteration are coalesced into one batch message (one commit on the
 node); each call still gets its own acknowledgement or typed error. A write resolves once the node
-has committed it (durable per the node's sync mode). `post`, `post_raw`, `post_pose` and
+has committed it (durable per the node's sync mode). Write batches travel as puts on
+`bb/write/<client>` (`[request_id, ops]`); after each commit the node publishes one message on
+`bb/to/<client>` with this client's acknowledgements (`[request_id, results]`) and the events of
+its monitors. A batch not acknowledged within `timeout` [s], or outstanding when the node's
+liveliness token goes, fails with NodeUnavailableError. `post`, `post_raw`, `post_pose` and
 `set_static_frame` queue their request when called and return an awaitable future (so
 `asyncio.gather(*[bb.post(...) for ...])` pipelines without a task per post); `update`, `delete`,
 `retrieve`, `wait`, `lookup_pose` and `transform` are coroutines. Replies and monitor events
@@ -12,18 +16,20 @@ arrive on zenoh threads and are handed to the loop with `call_soon_threadsafe`.
 from __future__ import annotations
 
 import asyncio
+import collections
 import itertools
 import logging
 import re
 import uuid
 from typing import Any
 
+import msgpack
 import numpy as np
 from pydantic import BaseModel
 
-from blackboard._zenoh import ZReply, ZSample, ZSession, open_session
+from blackboard._zenoh import ZReply, ZSession, open_session
 from blackboard.codec import decode, encode
-from blackboard.errors import BlackboardError, NodeUnavailableError, error_from_wire
+from blackboard.errors import BadRequestError, BlackboardError, NodeUnavailableError, error_from_wire
 from blackboard.frames import apply_se2
 from blackboard.geometry import Point, Polygon, Polyline, Pose2D
 from blackboard.keys import BlackboardKeys
@@ -35,6 +41,9 @@ from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, mak
 __all__ = ["BlackboardClient", "MonitorStream"]
 
 log = logging.getLogger("blackboard.client")
+#: msgpack packer of write batches (used on the client's loop thread only)
+_packb = msgpack.Packer(use_bin_type=True).pack
+_unpackb = msgpack.unpackb
 _SAFE = re.compile(r"[^A-Za-z0-9_-]")
 _EVENT_FIELDS = {"kind", "token"}
 
@@ -62,7 +71,10 @@ class MonitorStream:
         self._client = client
         self.spec = spec
         self.mid = f"m{next(client._mids)}"
-        self.queue: asyncio.Queue[MonitorEvent | None] = asyncio.Queue()
+        #: events not yet consumed; None marks the end (closed)
+        self._items: collections.deque[MonitorEvent | None] = collections.deque()
+        #: futures of consumers waiting for an event
+        self._waiters: list[asyncio.Future] = []
         self._started = False
         self._closed = False
 
@@ -82,7 +94,7 @@ class MonitorStream:
         if self._closed:
             return
         self._closed = True
-        self.queue.put_nowait(None)  # ends any iteration in progress
+        self._append(None)  # ends any iteration in progress
         self._client._monitors.pop(self.mid, None)
         if self._started and not self._client._closed:
             try:
@@ -102,22 +114,39 @@ class MonitorStream:
     async def __anext__(self) -> MonitorEvent:
         if not self._started and not self._closed:
             await self.start()
-        ev = await self.queue.get()
+        items = self._items
+        while not items:
+            w = asyncio.get_running_loop().create_future()
+            self._waiters.append(w)
+            try:
+                await w
+            finally:
+                if not w.done():
+                    self._waiters.remove(w)
+        ev = items[0]
         if ev is None:
-            self.queue.put_nowait(None)
-            raise StopAsyncIteration
+            raise StopAsyncIteration  # the end marker stays: later calls end too
+        items.popleft()
         return ev
 
     async def next(self, timeout: float | None = None) -> MonitorEvent:
         """Return the next event; raise TimeoutError after `timeout` [s] (wall clock), StopAsyncIteration once closed."""
-        if timeout is None or not self.queue.empty():
+        if timeout is None or self._items:
             return await self.__anext__()
         async with asyncio.timeout(timeout):
             return await self.__anext__()
 
     def _push(self, ev: MonitorEvent) -> None:
         if not self._closed:
-            self.queue.put_nowait(ev)
+            self._append(ev)
+
+    def _append(self, ev: MonitorEvent | None) -> None:
+        self._items.append(ev)
+        if self._waiters:
+            waiters, self._waiters = self._waiters, []
+            for w in waiters:
+                if not w.done():
+                    w.set_result(None)
 
 
 class BlackboardClient:
@@ -146,6 +175,12 @@ class BlackboardClient:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._batch: list[tuple[dict, asyncio.Future, Any]] = []
         self._batch_scheduled = False
+        #: write batches sent and not yet acknowledged: request id → (batch, deadline [loop time, s]),
+        #: in sending order (so in deadline order); one timer sweeps the expired ones
+        self._inflight: dict[int, tuple[list[tuple[dict, asyncio.Future, Any]], float]] = {}
+        self._sweeper: asyncio.TimerHandle | None = None
+        self._rids = itertools.count(1)
+        self._wpub: Any = None
         self._monitors: dict[str, MonitorStream] = {}
         self._mids = itertools.count(1)
         self._closed = False
@@ -164,14 +199,18 @@ class BlackboardClient:
         self._loop = loop = asyncio.get_running_loop()
         self._session = s = await loop.run_in_executor(None, open_session, self.net)
         s.liveliness_token(self.keys.client_alive(self.client_id))
-        s.subscribe(self.keys.events(self.client_id), lambda smp: loop.call_soon_threadsafe(self._on_events, smp))
+        on_message = self._on_message
+        s.subscribe_bytes(self.keys.to_client(self.client_id), lambda payload: loop.call_soon_threadsafe(on_message, payload))
+        self._wpub = s.publisher(self.keys.write(self.client_id))
         seen = loop.create_future()
 
         def on_alive(key: str, alive: bool) -> None:
             if alive:
                 loop.call_soon_threadsafe(lambda: seen.done() or seen.set_result(True))
+            else:
+                loop.call_soon_threadsafe(self._node_gone)
 
-        tok = s.liveliness_subscribe(self.keys.alive, on_alive, history=True)
+        s.liveliness_subscribe(self.keys.alive, on_alive, history=True)
         try:
             await asyncio.wait_for(seen, self.connect_timeout)
         except (asyncio.TimeoutError, TimeoutError):
@@ -180,9 +219,6 @@ class BlackboardClient:
                 f"no blackboard node in namespace {self.net.namespace!r} within {self.connect_timeout} s "
                 f"(endpoints {list(self.net.connect or self.net.listen)})"
             ) from None
-        finally:
-            if self._session is not None:
-                self._session.undeclare(tok)
 
     async def close(self) -> None:
         """Cancel monitors, fail outstanding requests and close the session."""
@@ -195,6 +231,7 @@ class BlackboardClient:
             if not fut.done():
                 fut.set_exception(NodeUnavailableError("client closed"))
         self._batch.clear()
+        self._fail_inflight(NodeUnavailableError("client closed"))
         if self._session is not None:
             s, self._session = self._session, None
             s.close()
@@ -207,14 +244,12 @@ class BlackboardClient:
         await self.close()
 
     # ------------------------------------------------------------------ transport
-    def _query(self, selector: str, payload: bytes | None, as_json: bool = False, deliver: Any = None) -> asyncio.Future:
+    def _query(self, selector: str, payload: bytes | None, as_json: bool = False) -> asyncio.Future:
         loop = self._loop
         assert loop is not None
         if self._session is None:
             raise NodeUnavailableError("client is closed")
         fut: asyncio.Future = loop.create_future()
-        if deliver is not None:
-            fut = _Deliver(deliver)  # type: ignore[assignment]
 
         def on_reply(r: ZReply) -> None:
             loop.call_soon_threadsafe(_resolve, fut, r)
@@ -254,26 +289,100 @@ class BlackboardClient:
             self._batch_scheduled = False
         if not batch:
             return
+        if self._session is None or self._wpub is None:
+            _distribute(batch, None, NodeUnavailableError("client is closed"))
+            return
+        rid = next(self._rids)
         try:
-            self._query(self.keys.batch, encode([e[0] for e in batch]), deliver=lambda res, exc: _distribute(batch, res, exc))
-        except BlackboardError as exc:
+            data = _packb((rid, [e[0] for e in batch]))
+        except Exception as exc:  # noqa: BLE001 - e.g. an attribute msgpack cannot carry
+            _distribute(batch, None, BadRequestError(f"cannot encode write: {type(exc).__name__}: {exc}"[:300]))
+            return
+        loop = self._loop
+        assert loop is not None
+        self._inflight[rid] = (batch, loop.time() + self.timeout)
+        if self._sweeper is None:
+            self._sweeper = loop.call_later(self.timeout, self._sweep)
+        self._wpub.put(data)
+
+    def _on_message(self, payload: bytes) -> None:
+        """Handle one node message `[acks, events]`: deliver monitor events, then resolve acknowledged writes."""
+        try:
+            try:
+                msg = _unpackb(payload)  # the common case, without the codec's error wrapping
+            except Exception:  # noqa: BLE001 - let the codec say what is wrong
+                msg = decode(payload)
+            acks, events = msg
+            for mid, evs in events:
+                self._on_events(mid, evs)
+            if acks:
+                if events:  # monitor consumers woken above run first, then the writers
+                    assert self._loop is not None
+                    self._loop.call_soon(self._on_acks, acks)
+                else:
+                    self._on_acks(acks)
+        except (BlackboardError, TypeError, ValueError):
+            log.warning("malformed message from the node on %s", self.keys.to_client(self.client_id))
+
+    def _on_acks(self, acks: list) -> None:
+        try:
+            for rid, results in acks:
+                self._on_ack(rid, results)
+        except (TypeError, ValueError):
+            log.warning("malformed acknowledgement from the node on %s", self.keys.to_client(self.client_id))
+
+    def _on_ack(self, rid: Any, results: Any) -> None:
+        """Resolve the futures of the write batch `rid` with its results (a list, or one error object)."""
+        entry = self._inflight.pop(rid, None) if type(rid) is int else None
+        if entry is None:
+            return  # already timed out, or not ours
+        batch = entry[0]
+        if isinstance(results, dict):
+            _distribute(batch, None, error_from_wire(results))
+        else:
+            _distribute(batch, results, None)
+
+    def _sweep(self) -> None:
+        """Fail the write batches whose deadline passed; re-arm for the earliest one left."""
+        self._sweeper = None
+        loop = self._loop
+        assert loop is not None
+        now = loop.time()
+        inflight = self._inflight
+        while inflight:
+            rid = next(iter(inflight))
+            batch, deadline = inflight[rid]
+            if deadline > now:
+                self._sweeper = loop.call_at(deadline, self._sweep)
+                break
+            del inflight[rid]
+            _distribute(batch, None, NodeUnavailableError(
+                f"no acknowledgement from the blackboard node within {self.timeout} s "
+                f"(namespace {self.net.namespace!r}); the write may or may not have been stored"))
+
+    def _node_gone(self) -> None:
+        """Fail every unacknowledged write: the node that would acknowledge them went away."""
+        self._fail_inflight(NodeUnavailableError(
+            f"the blackboard node in namespace {self.net.namespace!r} went away before acknowledging; "
+            "the write may or may not have been stored"))
+
+    def _fail_inflight(self, exc: BlackboardError) -> None:
+        inflight, self._inflight = self._inflight, {}
+        if self._sweeper is not None:
+            self._sweeper.cancel()
+            self._sweeper = None
+        for batch, _ in inflight.values():
             _distribute(batch, None, exc)
 
-    def _on_events(self, smp: ZSample) -> None:
-        mid = smp.key.rsplit("/", 1)[-1]
+    def _on_events(self, mid: str, evs: list) -> None:
         mon = self._monitors.get(mid)
         if mon is None:
-            return
-        try:
-            evs = decode(smp.payload)
-        except BlackboardError:
-            log.warning("undecodable monitor event on %s", smp.key)
             return
         for ev in evs:
             try:
                 tok = self._token(ev["token"])
             except (BlackboardError, KeyError, TypeError):
-                log.warning("monitor event with a token this client cannot decode on %s", smp.key)
+                log.warning("monitor %s: an event with a token this client cannot decode", mid)
                 continue
             mon._push(_trusted(MonitorEvent, {"kind": ev["kind"], "token": tok}, _EVENT_FIELDS))
 
@@ -318,7 +427,7 @@ class BlackboardClient:
             op = {
                 "op": "post",
                 "type": name,
-                "attrs": attrs.model_dump(mode="json"),
+                "attrs": attrs.__pydantic_serializer__.to_python(attrs, mode="json"),
                 "frame": frame,
                 "stamp": stamp,
                 "source": self.source,
@@ -471,27 +580,6 @@ class BlackboardClient:
     async def stats(self) -> dict:
         """Return the node's counters (posts, retrieves, monitors, events, bytes in/out, tokens, …)."""
         return await self._query(self.keys.stats, None)
-
-
-class _Deliver:
-    """A future-like sink that hands the result (or error) straight to a function."""
-
-    __slots__ = ("_fn", "_done")
-
-    def __init__(self, fn: Any) -> None:
-        self._fn = fn
-        self._done = False
-
-    def done(self) -> bool:
-        return self._done
-
-    def set_result(self, v: Any) -> None:
-        self._done = True
-        self._fn(v, None)
-
-    def set_exception(self, e: BaseException) -> None:
-        self._done = True
-        self._fn(None, e)
 
 
 def _distribute(batch: list[tuple[dict, asyncio.Future, Any]], results: Any, exc: BaseException | None) -> None:

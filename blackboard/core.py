@@ -29,7 +29,7 @@ from blackboard.errors import (
 )
 from blackboard.evaluate import Evaluator
 from blackboard.frames import FrameTree
-from blackboard.geometry import parse_geometry_wire
+from blackboard.geometry import parse_geometry_wire, parse_geometry_wire_fast
 from blackboard.registry import TypeRegistry
 from blackboard.spec import Spec, parse_spec
 from blackboard.store import Record, Store, token_rid
@@ -40,6 +40,8 @@ _FRAME_RE = re.compile(r"^[A-Za-z0-9_.\-]{1,128}$")
 _POST_KEYS = frozenset({"op", "type", "attrs", "frame", "stamp", "source", "geometry", "reply"})
 _UPDATE_KEYS = frozenset({"op", "id", "expected_version", "attrs", "frame", "stamp", "geometry"})
 _MISSING = object()
+#: frame names already found valid (bounded)
+_FRAMES_SEEN: set[str] = set()
 
 
 @dataclass
@@ -78,6 +80,8 @@ class Monitor:
     set_level: bool
     types: set[str] | None
     members: set[int] = field(default_factory=set)
+    #: the spec is a type (or nothing) alone: every change of those types matches
+    trivial: bool = False
 
 
 #: (kind, new record or None, old record or None)
@@ -85,8 +89,12 @@ Change = tuple[str, "Record | None", "Record | None"]
 
 
 def _frame(v: object, what: str) -> str:
+    if type(v) is str and v in _FRAMES_SEEN:
+        return v  # type: ignore[return-value]
     if not isinstance(v, str) or not _FRAME_RE.match(v):
         raise InvalidTokenError(f"{what} {v!r} must be 1-128 characters of letters, digits, '_', '-', '.'")
+    if len(_FRAMES_SEEN) < 4096:
+        _FRAMES_SEEN.add(v)
     return v
 
 
@@ -190,8 +198,8 @@ class BlackboardCore:
         raise BadRequestError(f"unknown operation {kind!r} (post, update, delete, pose, static)")
 
     def _post(self, op: dict) -> Record:
-        extra = set(op) - _POST_KEYS
-        if extra:
+        if not _POST_KEYS.issuperset(op):
+            extra = set(op) - _POST_KEYS
             raise InvalidTokenError(f"unexpected token fields {sorted(map(str, extra))[:5]}")
         typ = op.get("type")
         if not isinstance(typ, str):
@@ -203,7 +211,7 @@ class BlackboardCore:
         if not isinstance(source, str) or len(source) > 128:
             raise InvalidTokenError(f"source must be a string of at most 128 characters")
         g = op.get("geometry")
-        kind, xy = (None, None) if g is None else parse_geometry_wire(g)
+        kind, xy = (None, None) if g is None else parse_geometry_wire_fast(g)
         return self.store.insert(typ, stamp, source, frame, kind, xy, attrs)
 
     def _existing(self, op: dict) -> Record:
@@ -313,6 +321,7 @@ class BlackboardCore:
         """Register (or replace) monitor `mid` of `client`."""
         spec = parse_spec(spec_obj)
         m = Monitor(client, mid, spec, spec.is_set_level(), spec.types())
+        m.trivial = not m.set_level and not spec.where and spec.geometry is None and not spec.any_of
         if m.set_level:
             m.members = {r.rid for r in self.evaluator.select(spec)}
         self.monitors[(client, mid)] = m
@@ -332,9 +341,13 @@ class BlackboardCore:
 
     def match_changes(self, changes: list[Change]) -> list[tuple[Monitor, dict]]:
         """Return (monitor, event wire dict) for every change a monitor should see, in commit order."""
+        return [(m, {"kind": kind, "token": rec.wire()}) for m, kind, rec in self.match_records(changes)]
+
+    def match_records(self, changes: list[Change]) -> list[tuple[Monitor, str, Record]]:
+        """Return (monitor, event kind, record) for every change a monitor should see, in commit order."""
         if not self.monitors or not changes:
             return []
-        out: list[tuple[Monitor, dict]] = []
+        out: list[tuple[Monitor, str, Record]] = []
         ev = self.evaluator
         for m in list(self.monitors.values()):
             touched = False
@@ -344,7 +357,9 @@ class BlackboardCore:
                 if m.types is not None and rec.type not in m.types:
                     continue
                 touched = True
-                if m.set_level:
+                if m.trivial:
+                    hit = True
+                elif m.set_level:
                     if kind == "deleted":
                         hit = old.rid in m.members  # type: ignore[union-attr]
                     else:
@@ -357,7 +372,7 @@ class BlackboardCore:
                     else:
                         hit = ev.matches(m.spec, old)  # type: ignore[arg-type]
                 if hit:
-                    out.append((m, {"kind": kind, "token": rec.wire()}))
+                    out.append((m, kind, rec))
             if m.set_level and touched:
                 m.members = {r.rid for r in ev.select(m.spec)}
         self.stats.events += len(out)

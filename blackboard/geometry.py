@@ -25,6 +25,7 @@ __all__ = [
     "geometry_coords",
     "geometry_from_coords",
     "parse_geometry_wire",
+    "parse_geometry_wire_fast",
     "coords_to_wire",
     "to_shapely",
 ]
@@ -171,6 +172,15 @@ def coords_to_wire(kind: str, xy: np.ndarray) -> dict:
     if kind == "point":
         return {"kind": "point", "x": float(xy[0, 0]), "y": float(xy[0, 1])}
     return {"kind": kind, "points": xy.tolist()}
+
+
+def parse_geometry_wire_fast(obj: object) -> tuple[str, np.ndarray | tuple[float, float]]:
+    """Like `parse_geometry_wire`, but a well-formed point with float coordinates comes back as an (x, y) tuple [m]."""
+    if type(obj) is dict and len(obj) == 3 and obj.get("kind") == "point":
+        x, y = obj.get("x"), obj.get("y")
+        if type(x) is float and type(y) is float and math.isfinite(x) and math.isfinite(y):
+            return "point", (x, y)
+    return parse_geometry_wire(obj)
 
 
 def parse_geometry_wire(obj: object) -> tuple[str, np.ndarray]:

@@ -16,6 +16,11 @@ class BlackboardKeys:
         self.post = f"{base}/post"
         #: queryable: a list of ops (post/update/delete/pose/static) → a list of results, one commit.
         self.batch = f"{base}/batch"
+        #: subscription (client → node): msgpack [request_id, ops] on `write/<client>`; acked on `to/<client>`.
+        self.write_prefix = f"{base}/write"
+        #: publication (node → client) on `to/<client>`, one per commit: msgpack [acks, events],
+        #: acks [[request_id, results], …] (after the commit), events [[mid, [event, …]], …].
+        self.to_prefix = f"{base}/to"
         #: queryable: one update (compare-and-set on version) → the new token.
         self.update = f"{base}/update"
         #: queryable: one delete → {"id": id}.
@@ -37,9 +42,13 @@ class BlackboardKeys:
         #: heartbeat published by the node every second (msgpack {"t": wall time [s], "tokens": n}).
         self.heartbeat = f"sidewalk/{ns}/heartbeat/blackboard"
 
-    def events(self, client: str, mid: str | None = None) -> str:
-        """Return the key monitor events for a client (and monitor id) are published on."""
-        return f"{self.base}/events/{client}/{mid if mid is not None else '**'}"
+    def write(self, client: str) -> str:
+        """Return the key a client publishes its write batches on."""
+        return f"{self.write_prefix}/{client}"
+
+    def to_client(self, client: str) -> str:
+        """Return the key the node publishes a client's acknowledgements and monitor events on."""
+        return f"{self.to_prefix}/{client}"
 
     def client_alive(self, client: str) -> str:
         """Return a client's liveliness key."""

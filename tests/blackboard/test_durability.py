@@ -6,7 +6,7 @@ import asyncio
 
 import pytest
 
-from blackboard import BlackboardClient, BlackboardError, Spec
+from blackboard import BlackboardClient, BlackboardError, NodeUnavailableError, Spec
 from blackboard.testing import free_port, start_node
 from tests.blackboard.sample_types import Segment
 
@@ -45,10 +45,16 @@ async def test_sigkill_while_streaming_loses_no_acknowledged_token(tmp_path, syn
 
             streamer = asyncio.create_task(stream())
             await asyncio.wait_for(enough.wait(), 60)
+            # posts queued now are on their way (the first is sent at once) when the node dies
+            extra = [bb.post(Segment(index=-2 - k), stamp=0.0) for k in range(25)]
+            for f in extra:
+                f.add_done_callback(record)
             node.kill()  # SIGKILL with posts in flight
             stop = True
             await asyncio.wait_for(streamer, 30)
-        assert failures > 0  # posts were in flight when the node died
+            outcomes = await asyncio.wait_for(asyncio.gather(*extra, return_exceptions=True), 30)
+            assert all(isinstance(o, NodeUnavailableError) or o.id in acked for o in outcomes)
+        assert failures > 0  # posts were in flight when the node died, and failed rather than hang
     finally:
         node.kill()
 

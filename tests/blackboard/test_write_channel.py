@@ -1,0 +1,152 @@
+"""The put-based write channel: `bb/write/<client>` → commit → `bb/to/<client>` (real nodes over Zenoh)."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import signal
+
+import msgpack
+import pytest
+
+from blackboard import AttrPredicate, BlackboardClient, NodeUnavailableError, Spec
+from blackboard._zenoh import open_session
+from blackboard.keys import BlackboardKeys
+from blackboard.testing import free_port, start_node
+from tests.blackboard.sample_types import Landmark, Segment
+
+pytestmark = pytest.mark.timeout(90)
+
+TYPES = ("tests.blackboard.sample_types",)
+
+
+def _observer(node, key: str, on_message) -> object:
+    """Open a raw zenoh session subscribed to `key`; `on_message(key, [acks, events])` on a zenoh thread."""
+    s = open_session(node.client_net())
+    s.subscribe_keyed(key, lambda k, payload: on_message(k, msgpack.unpackb(payload)))
+    return s
+
+
+async def test_a_write_is_acknowledged_only_once_durable(tmp_path):
+    """SIGKILL the node the instant its acknowledgement is seen on the wire: the token survives a restart."""
+    db = str(tmp_path / "bb.sqlite")
+    port = free_port()
+    node = start_node(namespace="wc1", port=port, db=db, types=TYPES)
+    loop = asyncio.get_running_loop()
+    seen: asyncio.Future = loop.create_future()
+    acked_ids: list[str] = []
+
+    def on_message(key: str, msg: list) -> None:
+        acks, _events = msg
+        for _rid, results in acks:
+            acked_ids.extend(r["ok"]["id"] if isinstance(r["ok"], dict) else r["ok"] for r in results if "ok" in r)
+        if acks:
+            os.kill(node.proc.pid, signal.SIGKILL)  # no time for anything after the ack
+            loop.call_soon_threadsafe(lambda: seen.done() or seen.set_result(None))
+
+    obs = _observer(node, "sidewalk/wc1/bb/to/*", on_message)
+    try:
+        async with BlackboardClient(node.client_net(), source="w", timeout=10.0) as bb:
+            futs = [bb.post(Landmark(name=f"durable-{k}"), stamp=1.0) for k in range(5)]
+            await asyncio.wait_for(seen, 20)
+            await asyncio.gather(*futs, return_exceptions=True)
+    finally:
+        obs.close()
+        node.kill()
+        node.stop()
+    assert acked_ids
+    node2 = start_node(namespace="wc1", port=port, db=db, types=TYPES)
+    try:
+        async with BlackboardClient(node2.client_net(), source="check") as bb:
+            stored = {t.id for t in await bb.retrieve(Spec(type="bbt_landmark"))}
+        assert set(acked_ids) <= stored
+    finally:
+        node2.stop()
+
+
+async def test_acknowledgements_reach_only_their_own_client():
+    """Two clients reuse the same request ids; each gets its own results, and a foreign writer's ack goes elsewhere."""
+    with start_node(namespace="wc2", types=TYPES) as node:
+        keys = BlackboardKeys("wc2")
+        async with BlackboardClient(node.client_net(), source="alice") as a, BlackboardClient(node.client_net(), source="bob") as b:
+            loop = asyncio.get_running_loop()
+            seen_by_a: list[list] = []
+            got = asyncio.Event()
+
+            def on_a(m: list) -> None:
+                seen_by_a.append(m)
+                got.set()
+
+            foreign: asyncio.Future = loop.create_future()
+            obs = _observer(node, keys.to_client(a.client_id), lambda k, m: loop.call_soon_threadsafe(on_a, m))
+            obs_x = _observer(node, keys.to_client("intruder"), lambda k, m: loop.call_soon_threadsafe(
+                lambda: foreign.done() or foreign.set_result(m)))
+            try:
+                fa = [a.post_raw("bbt_segment", {"index": i, "mode": "alice"}, stamp=0.0) for i in range(100)]
+                fb = [b.post_raw("bbt_segment", {"index": i, "mode": "bob"}, stamp=0.0) for i in range(100)]
+                ra, rb = await asyncio.gather(asyncio.gather(*fa), asyncio.gather(*fb))
+                assert [(t["attrs"]["index"], t["attrs"]["mode"], t["source"]) for t in ra] == [(i, "alice", "alice") for i in range(100)]
+                assert [(t["attrs"]["index"], t["attrs"]["mode"], t["source"]) for t in rb] == [(i, "bob", "bob") for i in range(100)]
+                # a raw writer calling itself "intruder" uses request id 1, like every client's first batch
+                obs_x.put(keys.write("intruder"), msgpack.packb([1, [{"op": "post", "type": "bbt_segment", "attrs": {"index": -1},
+                                                                      "stamp": 0.0, "source": "x"}]]))
+                (rid, results), = (await asyncio.wait_for(foreign, 10))[0]
+                assert rid == 1 and "ok" in results[0]
+                n_before = len(seen_by_a)
+                t = await a.post(Segment(index=5), stamp=0.0)  # a round trip: every earlier message reached `obs`
+                assert t.version == 1
+                while len(seen_by_a) <= n_before:  # the observer's copy of that ack
+                    got.clear()
+                    await asyncio.wait_for(got.wait(), 10)
+                a_rids = [rid for acks, _ in seen_by_a for rid, _ in acks]
+                assert a_rids == list(range(1, len(a_rids) + 1))  # alice's own batches, each once, in order
+                assert not any(isinstance(r.get("ok"), dict) and r["ok"]["source"] == "x"
+                               for acks, _ in seen_by_a for _, res in acks for r in res)
+            finally:
+                obs.close()
+                obs_x.close()
+
+
+async def test_pending_writes_fail_with_node_unavailable_not_hang():
+    """A frozen node: writes time out; a dead node: writes in flight fail at once, well before the timeout."""
+    node = start_node(namespace="wc3", types=TYPES)
+    try:
+        async with BlackboardClient(node.client_net(), source="t", timeout=1.0) as quick, \
+                BlackboardClient(node.client_net(), source="t2", timeout=60.0) as slow:
+            await quick.post(Segment(index=1), stamp=0.0)
+            os.kill(node.proc.pid, signal.SIGSTOP)  # alive (liveliness holds) but not answering
+            try:
+                with pytest.raises(NodeUnavailableError, match="no acknowledgement"):
+                    await asyncio.wait_for(quick.post(Segment(index=2), stamp=0.0), 10)
+                in_flight = [slow.post(Segment(index=3 + k), stamp=0.0) for k in range(10)]
+                node.kill()  # SIGKILL while frozen: the writes were sent, never acknowledged
+            finally:
+                if node.proc.poll() is None:
+                    os.kill(node.proc.pid, signal.SIGCONT)
+            outcomes = await asyncio.wait_for(asyncio.gather(*in_flight, return_exceptions=True), 20)  # not the 60 s timeout
+            assert all(isinstance(o, NodeUnavailableError) for o in outcomes)
+            assert "went away" in str(outcomes[0])
+    finally:
+        node.kill()
+        node.stop()
+
+
+async def test_node_restart_serves_clients_again(tmp_path):
+    """Writes to a node that died fail; a client opened on the restarted node finds what was acknowledged."""
+    db = str(tmp_path / "bb.sqlite")
+    port = free_port()
+    node = start_node(namespace="wc4", port=port, db=db, types=TYPES)
+    async with BlackboardClient(node.client_net(), source="a", timeout=5.0) as bb:
+        ok = await bb.post(Landmark(name="kept"), stamp=0.0)
+        node.kill()
+        node.stop()
+        with pytest.raises(NodeUnavailableError):
+            await asyncio.wait_for(bb.post(Landmark(name="lost"), stamp=0.0), 20)
+    node2 = start_node(namespace="wc4", port=port, db=db, types=TYPES)
+    try:
+        async with BlackboardClient(node2.client_net(), source="b") as bb:
+            names = [t.attrs.name for t in await bb.retrieve(Spec(type="bbt_landmark"))]
+            assert "kept" in names and ok.id in {t.id for t in await bb.retrieve(
+                Spec(type="bbt_landmark", where=[AttrPredicate(path="name", op="==", value="kept")]))}
+    finally:
+        node2.stop()

@@ -11,6 +11,7 @@ import asyncio
 import math
 import os
 import time
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional
@@ -167,7 +168,7 @@ def build_plans(cfg: RunConfig, world: World, vehicle: str, out: Path, ns: str, 
     plans += [
         ProcessPlan("pilot", ("-m", "sidewalk", "up", "pilot", "--vehicle", vehicle,
                               "--perception", "on" if cfg.perception else "off",
-                              "--start-pose", f"{sx},{sy},{syaw}", "--seed", str(cfg.seed), *zflags)),
+                              f"--start-pose={sx},{sy},{syaw}", "--seed", str(cfg.seed), *zflags)),
         ProcessPlan("map_navigator", ("-m", "sidewalk", "up", "map_navigator", "--map", str(map_file),
                                       "--vehicle", vehicle, *zflags)),
         ProcessPlan("captain", ("-m", "sidewalk", "up", "captain", *zflags)),
@@ -285,6 +286,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
         goal_error_m=None if goal_error is None else round(goal_error, 3),
         collisions=recorder.collisions() if recorder else 0,
         off_path_s=round(recorder.off_path_s(truth[-1, 0]) if recorder and len(truth) else 0.0, 3),
+        sim_events=dict(Counter(e.kind for e in recorder.events)) if recorder else {},
         blackboard=BlackboardUsage(**_bb_usage(stats)),
         modules={k: round(v, 3) for k, v in cpu.items()},
         exit_codes=exit_codes,

@@ -77,6 +77,7 @@ class RunReport(BaseModel):
     goal_error_m: Optional[float] = None
     collisions: int
     off_path_s: float
+    sim_events: dict[str, int] = {}
     blackboard: BlackboardUsage
     modules: dict[str, float]
     exit_codes: dict[str, Optional[int]] = {}

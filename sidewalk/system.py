@@ -11,7 +11,7 @@ import msgpack
 import numpy as np
 
 from blackboard import BlackboardClient, MonitorStream, NetworkConfig, Spec
-from modules.captain.client import MissionClient
+from modules.captain.client import CaptainUnavailableError, MissionClient
 from modules.runtime import ModuleKeys, ZenohLink
 from modules.vocabulary import MissionStatus, RoutePlan
 from sidewalk.recorder import Recorder
@@ -55,8 +55,19 @@ class SystemRun:
     async def submit(self, text: str, *, timeout: float = 15.0) -> str:
         """Submit a mission to the CAPTAIN as `sidewalk submit` does; return its id."""
         assert self.link is not None
-        accepted = await MissionClient(self.link, ModuleKeys(self.ns), timeout=timeout).submit(text)
-        return accepted.mission_id
+        loop = asyncio.get_running_loop()
+        end = loop.time() + timeout
+        while True:
+            # Right after the CAPTAIN says it is ready, its queryable may not have reached this
+            # session yet: a query nobody answers returns at once, so ask again until the timeout.
+            left = end - loop.time()
+            try:
+                accepted = await MissionClient(self.link, ModuleKeys(self.ns), timeout=max(left, 0.5)).submit(text)
+                return accepted.mission_id
+            except CaptainUnavailableError:
+                if loop.time() + 0.2 >= end:
+                    raise
+                await asyncio.sleep(0.2)
 
     async def next_status(self, mission_id: str, timeout: float) -> Optional[MissionStatus]:
         """Return the next status of `mission_id` posted within `timeout` wall [s], else None."""

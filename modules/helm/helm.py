@@ -1,8 +1,8 @@
 """The HELM process: track the newest local path plan, drive the vehicle, post the moving vehicle position.
 
 Reads odometry (local←vehicle) from the simulator's drive interface and local path plans (frame
-`local`) from the blackboard; sends DriveCommand (speed [m/s], curvature [1/m]) on the drive key
-and posts `local←vehicle` poses at `pose_hz` (sim time). Whenever a new plan appears the old one
+`local`) from the blackboard; sends timed DriveCommands (speed [m/s], curvature [1/m], duration [s])
+on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time). Whenever a new plan appears the old one
 is dropped (seed §2.3.4). With no plan, or at its end, it commands stops.
 """
 
@@ -20,7 +20,7 @@ from blackboard import Pose2D, Spec
 from blackboard.errors import BlackboardError
 from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError
 from modules.vocabulary import LocalPathPlan
-from vehicle_sim.drive import DriveCommand, Odometry, WireError, decode, encode
+from vehicle_sim.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
 
 __all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys"]
 
@@ -51,6 +51,10 @@ class HelmConfig(BaseModel):
     pose_hz: float = Field(10.0, ge=10.0, description="local←vehicle poses per sim second [Hz] (≥ 10)")
     pose_hold_s: float = Field(0.5, ge=0.0, description="the newest pose answers lookups this long [s]")
     resume_plan_age_s: float = Field(5.0, ge=0.0, description="on start, resume a plan at most this old [s] sim")
+    max_hold_s: float = Field(
+        2.0, gt=0.0, le=MAX_COMMAND_DURATION,
+        description="longest a driving command holds without a newer one [s] sim (it holds as far as its arc stays on the plan)",
+    )
     tracker: TrackerConfig = TrackerConfig()
     keys: DriveKeys = DriveKeys()
 
@@ -113,9 +117,25 @@ class Helm:
         self.plan_seq = plan.seq
         return True
 
-    def _send(self, speed: float, curvature: float, turn_rate: float | None = None) -> None:
+    def command_duration(self, horizon: float, moving: bool) -> float:
+        """Return how long [s] sim a command holds: a stop the longest allowed, a move its horizon.
+
+        Every command is timed, so the simulator's watchdog (for open-ended commands) is only the last
+        resort: a move holds for its horizon (at least 1.5 control periods, at most `max_hold_s`) and
+        the vehicle stops by itself when no newer command follows, while a late command (a loaded
+        machine, the simulator catching up on sim time in a burst) no longer stops a vehicle whose
+        arc is still on the plan.
+        """
+        if not moving:
+            return MAX_COMMAND_DURATION
+        period = 1.0 / self.cfg.control_hz
+        return float(min(self.cfg.max_hold_s, max(1.5 * period, horizon)))
+
+    def _send(self, speed: float, curvature: float, turn_rate: float | None = None, horizon: float = math.inf) -> None:
         self._seq += 1
-        cmd = DriveCommand(speed=speed, curvature=curvature, mode="immediate", turn_rate=turn_rate, seq=self._seq)
+        moving = speed != 0.0 or (turn_rate is not None and turn_rate != 0.0)
+        cmd = DriveCommand(speed=speed, curvature=curvature, mode="immediate", turn_rate=turn_rate, seq=self._seq,
+                           duration=self.command_duration(horizon, moving))
         self.last_command = cmd
         self.rt.link.put(self.cmd_key, encode(cmd))
 
@@ -160,7 +180,7 @@ class Helm:
                 if cmd.done:
                     self._send(0.0, 0.0)
                 else:
-                    self._send(cmd.speed, cmd.curvature, cmd.turn_rate)
+                    self._send(cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon)
                 # The pose goes out without holding up control: the drive command never waits for the
                 # blackboard's acknowledgement (at a high RTF the watchdog would stop the vehicle).
                 if od.stamp - self._last_pose_stamp >= pose_period - 1e-6 and (pose_task is None or pose_task.done()):

@@ -48,6 +48,9 @@ class TrackCommand:
     """One control output: speed [m/s] (signed), curvature [1/m], cross-track error [m], remaining [m], done.
 
     `turn_rate` [rad/s] is set (with speed 0) when a skid-steer vehicle should turn on the spot.
+    `horizon` [s] is how long the command stays good if no newer one follows: the time to reach the
+    lookahead point on its arc (never past the plan's end), or to finish the turn on the spot;
+    infinite for a stop.
     """
 
     speed: float
@@ -56,6 +59,7 @@ class TrackCommand:
     remaining: float
     done: bool
     turn_rate: float | None = None
+    horizon: float = math.inf
 
 
 class PathTracker:
@@ -156,11 +160,16 @@ class PathTracker:
         if cfg.turn_in_place_angle is not None and abs(bearing) > cfg.turn_in_place_angle:
             self._last_speed = 0.0
             rate = math.copysign(cfg.max_turn_rate, ly if not reverse else -ly)
-            return TrackCommand(0.0, 0.0, cross, remaining, False, turn_rate=rate)
+            # Turn until the target is within the turn-in-place angle again (then driving takes over).
+            horizon = (abs(bearing) - cfg.turn_in_place_angle + 0.05) / cfg.max_turn_rate
+            return TrackCommand(0.0, 0.0, cross, remaining, False, turn_rate=rate, horizon=max(horizon, 0.0))
         # yaw rate = v·kappa, so the same arc through the target serves forward and reverse driving.
         kappa = 2.0 * ly / max(lx * lx + ly * ly, 1e-9)
         kappa = max(-cfg.max_curvature, min(cfg.max_curvature, kappa))
         v_lat = math.sqrt(cfg.max_lateral_accel / max(abs(kappa), 1e-9))
         v_cmd = min(v_cmd, v_lat)
         self._last_speed = v_cmd
-        return TrackCommand(-v_cmd if reverse else v_cmd, kappa, cross, remaining, False)
+        # The arc leads to the lookahead point on the plan: good for that far, never past the plan's end.
+        reach = min(ld, max(remaining - cfg.goal_tolerance, 0.0))
+        horizon = reach / v_cmd if v_cmd > 1e-6 else 0.0
+        return TrackCommand(-v_cmd if reverse else v_cmd, kappa, cross, remaining, False, horizon=horizon)

@@ -23,10 +23,12 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import shapely.errors
 from pydantic import BaseModel, ConfigDict, Field
 from shapely.geometry import Polygon as ShapelyPolygon
 
 from blackboard import AttrPredicate, BlackboardError, Polygon as BbPolygon, Spec, VersionConflictError, NotFoundError
+from blackboard.errors import FutureExtrapolationError
 from modules.perception.monitor import ResolutionTable, SensorGeometry, image_input_position
 from modules.perception.pipeline import PerceptionPipeline
 from modules.perception.results import build_result, failed_result
@@ -61,6 +63,7 @@ class PerceptionConfig(BaseModel):
     max_wait_s: float = Field(6.0, gt=0.0, description="longest wait for the image input position [s] sim")
     capture_timeout_s: float = Field(5.0, gt=0.0, description="capture query timeout [s] wall")
     reach_tolerance_m: float = Field(0.3, ge=0.0, description="capture this close before the input position [m]")
+    pose_wait_s: float = Field(1.0, ge=0.0, description="longest wait for the vehicle pose at capture time to arrive [s] sim")
 
 
 @dataclass
@@ -112,7 +115,17 @@ class PerceptionModule:
                 current = await self._current(tok)
                 if current is None:
                     continue
-                await self.handle(current)
+                try:
+                    await self.handle(current)
+                except BlackboardError as exc:
+                    log.warning("perception: %s: blackboard error: %s", current.attrs.unit_id, exc)
+                except Exception as exc:  # one unit's fault never takes PERCEPTION down: the unit fails, saying why
+                    log.exception("perception: %s: unexpected error", current.attrs.unit_id)
+                    reason = f"perception error: {type(exc).__name__}: {exc}"[:500]
+                    try:
+                        await self._write(current, failed_result(current.attrs, reason, self.rt.clock.now_or(0.0)))
+                    except BlackboardError as exc2:
+                        log.warning("perception: cannot report the failure of %s: %s", current.attrs.unit_id, exc2)
         finally:
             pump.cancel()
             await mon.close()
@@ -155,7 +168,7 @@ class PerceptionModule:
         except SensorFrameError as exc:
             return await self._write(tok, failed_result(unit, f"bad capture: {exc}", self.rt.clock.now_or(0.0)))
         try:
-            p = await self.bb.lookup_pose(parent="world", child="vehicle", stamp=frame.stamp)
+            p = await self._pose_at(frame.stamp)
         except BlackboardError as exc:
             return await self._write(tok, failed_result(unit, f"no vehicle pose at capture time {frame.stamp:.2f} s: {exc}", frame.stamp))
         prior = (p.x, p.y, p.yaw)
@@ -166,9 +179,9 @@ class PerceptionModule:
             img = colored_range_image(frame)
             out = self.pipeline.process(img, unit.objects, prior, error_allowance=max(unit.error_allowance_m, 0.2))
             res = build_result(unit, out, prior, frame.stamp, img)
-        except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
+        except (ValueError, ArithmeticError, IndexError, np.linalg.LinAlgError, shapely.errors.ShapelyError) as exc:
             log.exception("perception: %s: processing failed", unit.unit_id)
-            return await self._write(tok, failed_result(unit, f"processing failed: {type(exc).__name__}: {exc}", frame.stamp))
+            return await self._write(tok, failed_result(unit, f"processing failed: {type(exc).__name__}: {exc}"[:500], frame.stamp))
         dt = time.perf_counter() - t1
         res = res.model_copy(update={"processing_s": dt})
         self.stats.capture_s.append(t1 - t0)
@@ -176,6 +189,21 @@ class PerceptionModule:
         if note:
             log.info("perception: %s: %s", unit.unit_id, note)
         return await self._write(tok, res)
+
+    async def _pose_at(self, stamp: float):
+        """Return world←vehicle at sim time `stamp` [s], waiting up to `pose_wait_s` for the HELM's pose to catch up.
+
+        The capture is stamped by the simulator; the moving vehicle position reaches the blackboard a
+        publish period later, so a look-up right after the capture may be a little in the future.
+        """
+        deadline = self.rt.clock.now() + self.cfg.pose_wait_s
+        while True:
+            try:
+                return await self.bb.lookup_pose(parent="world", child="vehicle", stamp=stamp)
+            except FutureExtrapolationError:
+                if self.rt.stopping or self.rt.clock.now() >= deadline:
+                    raise
+            await self.rt.clock.sleep(self.cfg.tick_s)
 
     async def wait_for_input_position(self, unit: DrivingUnitDescription, view_frame) -> str:
         """Simulate the view frame along the newest local path plan and wait until the vehicle reaches the input position.
@@ -236,7 +264,12 @@ class PerceptionModule:
             self.stats.failed += 1
             log.warning("perception: %s failed: %s", res.unit_id, res.failure_reason)
         stamp = self.rt.clock.now_or(res.captured_at)
-        geom = BbPolygon(points=res.navigable_region) if res.navigable_region else None
+        geom = None
+        if res.navigable_region:
+            try:
+                geom = BbPolygon(points=res.navigable_region)
+            except ValueError as exc:  # the result stands without its spatial index entry
+                log.warning("perception: %s: navigable region not indexed: %s", res.unit_id, exc)
         try:
             await self.bb.post(res, frame="world", geometry=geom, stamp=stamp)
         except BlackboardError as exc:
@@ -252,5 +285,8 @@ class PerceptionModule:
                     break  # cancelled meanwhile: the posted result stands on its own
                 tok = cur
             except NotFoundError:
+                break
+            except BlackboardError as exc:
+                log.warning("perception: writing the result into %s failed: %s", res.unit_id, exc)
                 break
         return res

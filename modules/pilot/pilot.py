@@ -387,6 +387,7 @@ class Pilot:
                     drv.resolve(i, None, False, "dead reckoning")
             # DRIVING UNIT NAVIGATOR + LOCAL PATH PLANNER.
             if drv.needs_plan():
+                t_plan = self.rt.clock.now()
                 try:
                     await self._plan(seg, drv, unit_ids, keep, speed_limit)
                     plan_failures = 0
@@ -398,13 +399,22 @@ class Pilot:
                         await self._report(seg, False, f"local path planning failed: {exc}", start_distance)
                         await self._cancel_units(unit_ids)
                         return None
+                finally:
+                    # The sim time the PILOT spent planning (its wall-clock work × RTF) is not time the
+                    # vehicle stood still with a plan to drive: the stuck timer does not count it.
+                    last_progress = (last_progress[0] + max(0.0, self.rt.clock.now() - t_plan), last_progress[1])
             await self._post_correction(source="perception" if drv.perceived_count else "dead-reckoning")
+            mode = f"{drv.perceived_count}/{len(drv.units)} units perceived" + (", dead reckoning" if self.dead_reckoning else "")
             if drv.exited(self.filter.pose[:2]):
-                mode = f"{drv.perceived_count}/{len(drv.units)} units perceived" + (", dead reckoning" if self.dead_reckoning else "")
                 await self._report(seg, True, f"exit reached ({mode})", start_distance)
                 return None
             if drv.s_vehicle > last_progress[1] + 0.2:
                 last_progress = (now, drv.s_vehicle)
+            elif now - last_progress[0] > cfg.final_goal_settle_s and drv.at_final_goal():
+                # Standing at the end of a plan through the last unit: the region allows no farther.
+                await self._report(seg, True, f"end of the navigable region at s={drv.s_vehicle:.1f} of {drv.geom.path.length:.1f} m ({mode})",
+                                   start_distance)
+                return None
             elif now - last_progress[0] > cfg.replan_idle_s and now - self._last_plan_t > cfg.replan_idle_s:
                 # Standing still with nothing new: plan again from here (a restarted HELM, a detour).
                 drv.planned_through = -1
@@ -460,6 +470,10 @@ class Pilot:
         for k, (regs, flags) in enumerate(attempts):
             try:
                 cons = local_constraints(drv.geom.path, regs, far_s, flags, **kw)
+                if last and k < len(attempts) - 1 and not drv.goal_meets_exit(cons.goals[-1], float(cons.goal_s[-1])):
+                    # A perceived region that ends short of the segment's exit would leave the vehicle
+                    # standing before it: the map's region reaches the exit.
+                    raise ConstraintError(f"the last goal at s={cons.goal_s[-1]:.1f} m falls short of the exit")
                 # Goals moved back (obstacles, region ends) may now lie behind the vehicle: skip those.
                 goals = [g for g, s in zip(cons.goals, cons.goal_s) if s > drv.s_vehicle + self.cfg.min_goal_ahead_m] or [cons.goals[-1]]
                 path = await asyncio.to_thread(self.planner.plan, start, goals, cons.region)
@@ -496,7 +510,7 @@ class Pilot:
             frame="local", poses=poses, stop_at_end=stop_here,
         )
         await self.bb.post(plan, frame="local", geometry=BbPolyline(points=tuple((p.x, p.y) for p in poses)), stamp=now)
-        drv.mark_planned(newest)
+        drv.mark_planned(newest, float(cons.goal_s[-1]))
         self._last_plan_t = now
         self.stats["plans"] += 1
 

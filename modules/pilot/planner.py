@@ -135,7 +135,9 @@ class LocalPathPlanner:
     def _set(state, pose) -> None:
         state.setX(float(pose[0]))
         state.setY(float(pose[1]))
-        state.setYaw(float(pose[2]))
+        # OMPL's SO(2) bounds are [-pi, pi): a heading of exactly +pi (due west) is out of bounds and
+        # the state can never be reached, so every yaw is wrapped into that interval first.
+        state.setYaw(wrap_angle(float(pose[2])))
 
     def _plan(self, start, waypoints, region: BaseGeometry) -> PlannedPath:
         start = np.asarray(start, dtype=np.float64).reshape(3)

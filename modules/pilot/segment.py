@@ -103,6 +103,7 @@ class SegmentDriver:
     units: list[UnitState] = field(init=False)
     s_vehicle: float = field(init=False, default=0.0)
     planned_through: int = field(init=False, default=-1)
+    final_goal_s: float | None = field(init=False, default=None)
 
     def __post_init__(self) -> None:
         self.units = [UnitState(span=u) for u in split_segment(self.geom.path, self.geom.region, self.geom.objects, self.unit_cfg)]
@@ -176,9 +177,17 @@ class SegmentDriver:
         us = [self.units[i] for i in idx]
         return [u.region for u in us], [u.span.s_end for u in us], [u.perceived for u in us], idx
 
-    def mark_planned(self, through: int) -> None:
-        """Record that a plan reaching the far edge of unit `through` was posted."""
+    def mark_planned(self, through: int, goal_s: float | None = None) -> None:
+        """Record that a plan reaching the far edge of unit `through` (its goal at arc length `goal_s` [m]) was posted."""
         self.planned_through = max(self.planned_through, through)
+        if through == len(self.units) - 1 and goal_s is not None:
+            self.final_goal_s = goal_s
+
+    def goal_meets_exit(self, goal_xy: np.ndarray, goal_s: float) -> bool:
+        """Return whether a final goal (world [m], arc length [m]) lies where the exit condition holds."""
+        ex = np.asarray(self.geom.exit_point)
+        near = float(np.hypot(*(np.asarray(goal_xy)[:2] - ex))) <= self.geom.exit_radius
+        return near or goal_s >= self.geom.path.length - self.geom.exit_radius
 
     # -- exit condition ------------------------------------------------------------------------
     def exited(self, xy: np.ndarray) -> bool:
@@ -187,6 +196,14 @@ class SegmentDriver:
         near = float(np.hypot(*(np.asarray(xy) - ex))) <= self.geom.exit_radius
         past = self.s_vehicle >= self.geom.path.length - self.geom.exit_radius
         return near or past
+
+    def at_final_goal(self, tolerance: float = 0.5) -> bool:
+        """Return whether the vehicle reached the goal of a plan through the last unit (within `tolerance` [m] along the path).
+
+        The navigable region may end short of the exit (the margin, an obstacle near the segment's
+        end): the last goal is then as far as the segment can be driven.
+        """
+        return self.final_goal_s is not None and self.s_vehicle >= self.final_goal_s - tolerance
 
     @property
     def perceived_count(self) -> int:

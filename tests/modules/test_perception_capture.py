@@ -132,3 +132,36 @@ def test_objects_without_colour_fall_back_to_range(src: FrameSource) -> None:
     assert out.method is Segmentation.RANGE
     # range alone cannot tell the flat walk from the flat lawn around it (§3.4.5): the unit says so
     assert "no predicted path object found" in out.failure
+
+
+def test_a_degenerate_navigable_region_fails_the_unit_with_a_reason(src: FrameSource) -> None:
+    """A sliver or a self-touching outline never reaches the blackboard as a polygon (it used to crash PERCEPTION)."""
+    from dataclasses import replace
+
+    from shapely.geometry import Polygon as ShapelyPolygon
+
+    from blackboard import Polygon as BbPolygon
+    from modules.perception.results import world_ring
+
+    truth = (0.0, -24.0, math.pi / 2)
+    res = _frame(src, truth)
+    img = colored_range_image(SensorFrame.from_fields(res))
+    objs = tuple(o for o in objects_in_view(src, truth) if o.shape.type == "flat")
+    unit = DrivingUnitDescription(unit_id="s.u0", segment_id="s", unit_index=0, mode="follow-road",
+                                  region=((-1.5, -18.0), (1.5, -18.0), (1.5, -12.0), (-1.5, -12.0)),
+                                  centreline=((0.0, -18.0), (0.0, -12.0)), objects=objs, error_allowance_m=0.5)
+    out = PerceptionPipeline(src.table).process(img, objs, truth, error_allowance=0.5)
+    assert out.navigable is not None and not out.failure
+    # a sliver: three almost collinear vertices (zero area once rounded)
+    sliver = ShapelyPolygon([(1.0, 0.0), (5.0, 0.00001), (9.0, 0.0)])
+    failed = build_result(unit, replace(out, navigable=sliver), truth, res.stamp, img)
+    assert failed.status == "failed" and "degenerate" in failed.failure_reason
+    assert failed.navigable_region is None and failed.fix is None
+    # a bow tie (self-intersecting) is repaired to its larger simple part, which the blackboard accepts
+    bowtie = ShapelyPolygon([(1.0, -1.0), (6.0, 1.0), (6.0, -1.0), (1.0, 1.5)])
+    ring = world_ring(bowtie, truth)
+    assert ring is not None
+    BbPolygon(points=ring)
+    ok = build_result(unit, replace(out, navigable=bowtie), truth, res.stamp, img)
+    assert ok.status == "perceived" and ok.navigable_region is not None
+    BbPolygon(points=ok.navigable_region)

@@ -119,3 +119,18 @@ def test_perceived_region_rules_inside_the_view_frame_and_the_map_fills_the_rest
     assert not fused.contains(box(2, 1.1, 3, 1.4))  # inside the view: only what was seen
     assert fused.contains(box(1.1, -1.1, 3.9, 0.9))
     assert fuse_regions(seen, None, map_unit).contains(box(4.5, -1.4, 6, 1.4))
+
+
+def test_a_segment_ends_at_the_last_goal_when_the_region_stops_short_of_the_exit():
+    geom = _segment([(0.0, 0.0), (20.0, 0.0)])
+    drv = SegmentDriver(geom, DrivingUnitConfig(unit_length=6.0), lookahead_m=12.0, use_perception=False)
+    last = len(drv.units) - 1
+    assert drv.goal_meets_exit(np.array([19.5, 0.0]), 19.5)
+    assert not drv.goal_meets_exit(np.array([17.0, 0.0]), 17.0)  # exit radius 1 m: s ≥ 19 or within 1 m
+    drv.mark_planned(last - 1, 12.0)
+    assert drv.final_goal_s is None  # a plan short of the last unit says nothing about the end
+    drv.mark_planned(last, 17.0)
+    drv.update_progress(np.array([16.0, 0.0]))
+    assert not drv.at_final_goal() and not drv.exited(np.array([16.0, 0.0]))
+    drv.update_progress(np.array([16.7, 0.1]))
+    assert drv.at_final_goal() and not drv.exited(np.array([16.7, 0.1]))

@@ -137,3 +137,15 @@ def test_forward_only_failure_falls_back_to_reversing():
     assert np.any(plan.direction < 0)  # a three-point turn: some of it in reverse
     assert np.max(np.abs(plan.curvature)) <= 1 / 7.0 + 1e-4
     assert all(shapely.contains_xy(region, x, y) for x, y, _ in plan.poses)
+
+
+@pytest.mark.parametrize("kind", ["se2", "dubins"])
+def test_a_goal_heading_due_west_is_reachable(kind):
+    # atan2 gives exactly +pi for a path due west; OMPL's SO(2) bounds are [-pi, pi): the planner
+    # must wrap it, or the goal is never valid (a left turn onto a westbound walk failed this way).
+    region = LineString([(0, 0), (0, 20), (-25, 20)]).buffer(4.0, join_style="mitre")
+    cfg = PlannerConfig(kind=kind, turning_radius=5.0)
+    plan = LocalPathPlanner(cfg, seed=2).plan([0, 0, math.pi / 2], [[-22, 20, math.pi]], region)
+    end = plan.poses[-1]
+    assert math.hypot(end[0] + 22, end[1] - 20) < 0.5
+    assert abs(math.remainder(end[2] - math.pi, 2 * math.pi)) < 0.5

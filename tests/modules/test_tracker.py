@@ -174,3 +174,30 @@ def test_terregator_model_follows_a_polyline_with_turns_in_place():
     final, log = _drive_kinematics(tr, TERREGATOR, (0.0, 0.3, 0.0))
     assert math.hypot(final.x - 6.0, final.y - 6.0) < 0.4
     assert max(abs(c.cross_track) for _, c in log) < 0.8
+
+
+def test_command_horizon_reaches_the_lookahead_point_but_never_past_the_plan_end():
+    cfg = TrackerConfig(max_speed=1.0, max_accel=10.0, lookahead_base=1.0, lookahead_gain=1.0, lookahead_max=5.0)
+    xs = np.linspace(0.0, 20.0, 81)
+    poses = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+    tr = PathTracker(cfg)
+    tr.set_plan(poses, np.full(len(xs), 1.0))
+    mid = tr.command(np.array([5.0, 0.0, 0.0]), 1.0)
+    assert mid.speed == pytest.approx(1.0)
+    assert mid.horizon == pytest.approx((1.0 + 1.0 * 1.0) / 1.0)  # lookahead 2 m at 1 m/s
+    near_end = tr.command(np.array([19.5, 0.0, 0.0]), 0.1)
+    assert not near_end.done and near_end.speed > 0.0
+    assert near_end.speed * near_end.horizon <= 0.5 - cfg.goal_tolerance + 1e-9
+    assert tr.command(np.array([20.5, 0.0, 0.0]), 0.1).horizon == math.inf  # done: a stop holds
+
+
+def test_helm_commands_are_timed_so_a_late_one_does_not_trip_the_watchdog():
+    from modules.helm.helm import Helm, HelmConfig
+    from vehicle_sim.drive import MAX_COMMAND_DURATION
+
+    helm = Helm.__new__(Helm)
+    helm.cfg = HelmConfig(control_hz=10.0, max_hold_s=2.0)
+    assert helm.command_duration(math.inf, moving=False) == MAX_COMMAND_DURATION
+    assert helm.command_duration(0.01, moving=True) == pytest.approx(0.15)  # at least 1.5 control periods
+    assert helm.command_duration(1.2, moving=True) == pytest.approx(1.2)
+    assert helm.command_duration(50.0, moving=True) == pytest.approx(2.0)

@@ -29,7 +29,7 @@ from vehicle_sim.worldfile import (
     WorldObject,
 )
 
-__all__ = ["build_campus", "build_north_hills", "WORLD_BUILDERS", "write_worlds", "main"]
+__all__ = ["ROADSIDE_CLEARANCE", "build_campus", "build_north_hills", "WORLD_BUILDERS", "write_worlds", "main"]
 
 # ---- palette (sRGB under full sun) ------------------------------------------------------
 CONCRETE = Colour(mean=(156.0, 154.0, 148.0), std=(9.0, 9.0, 9.0))
@@ -48,6 +48,8 @@ HEDGE = Colour(mean=(36.0, 80.0, 34.0), std=(10.0, 14.0, 10.0))
 GRAVEL = Colour(mean=(168.0, 156.0, 134.0), std=(18.0, 18.0, 18.0))
 RED = Colour(mean=(170.0, 40.0, 36.0), std=(8.0, 6.0, 6.0))
 STONE = Colour(mean=(128.0, 124.0, 116.0), std=(10.0, 10.0, 10.0))
+#: Least distance [m] from a road or intersection area to the footprint of each roadside kind (north_hills).
+ROADSIDE_CLEARANCE = {"tree": 2.5, "mailbox": 0.5, "building": 8.0, "hedge": 0.5, "sign": 1.0, "hydrant": 1.0}
 DRIVEWAYS = (CONCRETE, ASPHALT, GRAVEL, Colour(mean=(120.0, 84.0, 70.0), std=(10.0, 8.0, 8.0)))
 
 
@@ -92,6 +94,22 @@ class _Builder:
         trunk = round(float(rng.uniform(0.15, 0.3)), 3)
         shape = TreeShape(trunk_radius=trunk, crown_radius=round(crown, 2), height=round(h, 2), crown_base=round(h * 0.4, 2), z0=z0, crown_colour=CROWN)
         return self.round_obj(oid, "tree", x, y, trunk, role="obstacle", colour=TRUNK, shape=shape, reflectance=0.35)
+
+    def keep_clear(self, path_kinds: tuple[str, ...], clearance: dict[str, float], droppable: tuple[str, ...] = ("tree",)) -> None:
+        """Keep standing objects `clearance[kind]` [m] outside every area of `path_kinds`: drop droppable ones, else raise."""
+        import shapely
+
+        paths = shapely.union_all([o.footprint for o in self.objects if o.kind in path_kinds])
+        kept = []
+        for o in self.objects:
+            need = clearance.get(o.kind)
+            if need is not None and o.footprint.distance(paths) < need:
+                if o.kind not in droppable:
+                    raise ValueError(f"world {self.name}: {o.kind} {o.id} is {o.footprint.distance(paths):.2f} m from a "
+                                     f"{'/'.join(path_kinds)} area, less than the {need} m it needs")
+                continue
+            kept.append(o)
+        self.objects[:] = kept
 
     # ---- graph ----
     def node(self, nid: str, x: float, y: float, kind: str = "intersection", name: str | None = None, obj: str | None = None) -> PathNode:
@@ -324,17 +342,25 @@ def build_north_hills() -> World:
     road("birch_2", "mailbox", "birch_south")
 
     # houses with driveways and mailboxes along the streets
-    def house_lots(prefix: str, p0, p1, side: float, spacing: float):
-        """Place lots along the straight road p0→p1 on `side` (+1 left, −1 right of travel)."""
-        p0, p1 = np.array(p0, float), np.array(p1, float)
-        d = p1 - p0
-        L = float(np.linalg.norm(d))
-        u = d / L
-        n = np.array([-u[1], u[0]]) * side
+    def house_lots(prefix: str, centreline, side: float, spacing: float, trim: float = 0.0):
+        """Place lots along the road centreline polyline on `side` (+1 left, −1 right of travel), `trim` [m] clear of its ends."""
+        import shapely
+
+        line = shapely.LineString([tuple(map(float, p)) for p in centreline])
+        L = float(line.length) - 2.0 * trim
+
+        def frame(s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            a = line.interpolate(max(0.0, trim + s - 0.5))
+            q = line.interpolate(min(line.length, trim + s + 0.5))
+            u = np.array([q.x - a.x, q.y - a.y])
+            u /= np.linalg.norm(u)
+            p = line.interpolate(trim + s)
+            return np.array([p.x, p.y]), u, np.array([-u[1], u[0]]) * side
+
         for i, s in enumerate(np.arange(spacing / 2, L - spacing / 3, spacing)):
-            c = p0 + u * s
+            c, u, n = frame(float(s))
             dw = float(rng.uniform(-4.0, 4.0))
-            drive_c = c + u * dw
+            drive_c, u, n = frame(float(s) + dw)
             kind_ix = int(rng.integers(0, len(DRIVEWAYS)))
             a = drive_c + n * (RW / 2 - 0.05)
             e = drive_c + n * (RW / 2 + 14.0)
@@ -354,13 +380,14 @@ def build_north_hills() -> World:
                     continue
                 b.tree(f"tree_{prefix}{i:02d}_{t}", float(tp[0]), float(tp[1]), rng)
 
-    house_lots("oakw", (0.0, -30.0), (0.0, 90.0), 1.0, 30.0)
-    house_lots("oake", (0.0, -30.0), (0.0, 90.0), -1.0, 30.0)
-    house_lots("elms", (-10.0, 234.0 - 0.0), (-110.0, 234.0), 1.0 * -1.0, 33.0)
-    house_lots("elmn", (-130.0, 240.0), (-230.0, 240.0), -1.0, 33.0)
-    house_lots("elms2", (-130.0, 240.0), (-230.0, 240.0), 1.0, 33.0)
-    house_lots("birw", (-240.0, 230.0), (-240.0, 140.0), -1.0, 30.0)
-    house_lots("mapn", (10.0, 100.0), (75.0, 100.0), 1.0, 32.0)
+    elm_line = [(0.0, 240.0), *elm_curve, (-120.0, 240.0)]
+    house_lots("oakw", [(0.0, -30.0), (0.0, 90.0)], 1.0, 30.0)
+    house_lots("oake", [(0.0, -30.0), (0.0, 90.0)], -1.0, 30.0)
+    house_lots("elms", elm_line, 1.0, 33.0, trim=10.0)  # south side of the curving stretch
+    house_lots("elmn", [(-130.0, 240.0), (-230.0, 240.0)], -1.0, 33.0)
+    house_lots("elms2", [(-130.0, 240.0), (-230.0, 240.0)], 1.0, 33.0)
+    house_lots("birw", [(-240.0, 230.0), (-240.0, 140.0)], -1.0, 30.0)
+    house_lots("mapn", [(10.0, 100.0), (75.0, 100.0)], 1.0, 32.0)
 
     # the destination: the delivery mailbox on Birch Rd, east side, beside its driveway
     b.round_obj("mailbox_dest", "mailbox", -240.0 + RW / 2 + 1.0, 130.0, 0.25, role="landmark", colour=RED,
@@ -373,6 +400,8 @@ def build_north_hills() -> World:
     b.round_obj("hydrant_elm_birch", "hydrant", -234.5, 245.5, 0.2, role="landmark", colour=RED, shape=PostShape(height=0.8), name="hydrant", reflectance=0.8)
     b.round_obj("sign_elm_birch", "sign", -245.5, 234.5, 0.08, role="landmark", colour=RED, shape=PostShape(height=2.4), name="stop sign", reflectance=0.9)
 
+    # Nothing stands in the road: roadside objects keep clear of every road and intersection area.
+    b.keep_clear(("road", "intersection"), ROADSIDE_CLEARANCE)
     w = b.world(sun=Sun(azimuth_deg=160.0, elevation_deg=45.0), start=StartPose(x=0.0, y=-40.0, yaw_deg=90.0, node="start"))
     return w
 

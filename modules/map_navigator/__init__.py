@@ -7,9 +7,11 @@ from modules.map_navigator.mapdata import MapData, load_map, map_object
 from modules.map_navigator.route import (
     Leg, NoRouteError, Route, RouteError, RouteOptions, UnknownPlaceError, edge_cost, edge_forbidden, select_route,
 )
-from modules.map_navigator.segments import SegmentOptions, SegmentPlan, heading_change, segment_route
+from modules.map_navigator.segments import SegmentOptions, SegmentPlan, fillet_corner, fillet_radius, heading_change, segment_route
 from modules.map_navigator.service import MapNavigator, ServiceOptions
-from modules.map_navigator.stepjob import NavigatorOptions, Planned, StepJob, vehicle_turn_radius
+from modules.map_navigator.stepjob import (
+    DESCRIBE_REACH_M, TURN_SPEED_M_S, NavigatorOptions, Planned, StepJob, vehicle_describe_radius, vehicle_turn_radius,
+)
 
 __all__ = [
     "DescribeOptions", "describe_segment", "exit_condition", "lateral_offset",
@@ -17,7 +19,7 @@ __all__ = [
     "MapData", "load_map", "map_object",
     "Leg", "NoRouteError", "Route", "RouteError", "RouteOptions", "UnknownPlaceError", "edge_cost", "edge_forbidden",
     "select_route",
-    "SegmentOptions", "SegmentPlan", "heading_change", "segment_route",
+    "SegmentOptions", "SegmentPlan", "fillet_corner", "fillet_radius", "heading_change", "segment_route",
     "MapNavigator", "ServiceOptions",
-    "NavigatorOptions", "Planned", "StepJob", "vehicle_turn_radius",
+    "DESCRIBE_REACH_M", "TURN_SPEED_M_S", "NavigatorOptions", "Planned", "StepJob", "vehicle_describe_radius", "vehicle_turn_radius",
 ]

@@ -21,10 +21,18 @@ __all__ = ["DescribeOptions", "describe_segment", "exit_condition", "lateral_off
 
 @dataclass(frozen=True)
 class DescribeOptions:
-    """Description settings: how far around the centreline objects are copied [m], and how many at most."""
+    """Description settings: how far around the centreline objects are copied [m], and how many at most.
+
+    `turn_speed_limit` [m/s] caps the speed in turn-at-intersection segments (None: the step's limit
+    only): a vehicle that steers at a limited rate slows through turns (seed: Navlab §2.5.4, AMV).
+    With `turn_on_arc`, a turn-at-intersection segment drops the keep-right/left side: the vehicle
+    follows the turn's arc (drawn for its turning radius) and takes its side again on the next road.
+    """
 
     describe_radius_m: float = 8.0
     max_objects: int = 48
+    turn_speed_limit: float | None = None
+    turn_on_arc: bool = False
 
 
 def lateral_offset(keep: str | None, width: float) -> float:
@@ -59,11 +67,17 @@ def describe_segment(seg: SegmentPlan, m: MapData, *, segment_id: str, plan_id: 
         if obj.id not in seen:
             seen.add(obj.id)
             objects.append(desc[obj.id])
+    speed_limit, keep = constraints.speed_limit, constraints.keep
+    if seg.mode == "turn-at-intersection":
+        if opts.turn_speed_limit is not None:
+            speed_limit = opts.turn_speed_limit if speed_limit is None else min(speed_limit, opts.turn_speed_limit)
+        if opts.turn_on_arc:
+            keep = None
     return RouteSegmentDescription(
         segment_id=segment_id, plan_id=plan_id, segment_index=index, mode=seg.mode,  # type: ignore[arg-type]
         path_object_ids=seg.path_objects, centreline=seg.coords, width_m=seg.width, length_m=seg.length,
         exit=exit_condition(seg.coords, seg.width),
-        constraints=DrivingConstraints(keep=constraints.keep, lateral_offset_m=lateral_offset(constraints.keep, seg.width),
-                                       speed_limit=constraints.speed_limit, stop_at_exit=last),
+        constraints=DrivingConstraints(keep=keep, lateral_offset_m=lateral_offset(keep, seg.width),
+                                       speed_limit=speed_limit, stop_at_exit=last),
         objects=tuple(objects),
     )

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
@@ -22,7 +22,7 @@ from modules.vocabulary import Destination, StepConstraints
 
 __all__ = [
     "RouteError", "UnknownPlaceError", "NoRouteError", "Leg", "Route", "RouteOptions", "edge_cost",
-    "select_route", "edge_forbidden",
+    "select_route", "edge_forbidden", "drop_doubling_back",
 ]
 
 Vehicle = Literal["terregator", "navlab"]
@@ -176,6 +176,46 @@ def _anchor(xy: tuple[float, float], m: MapData, usable: list[PathEdge], snap_m:
     return _Anchor(node=None, xy=attach[0].xy, attach=tuple(attach))
 
 
+def _overlap_back(a: tuple[tuple[float, float], ...], b: tuple[tuple[float, float], ...], tol: float, step: float = 0.25) -> float:
+    """Return how far [m] polyline `b` runs straight back along the end of polyline `a` (within `tol` [m])."""
+    la, lb = shapely.LineString(a), shapely.LineString(b)
+    reach = min(la.length, lb.length)
+    d = 0.0
+    for s in np.append(np.arange(step, reach, step), reach):
+        if la.interpolate(la.length - s).distance(lb.interpolate(s)) > tol:
+            break
+        d = float(s)
+    return d
+
+
+def drop_doubling_back(legs: list[Leg], m: MapData, tol: float = 0.3) -> tuple[list[Leg], float]:
+    """Return the legs without stretches driven out and straight back, and the cost [m] saved.
+
+    A spur's edge may run along another path to the next intersection (the hall's spur joins the
+    south walk half-way between two intersections): the cheapest way over the graph then drives past
+    the spur, turns at the intersection and comes back. Cutting the stretch driven twice leaves the
+    route the vehicle should take: along the walk to the spur, and into it.
+    """
+    mult = {e.id: edge_cost(e, m) / max(e.length, 1e-9) for e in m.world.edges}
+    out: list[Leg] = []
+    saved = 0.0
+    for leg in legs:
+        cur: Leg | None = leg
+        while out and cur is not None:
+            prev = out[-1]
+            d = _overlap_back(prev.coords, cur.coords, tol)
+            if d <= tol:
+                break
+            out.pop()
+            saved += d * (mult.get(prev.edge_id, 1.0) + mult.get(cur.edge_id, 1.0))
+            if prev.length - d > 1e-6:
+                out.append(replace(prev, coords=_sub_line(np.asarray(prev.coords), 0.0, prev.length - d), to_node=None))
+            cur = replace(cur, coords=_sub_line(np.asarray(cur.coords), d, cur.length), from_node=None) if cur.length - d > 1e-6 else None
+        if cur is not None:
+            out.append(cur)
+    return out, saved
+
+
 def _along(coords: tuple[tuple[float, float], ...], direction: tuple[float, float]) -> float:
     """Return the cosine between a polyline's initial direction and `direction` (0 for degenerate input)."""
     for (x0, y0), (x1, y1) in zip(coords, coords[1:]):
@@ -295,8 +335,10 @@ def select_route(m: MapData, start_xy: tuple[float, float], dest: Destination, c
     legs.reverse()
     nodes.reverse()
     legs = [leg for leg in legs if leg.length > 1e-6]
-    real_nodes = tuple(n for n in nodes if not n.startswith("@"))
+    legs, saved = drop_doubling_back(legs, m)
+    passed = {n for leg in legs for n in (leg.from_node, leg.to_node) if n is not None}
+    real_nodes = tuple(n for n in nodes if not n.startswith("@") and (n in passed or not legs))
     start_pt = legs[0].coords[0] if legs else start.xy
     goal_pt = legs[-1].coords[-1] if legs else goal.xy
-    return Route(legs=tuple(legs), node_ids=real_nodes, cost=dist[dst], start_xy=start_pt, goal_xy=goal_pt,
+    return Route(legs=tuple(legs), node_ids=real_nodes, cost=dist[dst] - saved, start_xy=start_pt, goal_xy=goal_pt,
                  goal_name=goal_name, edge_ids=tuple(leg.edge_id for leg in legs))

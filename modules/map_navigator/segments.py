@@ -3,8 +3,10 @@
 Edges give follow-road, go-through-slope and climb-stairs segments; where the route passes an
 intersection node, the stretch around it (the intersection area plus an approach that lets the
 vehicle turn: its minimum turning radius) becomes a turn-at-intersection or go-through-intersection
-segment, by the heading change across it. Consecutive pieces with the same mode and the same path
-objects merge. World frame, metres.
+segment, by the heading change across it. For a vehicle with a turning radius, a turn's centreline
+rounds the corner with an arc it can drive (`fillet_radius`): the PILOT's goals along the segment
+then have headings a forward-only vehicle can reach one after the other. Consecutive pieces with
+the same mode and the same path objects merge. World frame, metres.
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import shapely
 from modules.map_navigator.mapdata import MapData
 from modules.map_navigator.route import Leg, Route, _sub_line
 
-__all__ = ["SegmentPlan", "SegmentOptions", "segment_route", "heading_change", "TURN_THRESHOLD_RAD"]
+__all__ = ["SegmentPlan", "SegmentOptions", "segment_route", "heading_change", "fillet_radius", "fillet_corner", "TURN_THRESHOLD_RAD"]
 
 #: A heading change across an intersection above this is a turn [rad] (30°).
 TURN_THRESHOLD_RAD = math.radians(30.0)
@@ -26,11 +28,16 @@ TURN_THRESHOLD_RAD = math.radians(30.0)
 
 @dataclass(frozen=True)
 class SegmentOptions:
-    """Decomposition settings: approach beyond the intersection area [m], vehicle turning radius [m]."""
+    """Decomposition settings: approach beyond the intersection area [m], vehicle turning radius [m].
+
+    `turn_settle_m` [m] is the straight run a turn segment keeps on either side of its arc (vehicles
+    with a turning radius only): room to line up before the arc and to settle into the lane after it.
+    """
 
     approach_m: float = 1.0
     turn_radius_m: float = 0.0
     min_piece_m: float = 0.5
+    turn_settle_m: float = 4.0
 
 
 @dataclass(frozen=True)
@@ -67,6 +74,54 @@ def heading_change(before: tuple[tuple[float, float], ...], after: tuple[tuple[f
     return math.atan2(math.sin(d), math.cos(d))
 
 
+def fillet_radius(turn_radius: float, width: float) -> float:
+    """Return the radius [m] of a turn's centreline arc: the turning radius plus the keep-right/left offset (width/4).
+
+    Offset by a quarter of the path width to either side (the MAP NAVIGATOR's keep offset), the
+    arc's radius stays at least `turn_radius` [m]. A vehicle that turns in place (0) gets a corner.
+    """
+    return turn_radius + width / 4.0 if turn_radius > 0.0 else 0.0
+
+
+def fillet_corner(coords: tuple[tuple[float, float], ...], s_corner: float, tangent: float, step: float = 0.5) -> tuple[tuple[float, float], ...]:
+    """Return `coords` with the corner at arc length `s_corner` [m] rounded by an arc starting `tangent` [m] before it.
+
+    The arc leaves the incoming piece tangentially `tangent` [m] before the corner and joins the
+    outgoing piece's line tangentially (about `tangent` [m] after the corner when the pieces are
+    straight); its radius follows from those two tangencies.
+    """
+    pts = np.asarray(coords, dtype=np.float64)
+    L = float(np.linalg.norm(np.diff(pts, axis=0), axis=1).sum())
+    if tangent <= 1e-6 or s_corner - tangent < -1e-9 or s_corner + tangent > L + 1e-9:
+        return coords
+    before = _sub_line(pts, 0.0, max(0.0, s_corner - tangent))
+    after = _sub_line(pts, min(L, s_corner + tangent), L)
+    h_a = _direction(before, at_end=True) if math.dist(before[0], before[-1]) > 1e-6 else _direction(_sub_line(pts, 0.0, s_corner), True)
+    h_b = _direction(after, at_end=False) if math.dist(after[0], after[-1]) > 1e-6 else _direction(_sub_line(pts, s_corner, L), False)
+    theta = math.atan2(math.sin(h_b - h_a), math.cos(h_b - h_a))
+    if abs(theta) < 1e-3:
+        return coords
+    side = 1.0 if theta > 0 else -1.0  # centre on the left for a left turn
+    a, b = np.asarray(before[-1]), np.asarray(after[0])
+    n_a = side * np.array([-math.sin(h_a), math.cos(h_a)])  # towards the centre
+    m_b = side * np.array([-math.sin(h_b), math.cos(h_b)])  # from the outgoing line towards the centre
+    u_b = np.array([math.cos(h_b), math.sin(h_b)])
+    radius = float((a - b) @ m_b) / (1.0 - float(n_a @ m_b))
+    if not (0.5 * tangent / math.tan(abs(theta) / 2.0) < radius < 2.0 * tangent / math.tan(abs(theta) / 2.0)):
+        return coords  # the pieces are too far from straight to round this corner
+    c = a + radius * n_a
+    e = c - radius * m_b  # where the arc meets the outgoing line
+    a0 = math.atan2(a[1] - c[1], a[0] - c[0])
+    n = max(2, int(math.ceil(abs(theta) * radius / step)))
+    arc = tuple((float(c[0] + radius * math.cos(a0 + theta * k / n)), float(c[1] + radius * math.sin(a0 + theta * k / n)))
+                for k in range(1, n)) + ((float(e[0]), float(e[1])),)
+    past = float((e - b) @ u_b)  # the arc may end a little past the outgoing piece's start
+    la = float(np.linalg.norm(np.diff(np.asarray(after), axis=0), axis=1).sum())
+    if past > 0.0:
+        after = _sub_line(np.asarray(after), min(past, la), la)
+    return _join(_join(before, arc), after)
+
+
 def _join(a: tuple[tuple[float, float], ...], b: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
     out = list(a)
     for p in b:
@@ -77,8 +132,8 @@ def _join(a: tuple[tuple[float, float], ...], b: tuple[tuple[float, float], ...]
     return tuple(out)
 
 
-def _carve(m: MapData, node_id: str, leg: Leg, at_end: bool, opts: SegmentOptions) -> float:
-    """Return how far from the node along `leg` [m] the intersection segment reaches."""
+def _carve(m: MapData, node_id: str, leg: Leg, at_end: bool, opts: SegmentOptions, tangent: float = 0.0) -> float:
+    """Return how far from the node along `leg` [m] the intersection segment reaches (past a fillet's `tangent` [m])."""
     area = m.intersection_area(node_id)
     line = shapely.LineString(leg.coords if not at_end else tuple(reversed(leg.coords)))
     if area is not None:
@@ -92,6 +147,8 @@ def _carve(m: MapData, node_id: str, leg: Leg, at_end: bool, opts: SegmentOption
     else:
         inside = leg.width / 2.0
     reach = max(inside + opts.approach_m, opts.turn_radius_m + opts.approach_m)
+    if tangent > 0.0:
+        reach = max(reach, tangent + opts.approach_m + opts.turn_settle_m)
     return min(reach, 0.45 * leg.length)
 
 
@@ -103,6 +160,7 @@ def segment_route(route: Route, m: MapData, opts: SegmentOptions = SegmentOption
     cut_head = [0.0] * len(legs)
     cut_tail = [0.0] * len(legs)
     joints: dict[int, str] = {}  # leg index i → intersection node between legs i and i+1
+    tangents: dict[int, float] = {}  # leg index i → fillet tangent length at that node [m]
     for i in range(len(legs) - 1):
         node = legs[i].to_node
         if node is None or node.startswith("@"):
@@ -110,8 +168,12 @@ def segment_route(route: Route, m: MapData, opts: SegmentOptions = SegmentOption
         if m.world.node(node).node_kind != "intersection":
             continue
         joints[i] = node
-        cut_tail[i] = _carve(m, node, legs[i], True, opts)
-        cut_head[i + 1] = _carve(m, node, legs[i + 1], False, opts)
+        theta = abs(heading_change(legs[i].coords, legs[i + 1].coords))
+        radius = fillet_radius(opts.turn_radius_m, max(legs[i].width, legs[i + 1].width))
+        tangent = radius * math.tan(min(theta, math.radians(150.0)) / 2.0) if theta > TURN_THRESHOLD_RAD and radius > 0.0 else 0.0
+        cut_tail[i] = _carve(m, node, legs[i], True, opts, tangent)
+        cut_head[i + 1] = _carve(m, node, legs[i + 1], False, opts, tangent)
+        tangents[i] = min(tangent, cut_tail[i], cut_head[i + 1])
 
     pieces: list[SegmentPlan] = []
     for i, leg in enumerate(legs):
@@ -131,7 +193,10 @@ def segment_route(route: Route, m: MapData, opts: SegmentOptions = SegmentOption
             turn = abs(heading_change(leg.coords, nxt.coords)) > TURN_THRESHOLD_RAD
             area = m.intersection_area(joints[i])
             objs = (area.id,) if area is not None else tuple(dict.fromkeys(leg.path_objects + nxt.path_objects))
-            pieces.append(SegmentPlan("turn-at-intersection" if turn else "go-through-intersection", _join(tail, head), objs,
+            coords = _join(tail, head)
+            if turn and tangents.get(i, 0.0) > 0.0:
+                coords = fillet_corner(coords, cut_tail[i], tangents[i])
+            pieces.append(SegmentPlan("turn-at-intersection" if turn else "go-through-intersection", coords, objs,
                                       max(leg.width, nxt.width), (leg.edge_id, nxt.edge_id), joints[i]))
 
     merged: list[SegmentPlan] = []

@@ -203,6 +203,9 @@ class MapNavigator:
                 self.position = job.position
                 return out
             if isinstance(out, Planned):
+                if job.retried:
+                    log.warning("plan %s: no way around the failed segment; trying the same way again from (%.1f, %.1f)",
+                                out.plan.plan_id, *job.position)
                 await self.bb.post(out.plan, geometry=_line(out.plan.polyline), stamp=self._now())
                 seg = job.current()
                 if seg is None:

@@ -9,16 +9,38 @@ from dataclasses import dataclass, field, replace
 
 from modules.map_navigator.describe import DescribeOptions, describe_segment
 from modules.map_navigator.mapdata import MapData
-from modules.map_navigator.route import Route, RouteError, RouteOptions, select_route
+from modules.map_navigator.route import NoRouteError, Route, RouteError, RouteOptions, select_route
 from modules.map_navigator.segments import SegmentOptions, SegmentPlan, segment_route
 from modules.vocabulary import MissionStep, RoutePlan, RouteSegmentDescription, SegmentResult, StepResult
 
-__all__ = ["NavigatorOptions", "StepJob", "Planned", "vehicle_turn_radius"]
+__all__ = ["NavigatorOptions", "StepJob", "Planned", "vehicle_turn_radius", "vehicle_describe_radius", "DESCRIBE_REACH_M",
+           "TURN_SPEED_M_S"]
+
+#: How far beyond its turning radius [m] a vehicle's local plans may reach objects: its half width,
+#: the PILOT's obstacle clearance and the position uncertainty it adds to that clearance.
+DESCRIBE_REACH_M = 5.0
+
+#: A retry of a failed way (there was no other) that drove less than this [m] is not retried again.
+RETRY_MIN_PROGRESS_M = 1.0
+
+#: Speed [m/s] through turns for a vehicle with a turning radius: its steering turns at a limited
+#: rate, and the slower it goes the less it overshoots coming out of the arc (the Navlab: 1.5 m/s).
+TURN_SPEED_M_S = 1.5
 
 
 def vehicle_turn_radius(vehicle: str) -> float:
     """Return the minimum turning radius [m] the decomposition allows for: Navlab 7 m, Terregator 0 m."""
     return 7.0 if vehicle == "navlab" else 0.0
+
+
+def vehicle_describe_radius(vehicle: str, base_m: float) -> float:
+    """Return how far from a segment's centreline [m] objects are copied for `vehicle`: at least `base_m`.
+
+    A vehicle that cannot turn in place swings up to its turning radius off the centreline (the
+    Dubins arcs of its local plans), so it must be told about objects that far out and then some:
+    the Navlab (7 m) gets 12 m, the Terregator the base radius.
+    """
+    return max(base_m, vehicle_turn_radius(vehicle) + DESCRIBE_REACH_M)
 
 
 @dataclass(frozen=True)
@@ -33,6 +55,15 @@ class NavigatorOptions:
     def segment_options(self) -> SegmentOptions:
         """Return the decomposition settings with the vehicle's turning radius."""
         return replace(self.segment, turn_radius_m=max(self.segment.turn_radius_m, vehicle_turn_radius(self.vehicle)))
+
+    def describe_options(self) -> DescribeOptions:
+        """Return the description settings for the vehicle: its object radius; slow turns on their arcs if it has a turning radius."""
+        turn_speed, on_arc = self.describe.turn_speed_limit, self.describe.turn_on_arc
+        if vehicle_turn_radius(self.vehicle) > 0.0:  # its turns are arcs: slow down and follow them
+            turn_speed = TURN_SPEED_M_S if turn_speed is None else turn_speed
+            on_arc = True
+        return replace(self.describe, describe_radius_m=vehicle_describe_radius(self.vehicle, self.describe.describe_radius_m),
+                       turn_speed_limit=turn_speed, turn_on_arc=on_arc)
 
 
 @dataclass(frozen=True)
@@ -62,6 +93,8 @@ class StepJob:
         self.segments_done = 0
         self.result: StepResult | None = None
         self._retreat: tuple[float, float] | None = None
+        self.retried = False  # the newest plan retries the way that failed (there was no other)
+        self._may_retry = True
 
     @property
     def plan_id(self) -> str:
@@ -70,11 +103,25 @@ class StepJob:
 
     def _route(self) -> Route:
         opts = RouteOptions(vehicle=self.options.vehicle, blocked_edges=frozenset(self.blocked), retreat=self._retreat)  # type: ignore[arg-type]
-        return select_route(self.map, self.position, self.step.destination, self.step.constraints, opts)
+        try:
+            return select_route(self.map, self.position, self.step.destination, self.step.constraints, opts)
+        except NoRouteError as exc:
+            if not self.blocked or not self._may_retry:
+                raise
+            # No way around what failed: try the same way again from here (a vehicle that got stuck
+            # or a plan that failed for a while) rather than give up while replans remain.
+            again = RouteOptions(vehicle=self.options.vehicle)  # type: ignore[arg-type]
+            try:
+                route = select_route(self.map, self.position, self.step.destination, self.step.constraints, again)
+            except RouteError:
+                raise exc from None
+            self.retried = True
+            return route
 
     def plan(self) -> Planned | StepResult:
         """Plan (or replan) from the current position; return the plan, or the step's result if done/failed."""
         self.revision += 1
+        self.retried = False
         try:
             route = self._route()
         except RouteError as exc:
@@ -82,9 +129,10 @@ class StepJob:
         self._plans = segment_route(route, self.map, self.options.segment_options())
         self.cursor = 0
         n = len(self._plans)
+        describe = self.options.describe_options()
         segs = tuple(
             describe_segment(sp, self.map, segment_id=f"{self.plan_id}.{i}", plan_id=self.plan_id, index=i,
-                             constraints=self.step.constraints, last=(i == n - 1), opts=self.options.describe)
+                             constraints=self.step.constraints, last=(i == n - 1), opts=describe)
             for i, sp in enumerate(self._plans)
         )
         poly = route.polyline() if route.legs else (route.start_xy, route.goal_xy)
@@ -123,6 +171,8 @@ class StepJob:
         self.blocked.update(self._plans[self.cursor].edge_ids)
         self._retreat = _travel_direction(seg.centreline, self.position)
         why = f"segment {seg.segment_index} ({seg.mode}) failed: {res.reason or 'no reason given'}"
+        # A retry of the same way that got nowhere (< RETRY_MIN_PROGRESS_M) is not tried yet again.
+        self._may_retry = not self.retried or res.distance_m >= RETRY_MIN_PROGRESS_M
         if self.revision - self._first_revision >= self.options.max_replans:
             return self._finish(False, f"{why}; no replans left ({self.options.max_replans} allowed)")
         out = self.plan()

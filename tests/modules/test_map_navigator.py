@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
+import shapely
 
 from modules.map_navigator import (
+    TURN_SPEED_M_S, vehicle_describe_radius,
     MapData, NavigatorOptions, NoRouteError, Planned, RouteOptions, SegmentOptions, StepJob, UnknownPlaceError,
-    describe_segment, exit_condition, heading_change, lateral_offset, load_map, segment_route, select_route,
+    describe_segment, exit_condition, fillet_corner, fillet_radius, heading_change, lateral_offset, load_map, segment_route, select_route,
     start_position,
 )
 from modules.vocabulary import Destination, MissionStep, SegmentResult, StepConstraints, StepResult
@@ -111,9 +114,50 @@ def test_turns_are_told_from_going_through(hills: MapData) -> None:
                      ("x_elm_pine", "go-through-intersection"), ("x_elm_birch", "turn-at-intersection")]
     for s in segs:
         if s.mode == "turn-at-intersection":
-            k = len(s.coords) // 2
-            assert heading_change(s.coords[: k + 1], s.coords[k:]) > math.radians(60)  # left turns
+            assert heading_change(s.coords[:2], s.coords[-2:]) > math.radians(60)  # left turns
             assert s.length >= 2 * 7.0  # room for the Navlab's 7 m turning radius on both sides
+
+
+def _min_radius(coords, spacing: float = 1.0) -> float:
+    """Return the smallest radius [m] of the circles through points `spacing` [m] apart along a polyline."""
+    line = shapely.LineString(coords)
+    xy = np.array([(p.x, p.y) for p in (line.interpolate(v) for v in np.arange(0.0, line.length, 0.1))])
+    k = int(round(spacing / 0.1))
+    a, b, c = xy[: -2 * k], xy[k:-k], xy[2 * k:]
+    cross = np.abs((b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0])
+    r = np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - b, axis=1) * np.linalg.norm(a - c, axis=1) / np.maximum(2 * cross, 1e-12)
+    return float(r.min())
+
+
+def test_navlab_turns_round_the_corner_with_its_turning_radius(hills: MapData) -> None:
+    r = select_route(hills, (0.3, -40.25), Destination(place="mailbox"), StepConstraints(), RouteOptions(vehicle="navlab"))
+    segs = segment_route(r, hills, SegmentOptions(turn_radius_m=7.0))
+    turns = [s for s in segs if s.mode == "turn-at-intersection"]
+    assert len(turns) == 2
+    for s in turns:
+        assert fillet_radius(7.0, s.width) == pytest.approx(7.0 + s.width / 4)
+        # the arc stays drivable for a 7 m radius even offset inwards by the keep-right/left offset (width/4)
+        assert _min_radius(s.coords) - s.width / 4 >= 7.0 * 0.97
+        # and the arc lies on the intersection's roads: every vertex within the path objects ∪ the roads
+        roads = shapely.union_all([o.footprint for o in hills.world.objects if o.kind in ("road", "intersection")])
+        assert all(roads.buffer(0.05).covers(shapely.Point(p)) for p in s.coords)
+
+
+def test_terregator_turns_keep_the_corner(campus: MapData) -> None:
+    r = _route(campus, "quad")
+    segs = segment_route(r, campus, SegmentOptions(turn_radius_m=0.0))
+    turn = next(s for s in segs if s.mode == "turn-at-intersection")
+    k = next(i for i, p in enumerate(turn.coords) if math.dist(p, (campus.world.node(turn.node_id).x, campus.world.node(turn.node_id).y)) < 1e-6)
+    assert 0 < k < len(turn.coords) - 1  # the node itself is a vertex: a sharp corner, turned in place
+
+
+def test_fillet_corner_is_tangent_to_both_legs() -> None:
+    coords = ((0.0, -12.0), (0.0, 0.0), (-12.0, 0.0))
+    out = fillet_corner(coords, 12.0, 8.5)
+    assert out[0] == (0.0, -12.0) and out[-1] == (-12.0, 0.0)
+    assert (0.0, -8.5) in out and any(math.dist(p, (-8.5, 0.0)) < 1e-6 for p in out)
+    assert _min_radius(out) == pytest.approx(8.5, rel=0.03)
+    assert fillet_corner(coords, 12.0, 0.0) == coords and fillet_corner(coords, 12.0, 13.0) == coords
 
 
 def test_turn_radius_widens_intersection_segments(campus: MapData) -> None:
@@ -260,3 +304,69 @@ def test_a_goal_point_on_the_failed_edge_is_reached_from_its_far_end(campus: Map
     assert "i_stairs" in out.plan.node_ids and out.plan.goal_xy == pytest.approx((59.98, 30.0), abs=0.3)
     last = out.segments[-1]
     assert last.centreline[-1][1] < last.centreline[0][1]  # arrives from the north
+
+
+def test_a_spur_joining_a_walk_mid_way_is_entered_without_driving_past_it(campus: MapData) -> None:
+    # The hall's spur edge runs along the south walk to the next intersection: the route must not
+    # drive on to that intersection and come back (dorm → hall over the walks is about 66 m).
+    r = _route(campus, "hall", keep="right")
+    assert r.length == pytest.approx(66.0, abs=1.5)
+    assert "i_hall" not in r.node_ids
+    xs = [x for leg in r.legs for x, _ in leg.coords]
+    assert max(xs) < 31.0
+    plans = segment_route(r, campus)
+    assert [p.mode for p in plans][-1] == "follow-road"
+    assert math.dist(plans[-1].coords[-1], (30.1111, 7.9066)) < 0.5
+
+
+def _fail(seg, reason="stuck", end=None) -> SegmentResult:
+    return SegmentResult(segment_id=seg.segment_id, plan_id=seg.plan_id, segment_index=seg.segment_index, success=False,
+                         reason=reason, end_xy=end)
+
+
+def test_with_no_way_around_a_failed_segment_the_same_way_is_tried_again(hills: MapData) -> None:
+    job = StepJob(hills, _step("mailbox", keep="right"), (0.3, -40.25), NavigatorOptions(vehicle="navlab", max_replans=2))
+    job.plan()
+    seg = job.current()
+    while "road_elm_1" not in seg.path_object_ids:
+        seg = job.segment_done(_ok(seg))
+    where = seg.centreline[len(seg.centreline) // 3]
+    out = job.segment_done(_fail(seg, end=where))  # Elm Ave is the only way to the mailbox
+    assert isinstance(out, Planned) and job.retried and out.plan.revision == 1
+    assert out.plan.edge_ids[0] == "e_elm_1" and math.dist(out.segments[0].centreline[0], where) < 0.5
+    res = _fail(job.current(), end=where).model_copy(update={"distance_m": 5.0})  # the retry got somewhere: again
+    out = job.segment_done(res)
+    assert isinstance(out, Planned) and out.plan.revision == 2
+    out = job.segment_done(_fail(job.current(), end=where))
+    assert isinstance(out, StepResult) and not out.success and "no replans left (2 allowed)" in out.reason
+
+
+def test_a_retry_that_got_nowhere_is_not_retried(hills: MapData) -> None:
+    job = StepJob(hills, _step("mailbox", keep="right"), (0.3, -40.25), NavigatorOptions(vehicle="navlab", max_replans=5))
+    job.plan()
+    seg = job.current()  # Oak St: the only way north
+    out = job.segment_done(_fail(seg, end=seg.centreline[1]))
+    assert isinstance(out, Planned) and job.retried
+    out = job.segment_done(_fail(job.current(), reason="no progress", end=seg.centreline[1]))  # no distance_m: stuck
+    assert isinstance(out, StepResult) and not out.success
+    assert "failed: no progress" in out.reason and "replanning failed: no route" in out.reason and "failed before" in out.reason
+
+
+def test_navlab_descriptions_reach_farther_and_slow_the_turns(hills: MapData) -> None:
+    step = _step("mailbox", keep="right", speed_limit=5.0)
+    nav = StepJob(hills, step, (0.3, -40.25), NavigatorOptions(vehicle="navlab")).plan()
+    ter = StepJob(hills, step, (0.3, -40.25), NavigatorOptions(vehicle="terregator")).plan()
+    assert vehicle_describe_radius("navlab", 8.0) >= 12.0 and vehicle_describe_radius("terregator", 8.0) == 8.0
+    for seg in nav.segments:
+        if seg.mode == "turn-at-intersection":  # slowly, along the turn's arc
+            assert seg.constraints.speed_limit == TURN_SPEED_M_S
+            assert seg.constraints.keep is None and seg.constraints.lateral_offset_m == 0.0
+        else:
+            assert seg.constraints.speed_limit == 5.0
+            assert seg.constraints.keep == "right" and seg.constraints.lateral_offset_m == pytest.approx(-seg.width_m / 4)
+    # objects between 8 and 12 m of a Navlab segment are described (a Dubins arc may swing that far)
+    def ids(planned):
+        return {o.object_id for s in planned.segments for o in s.objects}
+    extra = ids(nav) - ids(ter)
+    assert any(i.startswith(("tree_", "mailbox_")) for i in extra)
+    assert all(s.constraints.speed_limit == 5.0 and s.constraints.keep == "right" for s in ter.segments)

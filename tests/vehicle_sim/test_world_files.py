@@ -11,7 +11,7 @@ import pytest
 
 from vehicle_sim.mapgen import DEFAULT_MAP_ERROR, NO_MAP_ERROR, MapError, derive_map, map_for
 from vehicle_sim.worldfile import KINDS, SlopeShape, StairsShape, World, load_world, parse_world, world_path
-from vehicle_sim.worldgen import build_campus, build_north_hills
+from vehicle_sim.worldgen import ROADSIDE_CLEARANCE, build_campus, build_north_hills
 
 
 @pytest.fixture(scope="module")
@@ -200,6 +200,41 @@ def test_world_round_trips(campus):
 def test_build_is_deterministic():
     assert build_campus().to_geojson() == build_campus().to_geojson()
     assert build_north_hills().to_geojson() == build_north_hills().to_geojson()
+
+
+def test_shipped_worlds_are_what_the_generator_builds(tmp_path):
+    for name, build in (("campus", build_campus), ("north_hills", build_north_hills)):
+        written = build().save(tmp_path / f"{name}.world.geojson")
+        assert written.read_bytes() == world_path(name).read_bytes(), f"worlds/{name}.world.geojson: run python -m vehicle_sim.worldgen"
+
+
+def test_nothing_stands_in_a_north_hills_road(hills):
+    import shapely
+
+    roads = shapely.union_all([o.footprint for o in hills.objects if o.kind in ("road", "intersection")])
+    standing = [o for o in hills.objects if o.kind in ROADSIDE_CLEARANCE]
+    assert len(standing) > 50
+    for o in standing:
+        assert o.footprint.distance(roads) >= ROADSIDE_CLEARANCE[o.kind] - 1e-6, o.id
+    # each driveway meets exactly one road, from the side its house is on
+    for d in hills.objects_of_kind("driveway"):
+        touching = [r.id for r in hills.objects if r.kind in ("road", "intersection") and r.footprint.intersects(d.footprint)]
+        assert len(touching) == 1, (d.id, touching)
+
+
+def test_keep_clear_drops_trees_and_refuses_other_objects():
+    from vehicle_sim.worldgen import _Builder, ASPHALT, MAILBOX
+    from vehicle_sim.worldfile import PostShape
+
+    b = _Builder("t")
+    b.rect("road_a", "road", 0.0, -3.0, 50.0, 3.0, role="path", colour=ASPHALT, cost=1.0)
+    b.tree("tree_in", 10.0, 1.0, np.random.default_rng(0))
+    b.tree("tree_out", 10.0, 9.0, np.random.default_rng(0))
+    b.keep_clear(("road",), ROADSIDE_CLEARANCE)
+    assert [o.id for o in b.objects] == ["road_a", "tree_out"]
+    b.round_obj("mailbox_in", "mailbox", 20.0, 3.2, 0.25, role="landmark", colour=MAILBOX, shape=PostShape(height=1.1))
+    with pytest.raises(ValueError, match="mailbox mailbox_in is 0.00 m from a road area"):
+        b.keep_clear(("road",), ROADSIDE_CLEARANCE)
 
 
 def test_shipped_map_is_derived_with_default_error(campus):

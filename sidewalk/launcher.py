@@ -256,7 +256,9 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             newest[step_index] = (revision, poly)
     route = np.concatenate([newest[k][1] for k in sorted(newest)]) if newest else None
     sim_time = float(truth[-1, 0] - truth[0, 0]) if len(truth) >= 2 else 0.0
-    cte = cross_track_errors(truth[:, 1:3], route) if route is not None else np.zeros(0)
+    # distance to the nearest of every route the mission had (replans included)
+    cte = (np.min([cross_track_errors(truth[:, 1:3], poly) for _, _, poly in routes if len(poly) >= 2], axis=0)
+           if routes and len(truth) else np.zeros(0))
     pe = position_errors(est[:, 0], est[:, 1:3], truth[:, 0], truth[:, 1:3]) if len(est) else np.zeros(0)
     goal = _destination_xy(world, mission.steps[-1].destination)
     goal_error = float(math.hypot(truth[-1, 1] - goal[0], truth[-1, 2] - goal[1])) if goal and len(truth) else None

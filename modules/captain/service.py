@@ -77,9 +77,10 @@ class Captain:
         entry = _Entry(run)
         self._entries[mission.mission_id] = entry
         ahead = len(self._queue) + sum(1 for e in self._entries.values() if e.run.status.state == "running")
-        self._queue.append(mission.mission_id)
         await self.bb.post(mission, stamp=self._now())
         entry.status_token = await self.bb.post(run.status, stamp=self._now())
+        # queue only once the status token exists: a busy run loop picks queued missions up at once
+        self._queue.append(mission.mission_id)
         self._wake.set()
         self._prune()
         log.info("accepted mission %s (%s, %d steps)", mission.mission_id, mission.name, len(mission.steps))
@@ -120,7 +121,7 @@ class Captain:
     async def _publish(self, e: _Entry) -> None:
         st = e.run.status
         tok = e.status_token
-        for _ in range(3):
+        for _ in range(3 if tok is not None else 0):
             try:
                 e.status_token = await self.bb.update(tok.id, st, expected_version=tok.version, stamp=self._now())
                 return

@@ -226,3 +226,14 @@ async def test_pilot_gone_fails_the_step_with_the_reason() -> None:
         assert st.state == "failed" and "pilot stopped" in st.reason and "segment 0 (follow-road)" in st.reason
         segs = await s.bb.retrieve(Spec(type="route_segment", where=(_eq("segment_id", s.pilot.seen[0].segment_id),)))
         assert segs[0].attrs.state == "cancelled"
+
+
+async def test_missions_submitted_back_to_back_each_run_to_their_own_end() -> None:
+    # a mission queued while the CAPTAIN is busy must already have its status token when it is picked up
+    bad = "mission: nowhere-{i}\nsteps:\n  - name: to atlantis\n    destination: atlantis\n"
+    async with system("cap-burst") as s:
+        accs = await asyncio.gather(*(s.missions.submit(bad.format(i=i)) for i in range(6)))
+        for acc in accs:
+            done = await s.wait_status(acc.mission_id, lambda st: st.terminal)
+            assert done.state == "failed", done
+            assert "atlantis" in done.reason and "captain error" not in done.reason, done.reason

@@ -71,6 +71,8 @@ class Progress:
     sim_time_s: float = 0.0
     rtf: float = 0.0
     state: str = "starting"
+    namespace: str = ""
+    endpoint: str = ""
 
 
 def mission_path(name_or_path: str | Path) -> Path:
@@ -194,7 +196,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     system = SystemRun(build_plans(cfg, world, vehicle, out, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs")
-    progress = Progress(step_count=len(mission.steps))
+    progress = Progress(step_count=len(mission.steps), namespace=ns, endpoint=endpoint)
     status: MissionStatus | None = None
     reason = ""
     wall_mission0 = time.monotonic()

@@ -83,7 +83,13 @@ def run(
     ) as bar:
         task = bar.add_task("run", total=1, step="starting", dist=0.0, sim=0.0, rtf=0.0, state="starting")
 
+        announced = []
+
         def show(p: Progress) -> None:
+            if not announced:
+                announced.append(True)
+                bar.console.print(f"namespace [bold]{p.namespace}[/bold], endpoint [bold]{p.endpoint}[/bold] — inspect with "
+                                  f"`sidewalk status --ns {p.namespace} --connect {p.endpoint}`")
             bar.update(task, total=max(1, p.step_count), completed=p.step_index, step=p.step[:28], dist=p.distance_m,
                        sim=p.sim_time_s, rtf=p.rtf, state=p.state)
 

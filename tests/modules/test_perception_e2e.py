@@ -6,13 +6,8 @@ from __future__ import annotations
 
 import math
 import os
-import select
-import signal
 import subprocess
 import sys
-import tempfile
-import time
-from pathlib import Path
 
 import pytest
 
@@ -23,44 +18,10 @@ from modules.vocabulary import DrivingConstraints, ExitCondition, RouteSegmentDe
 from sidewalk.cli._perception import _map_object
 from vehicle_sim.drive import TruthPose, decode
 from vehicle_sim.worldfile import load_world
+from tests.modules._procs import ROOT, spawn, stop
 
 pytestmark = [pytest.mark.e2e, pytest.mark.timeout(240)]
 
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _spawn(args: list[str], ready: str, timeout: float = 60.0) -> subprocess.Popen:
-    """Start a process; return once a stdout line contains `ready` (stderr to a temporary file)."""
-    err = tempfile.TemporaryFile()
-    p = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=err, text=True, env=dict(os.environ, PYTHONUNBUFFERED="1"))
-    p.err_file = err  # type: ignore[attr-defined]
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        r, _, _ = select.select([p.stdout], [], [], max(0.0, deadline - time.monotonic()))
-        if not r:
-            break
-        line = p.stdout.readline()
-        if not line:
-            break
-        if ready in line:
-            return p
-    p.kill()
-    p.wait(10)
-    err.seek(0)
-    raise AssertionError(f"{args[:4]} not ready: {err.read()[-2000:].decode(errors='replace')}")
-
-
-def _stop(p: subprocess.Popen) -> int:
-    if p.poll() is None:
-        p.send_signal(signal.SIGTERM)
-        try:
-            p.wait(15)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait(5)
-    p.stdout.close()
-    p.err_file.close()
-    return p.returncode
 
 
 def _segment() -> RouteSegmentDescription:
@@ -82,11 +43,11 @@ async def test_real_perception_corrects_a_wrong_start_pose() -> None:
     link = None
     try:
         conn = ["--ns", ns, "--connect", node.endpoint]
-        procs.append(_spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
+        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
                              "--rtf", "2", "--seed", "5", *conn], "ready sim"))
-        procs.append(_spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
-        procs.append(_spawn([sys.executable, "-m", "modules.perception", "--vehicle", "terregator", *conn], "SIDEWALK-READY perception"))
-        procs.append(_spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
+        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+        procs.append(spawn([sys.executable, "-m", "modules.perception", "--vehicle", "terregator", *conn], "SIDEWALK-READY perception"))
+        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
                              "--start-pose", f"0.6,-28.3,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
         link = ZenohLink.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
@@ -113,6 +74,6 @@ async def test_real_perception_corrects_a_wrong_start_pose() -> None:
     finally:
         if link is not None:
             link.close()
-        codes = [_stop(p) for p in reversed(procs)]
+        codes = [stop(p) for p in reversed(procs)]
         node.stop()
     assert all(c == 0 for c in codes), codes

@@ -11,13 +11,9 @@ import asyncio
 import json
 import math
 import os
-import select
 import signal
 import subprocess
 import sys
-import tempfile
-import time
-from pathlib import Path
 
 import pytest
 
@@ -28,48 +24,10 @@ from modules.vocabulary import (
     DrivingConstraints, ExitCondition, MapObject, PerceptionResult, PointFix, Pose, RouteSegmentDescription,
 )
 from vehicle_sim.drive import TruthPose, decode
+from tests.modules._procs import ROOT, spawn, stop
 
 pytestmark = pytest.mark.e2e
 
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def _spawn(args: list[str], ready: str, timeout: float = 60.0) -> subprocess.Popen:
-    """Start a process and return once a stdout line contains `ready` (wall timeout [s]).
-
-    stderr goes to an unnamed temporary file (never a pipe nobody drains); it is shown on failure.
-    """
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
-    err = tempfile.TemporaryFile()
-    p = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.PIPE, stderr=err, text=True, env=env)
-    p.err_file = err  # type: ignore[attr-defined]
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        r, _, _ = select.select([p.stdout], [], [], max(0.0, deadline - time.monotonic()))
-        if not r:
-            break
-        line = p.stdout.readline()
-        if not line:
-            break
-        if ready in line:
-            return p
-    p.kill()
-    p.wait(10)
-    err.seek(0)
-    raise AssertionError(f"{args[:4]} not ready: {err.read()[-2000:].decode(errors='replace')}")
-
-
-def _stop(p: subprocess.Popen) -> int:
-    if p.poll() is None:
-        p.send_signal(signal.SIGTERM)
-        try:
-            p.wait(15)
-        except subprocess.TimeoutExpired:
-            p.kill()
-            p.wait(5)
-    p.stdout.close()
-    p.err_file.close()
-    return p.returncode
 
 
 def _dorm_segment() -> RouteSegmentDescription:
@@ -96,10 +54,10 @@ async def test_pilot_and_helm_drive_a_segment_by_dead_reckoning():
     link = None
     try:
         conn = ["--ns", ns, "--connect", node.endpoint]
-        procs.append(_spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
+        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
                              "--rtf", "4", "--seed", "3", *conn], "ready sim"))
-        procs.append(_spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
-        procs.append(_spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
+        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
                              "--start-pose", f"0,-28,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
         at_rest = asyncio.Event()
@@ -150,7 +108,7 @@ async def test_pilot_and_helm_drive_a_segment_by_dead_reckoning():
     finally:
         if link is not None:
             link.close()
-        codes = [_stop(p) for p in reversed(procs)]
+        codes = [stop(p) for p in reversed(procs)]
         node.stop()
     assert all(c == 0 for c in codes), codes
 
@@ -163,11 +121,11 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
     link = None
     try:
         conn = ["--ns", ns, "--connect", node.endpoint]
-        procs.append(_spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
+        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
                              "--rtf", "4", "--seed", "5", *conn], "ready sim"))
-        procs.append(_spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
         # The PILOT is told a start pose 0.6 m off the truth (0, -28): only perception can correct it.
-        procs.append(_spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
+        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
                              "--start-pose", f"0.6,-28.3,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
         link = ZenohLink.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
@@ -212,7 +170,7 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
     finally:
         if link is not None:
             link.close()
-        codes = [_stop(p) for p in reversed(procs)]
+        codes = [stop(p) for p in reversed(procs)]
         node.stop()
     assert all(c == 0 for c in codes), codes
 
@@ -225,18 +183,18 @@ async def test_pilot_killed_mid_segment_resumes_when_restarted():
         conn = ["--ns", ns, "--connect", node.endpoint]
         pilot_args = [sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
                       "--start-pose", f"0,-28,{math.pi / 2}", *conn]
-        procs.append(_spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
+        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
                              "--rtf", "4", "--seed", "7", *conn], "ready sim"))
-        procs.append(_spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
-        pilot = _spawn(pilot_args, "SIDEWALK-READY pilot")
+        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+        pilot = spawn(pilot_args, "SIDEWALK-READY pilot")
         async with BlackboardClient(node.client_net(), source="test-map-navigator") as bb:
             await bb.post(_dorm_segment(), frame="world", stamp=0.0)
             await bb.wait(Spec(type="local_path_plan"), timeout=60.0)
             pilot.kill()  # SIGKILL: no goodbye
             pilot.wait(10)
-            assert _stop(pilot) == -signal.SIGKILL
+            assert stop(pilot) == -signal.SIGKILL
             assert procs[1].poll() is None  # the HELM is still up
-            pilot = _spawn(pilot_args, "SIDEWALK-READY pilot")
+            pilot = spawn(pilot_args, "SIDEWALK-READY pilot")
             procs.append(pilot)
             res = await bb.wait(
                 Spec(type="segment_result", where=(AttrPredicate(path="segment_id", op="==", value="test-seg-0"),)),
@@ -246,6 +204,6 @@ async def test_pilot_killed_mid_segment_resumes_when_restarted():
             results = await bb.retrieve(Spec(type="segment_result"))
             assert len(results) == 1  # resumed, not reported twice
     finally:
-        codes = [_stop(p) for p in reversed(procs)]
+        codes = [stop(p) for p in reversed(procs)]
         node.stop()
     assert all(c == 0 for c in codes), codes

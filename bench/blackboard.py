@@ -41,7 +41,10 @@ from blackboard import (
     Within,
     token_type,
 )
-from blackboard.testing import free_port, start_node
+from blackboard.testing import start_node
+from wire.keys import Keys
+from wire.ports import free_port
+from wire.session import Query, open_session
 
 __all__ = ["run", "BenchItem", "BenchNote"]
 
@@ -73,26 +76,18 @@ def _pct(xs: list[float]) -> tuple[float, float]:
 
 # ---------------------------------------------------------------------- floor process
 def _floor_main(endpoint: str, ns: str) -> None:
-    import zenoh
+    """Serve the raw floors through wire's thinnest path (raw Zenoh-thread callbacks, no asyncio)."""
+    keys = Keys(ns)
+    s = open_session(NetworkConfig(namespace=ns, listen=(endpoint,)))
+    pub = s.publisher(keys.bench("floor-out"))
 
-    cfg = {"mode": "peer", "scouting": {"multicast": {"enabled": False}}, "listen": {"endpoints": [endpoint]}}
-    s = zenoh.open(zenoh.Config.from_json5(json.dumps(cfg)))
-    enc = zenoh.Encoding("application/msgpack")
-    echo_key = f"sidewalk/{ns}/floor/echo"
-    out_key = f"sidewalk/{ns}/floor/out"
-    pub = s.declare_publisher(out_key, encoding=enc, congestion_control=zenoh.CongestionControl.BLOCK, express=True)
+    def on_query(q: Query) -> None:
+        q.reply(q.payload)
+        q.finish()
 
-    def on_query(q: "zenoh.Query") -> None:
-        p = q.payload
-        q.reply(q.key_expr, p.to_bytes() if p is not None else b"", encoding=enc)
-        q.drop()
-
-    def on_sample(smp: "zenoh.Sample") -> None:
-        pub.put(smp.payload.to_bytes())
-
-    qa = s.declare_queryable(echo_key, zenoh.handlers.Callback(on_query, indirect=False), complete=True)
-    sub = s.declare_subscriber(f"sidewalk/{ns}/floor/in", zenoh.handlers.Callback(on_sample, indirect=False))
-    tok = s.liveliness().declare_token(f"sidewalk/{ns}/alive/floor")
+    s.queryable(keys.bench("floor-echo"), on_query)
+    s.subscribe_payload(keys.bench("floor-in"), lambda _key, payload: pub.put(payload))
+    s.liveliness_token(keys.alive("floor"))
     stop = False
 
     def on_sig(*_: object) -> None:
@@ -109,8 +104,6 @@ def _floor_main(endpoint: str, ns: str) -> None:
                 stop = True
         else:
             time.sleep(0.5)
-    for h in (tok, sub, qa, pub):
-        h.undeclare()
     s.close()
 
 
@@ -136,10 +129,11 @@ class _Floor:
     def __init__(self, bb: BlackboardClient, ns: str) -> None:
         self.s = bb._session
         self.loop = asyncio.get_running_loop()
-        self.echo = f"sidewalk/{ns}/floor/echo"
-        self.inp = f"sidewalk/{ns}/floor/in"
+        keys = Keys(ns)
+        self.echo = keys.bench("floor-echo")
+        self.inp = keys.bench("floor-in")
         self.waiter: asyncio.Future | None = None
-        self.s.subscribe(f"sidewalk/{ns}/floor/out", lambda smp: self.loop.call_soon_threadsafe(self._got, smp))
+        self.s.subscribe(keys.bench("floor-out"), lambda smp: self.loop.call_soon_threadsafe(self._got, smp))
 
     def _got(self, smp: object) -> None:
         if self.waiter is not None and not self.waiter.done():

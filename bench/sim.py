@@ -56,7 +56,7 @@ def _pct(xs: list[float], q: float) -> float:
 
 def run(world: str = "campus", frames: int = 100) -> dict:
     """Benchmark the simulator on `world` (name or file) with `frames` captures; return the figures."""
-    from vehicle_sim.drive import DriveCommand
+    from wire.drive import DriveCommand
     from vehicle_sim.scene import Scene
     from vehicle_sim.sensors import CaptureRequest, capture
     from vehicle_sim.simulator import SimConfig, Simulator

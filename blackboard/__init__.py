@@ -17,8 +17,8 @@ from blackboard.errors import (
 )
 from blackboard.frames import FrameTree
 from blackboard.geometry import Point, Polygon, Polyline, Pose2D
-from blackboard.keys import BlackboardKeys
-from blackboard.network import DEFAULT_ENDPOINT, NetworkConfig
+from wire.keys import BlackboardKeys
+from wire.network import DEFAULT_ENDPOINT, NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry, token_type
 from blackboard.spec import AttrPredicate, Intersects, Near, Nearest, Spec, Within
 from blackboard.token import MonitorEvent, Token

@@ -11,7 +11,7 @@ import logging
 import os
 import sys
 
-from blackboard.network import NetworkConfig
+from wire.flags import add_network_args, network_from_args
 from blackboard.node import serve
 
 __all__ = ["main"]
@@ -20,10 +20,7 @@ __all__ = ["main"]
 def main(argv: list[str] | None = None) -> int:
     """Parse arguments and serve until SIGINT/SIGTERM."""
     ap = argparse.ArgumentParser(prog="python -m blackboard", description="Run a CODGER blackboard node.")
-    ap.add_argument("--ns", default="default", help="namespace: keys under sidewalk/<ns>/…")
-    ap.add_argument("--listen", action="append", default=[], help="endpoint to listen on (repeatable)")
-    ap.add_argument("--connect", action="append", default=[], help="endpoint to connect to (repeatable)")
-    ap.add_argument("--mode", default="peer", choices=["peer", "client", "router"])
+    add_network_args(ap)
     ap.add_argument("--db", default=":memory:", help="SQLite file, or :memory:")
     ap.add_argument("--sync", default="normal", choices=["normal", "full"], help="normal: survives crashes; full: power loss")
     ap.add_argument("--types", action="append", default=[], help="module registering token types (repeatable)")
@@ -31,11 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--history", type=float, default=60.0, help="pose history kept [s]")
     a = ap.parse_args(argv)
     logging.basicConfig(level=os.environ.get("SIDEWALK_LOG", "WARNING").upper())
-    try:
-        net = NetworkConfig(namespace=a.ns, mode=a.mode, connect=tuple(a.connect), listen=tuple(a.listen)).with_defaults(serve=True)
-    except ValueError as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 2
+    net = network_from_args(ap, a, role="peer")
     serve(net, db=a.db, sync=a.sync, types=tuple(a.types), history=a.history, dispatch=a.dispatch)
     return 0
 

@@ -27,13 +27,13 @@ import msgpack
 import numpy as np
 from pydantic import BaseModel
 
-from blackboard._zenoh import ZReply, ZSession, open_session
+from wire.session import Reply as ZReply, Session as ZSession, open_session
 from blackboard.codec import decode, encode
 from blackboard.errors import BadRequestError, BlackboardError, NodeUnavailableError, error_from_wire
 from blackboard.frames import apply_se2
 from blackboard.geometry import Point, Polygon, Polyline, Pose2D
-from blackboard.keys import BlackboardKeys
-from blackboard.network import NetworkConfig
+from wire.keys import BlackboardKeys
+from wire.network import NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry
 from blackboard.spec import Spec
 from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_wire
@@ -200,7 +200,7 @@ class BlackboardClient:
         self._session = s = await loop.run_in_executor(None, open_session, self.net)
         s.liveliness_token(self.keys.client_alive(self.client_id))
         on_message = self._on_message
-        s.subscribe_bytes(self.keys.to_client(self.client_id), lambda payload: loop.call_soon_threadsafe(on_message, payload))
+        s.subscribe_payload(self.keys.to_client(self.client_id), lambda _key, payload: loop.call_soon_threadsafe(on_message, payload))
         self._wpub = s.publisher(self.keys.write(self.client_id))
         seen = loop.create_future()
 

@@ -15,6 +15,7 @@ import shapely
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from blackboard.errors import InvalidTokenError
+from wire.se2 import Pose2D
 
 __all__ = [
     "Point",
@@ -108,46 +109,6 @@ def _check_polygon(xy: np.ndarray) -> None:
         raise ValueError("polygon has zero area")
     if not poly.is_valid:
         raise ValueError("polygon is not simple (self-intersecting)")
-
-
-class Pose2D(BaseModel):
-    """An SE(2) pose: translation (x [m], y [m]) and heading yaw [rad] of a child frame in its parent."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-    x: float = Field(0.0, allow_inf_nan=False)
-    y: float = Field(0.0, allow_inf_nan=False)
-    yaw: float = Field(0.0, allow_inf_nan=False)
-
-    def __init__(self, x: float | None = None, y: float | None = None, yaw: float | None = None, /, **kw: Any) -> None:
-        for name, v in (("x", x), ("y", y), ("yaw", yaw)):
-            if v is not None:
-                kw[name] = v
-        super().__init__(**kw)
-
-    def compose(self, other: "Pose2D") -> "Pose2D":
-        """Return self ∘ other (parent←child composed with child←grandchild)."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return Pose2D(
-            x=self.x + c * other.x - s * other.y,
-            y=self.y + s * other.x + c * other.y,
-            yaw=math.atan2(math.sin(self.yaw + other.yaw), math.cos(self.yaw + other.yaw)),
-        )
-
-    def inverse(self) -> "Pose2D":
-        """Return the inverse pose (child←parent)."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return Pose2D(x=-(c * self.x + s * self.y), y=-(-s * self.x + c * self.y), yaw=-self.yaw)
-
-    def apply(self, points: np.ndarray) -> np.ndarray:
-        """Map (N,2) float64 points [m] from the child frame into the parent frame."""
-        pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        rot = np.array([[c, s], [-s, c]])  # row-vector form: p' = p @ R^T
-        return pts @ rot + np.array([self.x, self.y])
-
-    def as_tuple(self) -> tuple[float, float, float]:
-        """Return (x [m], y [m], yaw [rad])."""
-        return (self.x, self.y, self.yaw)
 
 
 def geometry_coords(geom: Point | Polyline | Polygon) -> tuple[str, np.ndarray]:

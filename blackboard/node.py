@@ -41,13 +41,13 @@ from typing import Any, Callable, Literal
 
 import msgpack
 
-from blackboard._zenoh import ZQuery, ZSession, open_session
+from wire.session import Query as ZQuery, Session as ZSession, open_session
 from blackboard.codec import MAX_PAYLOAD, decode, encode, pack_array_of_packed
 from blackboard.core import BlackboardCore, Monitor
 from blackboard.errors import BadRequestError, BlackboardError
 from blackboard.frames import FrameTree
-from blackboard.keys import BlackboardKeys
-from blackboard.network import NetworkConfig
+from wire.keys import BlackboardKeys
+from wire.network import NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry
 from blackboard.store import Store, SyncMode
 
@@ -137,7 +137,7 @@ class BlackboardNode:
             }
             for key, h in handlers.items():
                 s.queryable(key, lambda q, h=h, w=h in self._write_handlers: self._submit(self._guard, (h, q), w))
-            s.subscribe_keyed(f"{k.write_prefix}/*", lambda key, payload: self._submit(self._on_write, (key, payload), True))
+            s.subscribe_payload(f"{k.write_prefix}/*", lambda key, payload: self._submit(self._on_write, (key, payload), True))
             s.liveliness_subscribe(
                 f"{k.client_alive_prefix}/*",
                 lambda key, alive: None if alive else self._submit(self._client_gone, (key,), False),
@@ -415,7 +415,7 @@ class BlackboardNode:
     # reads -----------------------------------------------------------------
     def _on_retrieve(self, q: ZQuery) -> None:
         spec = self._body(q, empty={})
-        params = q.parameters()
+        params = q.parameters
         frame = params.get("frame") or None
         stamp: float | None = None
         if params.get("stamp"):

@@ -5,22 +5,15 @@ from __future__ import annotations
 import os
 import select
 import signal
-import socket
 import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
 
-from blackboard.network import NetworkConfig
+from wire.network import NetworkConfig
+from wire.ports import free_port
 
-__all__ = ["free_port", "NodeProcess", "start_node"]
-
-
-def free_port() -> int:
-    """Return a TCP port on 127.0.0.1 that was free a moment ago."""
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+__all__ = ["NodeProcess", "start_node"]
 
 
 @dataclass

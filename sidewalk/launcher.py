@@ -19,7 +19,7 @@ from typing import Callable, Optional
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from blackboard.testing import free_port
+from wire.ports import free_port
 from modules.captain.missionfile import MissionFileError, load_mission
 from modules.vocabulary import Mission, MissionStatus
 from sidewalk.metrics import cross_track_errors, path_length, position_errors

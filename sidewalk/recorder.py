@@ -10,8 +10,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from blackboard import BlackboardClient, BlackboardError
-from modules.runtime import ZenohLink
-from vehicle_sim.drive import SimClock, SimEvent, TruthPose, WireError, decode
+from modules.runtime import Link
+from wire.keys import SimKeys
+from wire.drive import SimClock, SimEvent, TruthPose, WireError, decode
 
 __all__ = ["Recorder", "Track"]
 
@@ -35,10 +36,10 @@ class Recorder:
     Ground truth is read here for evaluation only; no module reads it.
     """
 
-    def __init__(self, link: ZenohLink, bb: BlackboardClient, ns: str, *, estimate_period_s: float = 0.5) -> None:
+    def __init__(self, link: Link, bb: BlackboardClient, ns: str, *, estimate_period_s: float = 0.5) -> None:
         self.link = link
         self.bb = bb
-        self.base = f"sidewalk/{ns}/sim"
+        self.keys = SimKeys(ns)
         self.truth = Track()
         self.estimate = Track()
         self.events: list[SimEvent] = []
@@ -51,9 +52,9 @@ class Recorder:
 
     def start(self) -> None:
         """Declare the subscribers."""
-        self.link.subscribe(f"{self.base}/truth", self._on_truth)
-        self.link.subscribe(f"{self.base}/events", self._on_event)
-        self.link.subscribe(f"{self.base}/clock", self._on_clock)
+        self.link.subscribe(self.keys.truth, self._on_truth)
+        self.link.subscribe(self.keys.events, self._on_event)
+        self.link.subscribe(self.keys.clock, self._on_clock)
 
     @property
     def sim_time(self) -> float:

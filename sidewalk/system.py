@@ -12,7 +12,8 @@ import numpy as np
 
 from blackboard import BlackboardClient, MonitorStream, NetworkConfig, Spec
 from modules.captain.client import CaptainUnavailableError, MissionClient
-from modules.runtime import ModuleKeys, ZenohLink
+from modules.runtime import ModuleKeys, Link
+from wire.keys import BlackboardKeys
 from modules.vocabulary import MissionStatus, RoutePlan
 from sidewalk.recorder import Recorder
 from sidewalk.supervisor import ProcessPlan, Supervisor
@@ -33,7 +34,7 @@ class SystemRun:
         self.ns = ns
         self.net = NetworkConfig(namespace=ns, connect=(endpoint,))
         self.sup = Supervisor(log_dir)
-        self.link: ZenohLink | None = None
+        self.link: Link | None = None
         self.bb: BlackboardClient | None = None
         self.recorder: Recorder | None = None
         self._status: MonitorStream | None = None
@@ -45,7 +46,7 @@ class SystemRun:
             if on_starting:
                 on_starting(plan.name)
             await self.sup.start(plan, ready_timeout=ready_timeout)
-        self.link = ZenohLink.open(self.net)
+        self.link = Link.open(self.net)
         self.bb = await BlackboardClient.connect(self.net, source="launcher")
         self.recorder = Recorder(self.link, self.bb, self.ns)
         self.recorder.start()
@@ -127,7 +128,7 @@ class SystemRun:
     async def blackboard_stats(self) -> dict:
         """Return the blackboard node's counters (empty if it does not answer)."""
         assert self.link is not None
-        replies = await self.link.get(f"sidewalk/{self.ns}/bb/stats", timeout=5.0)
+        replies = await self.link.get(BlackboardKeys(self.ns).stats, timeout=5.0)
         if not replies or not replies[0].ok:
             return {}
         try:

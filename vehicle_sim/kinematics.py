@@ -17,7 +17,7 @@ from typing import Literal, Protocol, Union
 
 from pydantic import BaseModel, ConfigDict
 
-from vehicle_sim.drive import VehicleLimits
+from wire.drive import VehicleLimits
 
 __all__ = [
     "VehicleState",

@@ -1,6 +1,6 @@
 """The simulator node: runs a `Simulator` against the wall clock at a real-time factor and serves it over Zenoh.
 
-Keys under `sidewalk/<ns>/` (see `SimKeys`, docs/keys.md): sim/clock, sim/odom, sim/truth, sim/events
+Keys under `sidewalk/<ns>/` (see `wire.keys.SimKeys`, docs/keys.md): sim/clock, sim/odom, sim/truth, sim/events
 (published, msgpack), sim/cmd (subscribed: `DriveCommand`, msgpack or JSON), sim/capture, sim/info,
 sim/map, sim/world (queryables), alive/sim (liveliness), heartbeat/sim (1 Hz wall clock).
 Threads: the physics loop, a capture worker; zenoh callbacks only enqueue.
@@ -20,47 +20,18 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from vehicle_sim._zenoh import SimQuery, SimSession
-from vehicle_sim.drive import DriveCommand, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
+from wire.keys import SimKeys
+from wire.network import NetworkConfig
+from wire.session import Query, Session, open_session
+from wire.drive import DriveCommand, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
 from vehicle_sim.mapgen import map_for
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, OdometryModel
 from vehicle_sim.simulator import CommandRejected, SimConfig, Simulator
 from vehicle_sim.worldfile import World
 
-__all__ = ["SimKeys", "NodeConfig", "SimNode"]
+__all__ = ["SimKeys", "NodeConfig", "SimNode"]  # SimKeys re-exported from wire.keys
 
 log = logging.getLogger("vehicle_sim.node")
-
-
-class SimKeys:
-    """The simulator's key expressions for one namespace."""
-
-    def __init__(self, ns: str) -> None:
-        self.ns = ns
-        base = f"sidewalk/{ns}/sim"
-        self.base = base
-        #: published at publish_hz sim time: `SimClock` (msgpack)
-        self.clock = f"{base}/clock"
-        #: subscribed: `DriveCommand` (msgpack, or JSON text starting with "{")
-        self.cmd = f"{base}/cmd"
-        #: published at publish_hz sim time: `Odometry` (local frame, drifts)
-        self.odom = f"{base}/odom"
-        #: published at publish_hz sim time: `TruthPose` (world frame) — evaluation and monitor only
-        self.truth = f"{base}/truth"
-        #: published when they happen: `SimEvent`
-        self.events = f"{base}/events"
-        #: queryable: `CaptureRequest` (msgpack/JSON/empty) → `encode_capture` bytes at the current pose
-        self.capture = f"{base}/capture"
-        #: queryable: → `SimInfo` (msgpack; JSON if the query is JSON)
-        self.info = f"{base}/info"
-        #: queryable: → the map GeoJSON (JSON) the robot is told
-        self.map = f"{base}/map"
-        #: queryable: → the world GeoJSON (JSON) — evaluation and monitor only
-        self.world = f"{base}/world"
-        #: liveliness token while the node runs
-        self.alive = f"sidewalk/{ns}/alive/sim"
-        #: heartbeat every wall second: `SimHeartbeat` (module "sim", seq, sim_time, wall_time, period_s, pid, host, state)
-        self.heartbeat = f"sidewalk/{ns}/heartbeat/sim"
 
 
 class NodeConfig(BaseModel):
@@ -82,13 +53,13 @@ class NodeConfig(BaseModel):
 class SimNode:
     """A simulator served over Zenoh; `start()` → ready, `stop()` → session closed."""
 
-    def __init__(self, world: World, config: NodeConfig, zenoh_config: dict, namespace: str = "default") -> None:
+    def __init__(self, world: World, config: NodeConfig, net: NetworkConfig) -> None:
         if config.publish_hz > config.physics_hz:
             raise ValueError(f"publish_hz {config.publish_hz} must not exceed physics_hz {config.physics_hz}")
         self.world = world
         self.config = config
-        self.keys = SimKeys(namespace)
-        self._zcfg = zenoh_config
+        self.net = net
+        self.keys = SimKeys(net.namespace)
         self.sim = Simulator(
             world,
             SimConfig(vehicle=config.vehicle, physics_hz=config.physics_hz, watchdog_timeout=config.watchdog_timeout,
@@ -102,7 +73,7 @@ class SimNode:
         self._lock = threading.Lock()  # guards the pose snapshot
         self._snapshot = (self.sim.t, self.sim.state)
         self._threads: list[threading.Thread] = []
-        self._session: SimSession | None = None
+        self._session: Session | None = None
         self._scene = None
         self._map_json: bytes | None = None
         self._world_json: bytes | None = None
@@ -133,15 +104,16 @@ class SimNode:
         self._scene = Scene(self.world, seed=self.config.seed)
         self._map_json = json.dumps(map_for(self.world, self.config.map_error, self.config.seed).to_geojson()).encode()
         self._world_json = json.dumps(self.world.to_geojson()).encode()
-        self._session = z = SimSession(self._zcfg)
+        self._session = z = open_session(self.net)
         try:
+            z.wait_connected(name="sim", cancelled=self._stop.is_set)  # never serve (and say ready) while connected to nothing
             k = self.keys
             self._pub_clock = z.publisher(k.clock, droppable=True)
             self._pub_odom = z.publisher(k.odom, droppable=True)
             self._pub_truth = z.publisher(k.truth, droppable=True)
             self._pub_events = z.publisher(k.events)
             self._pub_hb = z.publisher(k.heartbeat, droppable=True)
-            z.subscribe(k.cmd, self._on_cmd)
+            z.subscribe_payload(k.cmd, self._on_cmd)
             z.queryable(k.capture, self._on_capture)
             z.queryable(k.info, self._on_info)
             z.queryable(k.map, lambda q: self._reply_static(q, self._map_json))
@@ -157,6 +129,11 @@ class SimNode:
         except BaseException:
             self.stop()
             raise
+
+    def request_stop(self) -> None:
+        """Ask the node to stop (safe from a signal handler); `stop()` then finishes the job."""
+        self._stop.set()
+        self._wake.set()
 
     def stop(self, timeout: float = 5.0) -> None:
         """Stop the loop and workers, then close the session (idempotent)."""
@@ -182,21 +159,21 @@ class SimNode:
 
     # ---- callbacks (zenoh threads: enqueue only) ------------------------------------------------
 
-    def _on_cmd(self, payload: bytes, key: str) -> None:
+    def _on_cmd(self, key: str, payload: bytes) -> None:
         self._cmds.append(payload)
 
-    def _on_capture(self, q: SimQuery) -> None:
+    def _on_capture(self, q: Query) -> None:
         with self._lock:
             t, state = self._snapshot
         self._captures.put((q, t, state))
 
-    def _on_info(self, q: SimQuery) -> None:
+    def _on_info(self, q: Query) -> None:
         try:
             q.reply(encode(self.info(), as_json=q.is_json), as_json=q.is_json)
         finally:
             q.finish()
 
-    def _reply_static(self, q: SimQuery, data: bytes | None) -> None:
+    def _reply_static(self, q: Query, data: bytes | None) -> None:
         try:
             if data is not None:
                 q.reply(data, as_json=True)
@@ -215,16 +192,16 @@ class SimNode:
             q, t, state = item
             try:
                 if self._stop.is_set():
-                    q.reply_err(json.dumps({"error": "simulator is shutting down"}).encode())
+                    q.reply_err(json.dumps({"error": "simulator is shutting down"}).encode(), as_json=True)
                     continue
                 req = decode(CaptureRequest, q.payload) if q.payload else CaptureRequest()
                 res = capture(self._scene, (state.x, state.y, state.yaw), t, req, vehicle=self.config.vehicle)
-                q.reply(encode_capture(res))
+                q.reply(encode_capture(res, truth=req.truth))
             except WireError as exc:
-                q.reply_err(json.dumps({"error": "bad capture request", "detail": str(exc)}).encode())
+                q.reply_err(json.dumps({"error": "bad capture request", "detail": str(exc)}).encode(), as_json=True)
             except Exception as exc:  # noqa: BLE001 - report any capture failure to the asker
                 log.exception("capture failed")
-                q.reply_err(json.dumps({"error": "capture failed", "detail": f"{type(exc).__name__}: {exc}"}).encode())
+                q.reply_err(json.dumps({"error": "capture failed", "detail": f"{type(exc).__name__}: {exc}"}).encode(), as_json=True)
             finally:
                 q.finish()
 

@@ -12,7 +12,7 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from vehicle_sim.drive import DriveCommand, Odometry, SimClock, SimEvent, TruthPose, VehicleLimits
+from wire.drive import DriveCommand, Odometry, SimClock, SimEvent, TruthPose, VehicleLimits
 from vehicle_sim.kinematics import VehicleParams, VehicleState, limits_of, params_for, step
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, NoiseSource, OdometryModel, OdometryState, odometry_step
 from vehicle_sim.watchdog import CommandSupervisor

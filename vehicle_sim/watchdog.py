@@ -16,7 +16,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 
-from vehicle_sim.drive import DriveCommand
+from wire.drive import DriveCommand
 
 __all__ = ["CommandSupervisor", "Supervision", "STOP"]
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from modules.captain.wire import Rejection, SubmitAccepted
-from modules.runtime import ModuleKeys, ZenohLink
+from modules.runtime import ModuleKeys, Link
 from modules.vocabulary import MissionStatus
 
 __all__ = ["MissionClient", "MissionRejected", "CaptainUnavailableError"]
@@ -24,7 +24,7 @@ class CaptainUnavailableError(Exception):
 class MissionClient:
     """Mission submission, status and cancel over an open Zenoh link, in namespace `keys.ns`."""
 
-    def __init__(self, link: ZenohLink, keys: ModuleKeys, *, timeout: float = 10.0) -> None:
+    def __init__(self, link: Link, keys: ModuleKeys, *, timeout: float = 10.0) -> None:
         self.link = link
         self.keys = keys
         self.timeout = timeout

@@ -20,7 +20,8 @@ from blackboard import Pose2D, Spec
 from blackboard.errors import BlackboardError
 from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError
 from modules.vocabulary import LocalPathPlan
-from vehicle_sim.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
+from wire.keys import root as keys_root
+from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
 
 __all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys"]
 
@@ -37,7 +38,7 @@ class DriveKeys(BaseModel):
 
     def resolve(self, namespace: str) -> tuple[str, str]:
         """Return the absolute (command, odometry) keys in `namespace`."""
-        root = f"sidewalk/{namespace}"
+        root = keys_root(namespace)
         return f"{root}/{self.command}", f"{root}/{self.odometry}"
 
 

@@ -10,7 +10,7 @@ from functools import cached_property
 from pathlib import Path
 
 import shapely
-from vehicle_sim.worldfile import PathNode, World, WorldFileError, WorldObject, load_world
+from wire.mapfile import MapFile, PathNode, WorldFileError, WorldObject, load_map_file
 
 from modules.vocabulary import ColourStats, MapObject
 
@@ -31,7 +31,7 @@ def map_object(obj: WorldObject) -> MapObject:
 class MapData:
     """A loaded map with the look-ups route planning needs: places, intersection areas, descriptions."""
 
-    def __init__(self, world: World) -> None:
+    def __init__(self, world: MapFile) -> None:
         self.world = world
 
     @property
@@ -92,4 +92,4 @@ class MapData:
 
 def load_map(path: str | Path) -> MapData:
     """Load and validate the map file (a path, or a name like "campus" for worlds/campus.map.geojson)."""
-    return MapData(load_world(path, kind="map"))
+    return MapData(load_map_file(path, kind="map"))

@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 import shapely
 import shapely.ops
-from vehicle_sim.worldfile import PathEdge
+from wire.mapfile import PathEdge
 
 from modules.map_navigator.mapdata import MapData
 from modules.vocabulary import Destination, StepConstraints

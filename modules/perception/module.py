@@ -32,6 +32,7 @@ from blackboard.errors import FutureExtrapolationError
 from modules.perception.monitor import ResolutionTable, SensorGeometry, image_input_position
 from modules.perception.pipeline import PerceptionPipeline
 from modules.perception.results import build_result, failed_result
+from wire.keys import SimKeys
 from modules.perception.sensor_frame import SensorFrameError, colored_range_image, decode_sensor_frame, sensor_geometry
 from modules.vocabulary import DrivingUnitDescription, LocalPathPlan, PerceptionResult
 
@@ -49,7 +50,7 @@ SENSORS: dict[str, SensorGeometry] = {
 
 def capture_key(namespace: str) -> str:
     """Return the simulator's capture queryable key in a namespace."""
-    return f"sidewalk/{namespace}/sim/capture"
+    return SimKeys(namespace).capture
 
 
 class PerceptionConfig(BaseModel):

@@ -18,7 +18,7 @@ import numpy as np
 from filterpy.kalman import ExtendedKalmanFilter
 from pydantic import BaseModel, ConfigDict, Field
 
-from modules.pilot.se2 import between, compose, inverse, wrap_angle
+from wire.se2 import between, compose, inverse, wrap_angle
 
 __all__ = ["OdometryNoise", "PointFix", "LineFix", "PoseFilter", "EstimatorError"]
 

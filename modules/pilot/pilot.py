@@ -28,7 +28,7 @@ from modules.pilot.kalman import EstimatorError, LineFix, PointFix, PoseFilter
 from modules.pilot.navigator import ConstraintError, local_constraints
 from modules.pilot.planner import LocalPathPlanner, PlanningError
 from modules.pilot.polyline import PathLine, PolylineError
-from modules.pilot.se2 import compose, inverse, transform_points
+from wire.se2 import compose, inverse, transform_points
 from modules.pilot.segment import SegmentDriver, SegmentGeometry, as_ring, fuse_regions, map_region
 from modules.pilot.speed_profile import speed_profile
 from modules.vocabulary import (

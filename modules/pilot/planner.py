@@ -28,7 +28,7 @@ import shapely.ops
 from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
-from modules.pilot.se2 import wrap_angle
+from wire.se2 import wrap_angle
 
 __all__ = ["PlannerConfig", "PlannedPath", "PlanningError", "LocalPathPlanner", "seed_ompl", "path_curvature"]
 

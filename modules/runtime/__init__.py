@@ -3,18 +3,20 @@
 A module is an async function `main(rt: ModuleRuntime)`; `run_module(name, main, net)` runs it.
 """
 
-from modules.runtime._zenoh import GetReply, QueryAnswer, QueryRequest, ZenohLink
-from modules.runtime.args import add_network_args, network_from_args, setup_logging
+from wire.aio import GetReply, Link, QueryAnswer, QueryRequest
+from wire.flags import add_network_args, network_from_args
+from wire.keys import ModuleKeys
+from wire.network import check_chunk as check_name
+from modules.runtime.args import setup_logging
 from modules.runtime.clock import ClockNotRunningError, SimClock
 from modules.runtime.heartbeat import (
     ClockPayloadError, HeartbeatError, HeartbeatTracker, decode_clock, decode_heartbeat, encode_heartbeat,
 )
-from modules.runtime.keys import ModuleKeys, check_name
 from modules.runtime.watch import ModuleWatch
 from modules.runtime.lifecycle import READY_PREFIX, ModuleMain, ModuleRuntime, run_module, run_module_async
 
 __all__ = [
-    "GetReply", "QueryAnswer", "QueryRequest", "ZenohLink",
+    "GetReply", "QueryAnswer", "QueryRequest", "Link",
     "add_network_args", "network_from_args", "setup_logging",
     "ClockNotRunningError", "SimClock",
     "ClockPayloadError", "HeartbeatError", "HeartbeatTracker", "decode_clock", "decode_heartbeat", "encode_heartbeat",

@@ -11,11 +11,13 @@ import sys
 import time
 from typing import Any, Awaitable, Callable, TextIO
 
-from blackboard.network import NetworkConfig
-from modules.runtime._zenoh import ZenohLink
+from wire.network import NetworkConfig
+from wire.aio import Link
+from wire.session import session_stats
 from modules.runtime.clock import SimClock
 from modules.runtime.heartbeat import ClockPayloadError, decode_clock, encode_heartbeat
-from modules.runtime.keys import ModuleKeys, check_name
+from wire.keys import ModuleKeys
+from wire.network import check_chunk as check_name
 from modules.vocabulary import Heartbeat
 
 __all__ = ["ModuleRuntime", "ModuleMain", "run_module", "run_module_async", "READY_PREFIX"]
@@ -35,7 +37,7 @@ class ModuleRuntime:
     `bb` is None when the module runs without a blackboard (`use_blackboard=False`).
     """
 
-    def __init__(self, name: str, net: NetworkConfig, link: ZenohLink, *, heartbeat_period: float = 1.0,
+    def __init__(self, name: str, net: NetworkConfig, link: Link, *, heartbeat_period: float = 1.0,
                  stdout: TextIO | None = None) -> None:
         self.name = check_name(name, "module name")
         self.net = net
@@ -88,7 +90,7 @@ class ModuleRuntime:
         hb = Heartbeat(
             module=self.name, seq=self._seq, sim_time=self.clock.now() if self.clock.running else None,
             wall_time=time.time(), period_s=self.heartbeat_period, pid=os.getpid(), host=self._host,
-            state=state or ("ready" if self._ready else "starting"),
+            state=state or ("ready" if self._ready else "starting"), zenoh_sessions=session_stats()["open"],
         )
         self._seq += 1
         self.link.put(self.keys.heartbeat(self.name), encode_heartbeat(hb))
@@ -118,7 +120,7 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
     `connect_timeout` [s] for the node), and closes everything explicitly on the way out.
     """
     loop = asyncio.get_running_loop()
-    link = ZenohLink.open(net)
+    link = Link.open(net)
     rt = ModuleRuntime(name, net, link, heartbeat_period=heartbeat_period, stdout=stdout)
     hb_task: asyncio.Task[None] | None = None
     main_task: asyncio.Task[None] | None = None
@@ -137,6 +139,8 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
                     pass
 
         async def body() -> None:
+            # never say ready (or wait for the node) while connected to nothing: say so and keep trying
+            await asyncio.to_thread(link.session.wait_connected, None, name=name, cancelled=rt.stop_event.is_set)
             if use_blackboard:
                 rt.bb = await _connect_blackboard(rt, connect_timeout)
             await main(rt)

@@ -5,8 +5,8 @@ from __future__ import annotations
 import asyncio
 import time
 
-from modules.runtime._zenoh import ZenohLink
-from modules.runtime.keys import ModuleKeys
+from wire.aio import Link
+from wire.keys import ModuleKeys
 
 __all__ = ["ModuleWatch"]
 
@@ -14,7 +14,7 @@ __all__ = ["ModuleWatch"]
 class ModuleWatch:
     """The liveliness of module `name`: None until first seen either way, then True/False."""
 
-    def __init__(self, link: ZenohLink, keys: ModuleKeys, name: str) -> None:
+    def __init__(self, link: Link, keys: ModuleKeys, name: str) -> None:
         self.name = name
         self.key = keys.alive(name)
         self.alive: bool | None = None

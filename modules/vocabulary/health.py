@@ -27,3 +27,5 @@ class Heartbeat(Frozen):
     pid: Annotated[int, Field(ge=0)]
     host: str = ""
     state: ModuleState = "ready"
+    #: Zenoh sessions the process holds (one: every part of a process shares its session)
+    zenoh_sessions: Annotated[int, Field(ge=0)] | None = None

@@ -10,7 +10,7 @@ from typing import Annotated, Any, Awaitable, Callable, Optional
 import typer
 
 from blackboard import BlackboardClient, BlackboardError, NetworkConfig, TypeRegistry
-from sidewalk.cli._network import with_network
+from wire.flags import with_network
 
 __all__ = ["bb_app"]
 

@@ -6,8 +6,8 @@ from typing import Annotated, Optional
 
 import typer
 
-from blackboard.network import NetworkConfig
-from sidewalk.cli._network import with_network
+from wire.network import NetworkConfig
+from wire.flags import with_network
 
 __all__ = ["blackboard_app"]
 
@@ -15,7 +15,7 @@ blackboard_app = typer.Typer(help="The CODGER blackboard node.", no_args_is_help
 
 
 @blackboard_app.command("serve")
-@with_network(serve=True)
+@with_network("peer")
 def serve_cmd(
     net: NetworkConfig,
     db: Annotated[str, typer.Option("--db", help="SQLite database file, or :memory: for a throwaway store")] = ":memory:",

@@ -252,10 +252,10 @@ def eval_cmd(
 
 
 def _run_command() -> None:
-    from sidewalk.cli._network import with_network
+    from wire.flags import with_network
 
     @perception_app.command("run")
-    @with_network(serve=False)
+    @with_network("peer")
     def run_cmd(
         net,
         vehicle: Annotated[str, typer.Option(help="terregator or navlab (the first capture's calibration then wins)")] = "terregator",

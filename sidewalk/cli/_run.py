@@ -11,8 +11,8 @@ from typing import Annotated, Callable, Optional
 
 import typer
 
-from blackboard.network import NetworkConfig
-from sidewalk.cli._network import with_network
+from wire.network import NetworkConfig
+from wire.flags import with_network
 
 __all__ = ["register", "UP_TARGETS"]
 
@@ -154,10 +154,10 @@ async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -
     from rich.console import Console
 
     from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
-    from modules.runtime import ModuleKeys, ZenohLink
+    from modules.runtime import ModuleKeys, Link
 
     console = Console()
-    link = ZenohLink.open(net)
+    link = Link.open(net)
     try:
         client = MissionClient(link, ModuleKeys(net.namespace), timeout=timeout)
         try:
@@ -202,11 +202,11 @@ async def _status(net: NetworkConfig, timeout: float) -> int:
     from rich.table import Table
 
     from modules.captain.client import MissionClient
-    from modules.runtime import ModuleKeys, ZenohLink
+    from modules.runtime import ModuleKeys, Link
 
-    link = ZenohLink.open(net)
+    link = Link.open(net)
     try:
-        keys = await link.alive_keys(f"sidewalk/{net.namespace}/alive/**", timeout=timeout)
+        keys = await link.alive_keys(ModuleKeys(net.namespace).alive_everything, timeout=timeout)
         table = Table("module", "liveliness key", title=f"live in namespace {net.namespace!r}")
         for k in keys:
             table.add_row(k.rsplit("/", 1)[-1] if "/bbclient/" not in k else "bb client " + k.rsplit("/", 1)[-1], k)
@@ -241,9 +241,9 @@ def cancel(
 
 async def _cancel(net: NetworkConfig, mission_id: str, timeout: float) -> int:
     from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
-    from modules.runtime import ModuleKeys, ZenohLink
+    from modules.runtime import ModuleKeys, Link
 
-    link = ZenohLink.open(net)
+    link = Link.open(net)
     try:
         st = await MissionClient(link, ModuleKeys(net.namespace), timeout=timeout).cancel(mission_id)
         typer.echo(f"{st.mission_id}: {st.state} {st.reason}")

@@ -9,8 +9,9 @@ from typing import Annotated
 
 import typer
 
-from blackboard.network import NetworkConfig
-from sidewalk.cli._network import with_network
+from wire.errors import WireError
+from wire.network import NetworkConfig
+from wire.flags import with_network
 
 __all__ = ["sim_app"]
 
@@ -20,7 +21,7 @@ _VEHICLES = ("terregator", "navlab")
 
 
 @sim_app.command("serve")
-@with_network(serve=False)
+@with_network("peer")
 def serve(
     *,
     net: NetworkConfig,
@@ -55,7 +56,7 @@ def serve(
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
     try:
-        node = SimNode(w, cfg, net.zenoh_json(), namespace=net.namespace)
+        node = SimNode(w, cfg, net)
     except ValueError as exc:
         raise typer.BadParameter(str(exc)) from None
 
@@ -63,11 +64,16 @@ def serve(
 
     def _on_signal(signum: int, frame: object) -> None:
         stop.set()
+        node.request_stop()
 
     old = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        node.start()
-        typer.echo(f"ready sim world={w.name} vehicle={vehicle} rtf={rtf:g} ns={net.namespace} keys=sidewalk/{net.namespace}/sim/**")
+        try:
+            node.start()
+        except WireError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(3) from None
+        typer.echo(f"ready sim world={w.name} vehicle={vehicle} rtf={rtf:g} ns={net.namespace} keys={node.keys.base}/**")
         sys.stdout.flush()
         while not stop.is_set() and not node.wait(0.1):
             pass

@@ -12,9 +12,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from blackboard._zenoh import open_session
+from wire.session import open_session
 from blackboard.codec import decode
-from blackboard.keys import BlackboardKeys
+from wire.keys import BlackboardKeys
 
 pytestmark = pytest.mark.timeout(120)
 

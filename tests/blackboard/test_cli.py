@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from blackboard.testing import free_port
+from wire.ports import free_port
 
 pytestmark = pytest.mark.timeout(90)
 

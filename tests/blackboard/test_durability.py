@@ -7,7 +7,8 @@ import asyncio
 import pytest
 
 from blackboard import BlackboardClient, BlackboardError, NodeUnavailableError, Spec
-from blackboard.testing import free_port, start_node
+from blackboard.testing import start_node
+from wire.ports import free_port
 from tests.blackboard.sample_types import Segment
 
 pytestmark = pytest.mark.timeout(90)

@@ -26,8 +26,8 @@ from blackboard import (
     Within,
     NetworkConfig,
 )
-from blackboard._zenoh import open_session
-from blackboard.keys import BlackboardKeys
+from wire.session import open_session
+from wire.keys import BlackboardKeys
 from tests.blackboard.sample_types import Landmark, Obstacle, Segment
 
 pytestmark = pytest.mark.timeout(60)
@@ -191,7 +191,7 @@ async def _stat_equals(bb, name, value):
 
 
 async def test_client_without_node_fails_with_node_unavailable():
-    from blackboard.testing import free_port
+    from wire.ports import free_port
 
     net = NetworkConfig(namespace="nobody", connect=(f"tcp/127.0.0.1:{free_port()}",))
     with pytest.raises(NodeUnavailableError):

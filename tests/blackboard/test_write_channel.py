@@ -10,9 +10,10 @@ import msgpack
 import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, NodeUnavailableError, Spec
-from blackboard._zenoh import open_session
-from blackboard.keys import BlackboardKeys
-from blackboard.testing import free_port, start_node
+from wire.session import open_session
+from wire.keys import BlackboardKeys
+from blackboard.testing import start_node
+from wire.ports import free_port
 from tests.blackboard.sample_types import Landmark, Segment
 
 pytestmark = pytest.mark.timeout(90)
@@ -23,7 +24,7 @@ TYPES = ("tests.blackboard.sample_types",)
 def _observer(node, key: str, on_message) -> object:
     """Open a raw zenoh session subscribed to `key`; `on_message(key, [acks, events])` on a zenoh thread."""
     s = open_session(node.client_net())
-    s.subscribe_keyed(key, lambda k, payload: on_message(k, msgpack.unpackb(payload)))
+    s.subscribe_payload(key, lambda k, payload: on_message(k, msgpack.unpackb(payload)))
     return s
 
 

@@ -16,7 +16,7 @@ from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import NodeProcess, start_node
 from modules.captain import CaptainOptions, MissionClient, captain_main
 from modules.map_navigator import NavigatorOptions, ServiceOptions, load_map, navigator_main, start_position
-from modules.runtime import ModuleKeys, ZenohLink, run_module_async
+from modules.runtime import ModuleKeys, Link, run_module_async
 from modules.vocabulary import MissionStatus, RouteSegmentDescription, SegmentResult
 
 __all__ = ["System", "system", "ScriptedPilot", "Answer"]
@@ -74,7 +74,7 @@ class System:
     node: NodeProcess
     net: NetworkConfig
     keys: ModuleKeys
-    link: ZenohLink
+    link: Link
     bb: BlackboardClient
     missions: MissionClient
     pilot: ScriptedPilot
@@ -115,7 +115,7 @@ class System:
             pass
 
 
-async def _wait_alive(link: ZenohLink, keys: ModuleKeys, names: set[str], timeout: float = 30.0) -> None:
+async def _wait_alive(link: Link, keys: ModuleKeys, names: set[str], timeout: float = 30.0) -> None:
     seen: set[str] = set()
     changed = asyncio.Event()
 
@@ -141,7 +141,7 @@ async def system(ns: str, *, answer: Answer = _always_ok, navigator: bool = True
     node = await asyncio.to_thread(start_node, namespace=ns, types=("modules.vocabulary",))
     net = node.client_net()
     keys = ModuleKeys(ns)
-    link = ZenohLink.open(net)
+    link = Link.open(net)
     bb = await BlackboardClient.connect(net, source="test")
     pilot = ScriptedPilot(bb, answer)
     sysm = System(node, net, keys, link, bb, MissionClient(link, keys), pilot, {})

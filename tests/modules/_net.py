@@ -2,18 +2,10 @@
 
 from __future__ import annotations
 
-import socket
-
-from blackboard.network import NetworkConfig
+from wire.network import NetworkConfig
+from wire.ports import free_port
 
 __all__ = ["free_port", "net_pair"]
-
-
-def free_port() -> int:
-    """Return a TCP port on 127.0.0.1 that is free right now."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def net_pair(ns: str) -> tuple[NetworkConfig, NetworkConfig, str]:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from modules.pilot.kalman import EstimatorError, LineFix, OdometryNoise, PointFix, PoseFilter
-from modules.pilot.se2 import compose
+from wire.se2 import compose
 
 
 def test_odometry_prediction_composes_and_grows_covariance():

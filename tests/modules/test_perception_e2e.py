@@ -13,10 +13,10 @@ import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import start_node
-from modules.runtime import ZenohLink
+from modules.runtime import Link
 from modules.vocabulary import DrivingConstraints, ExitCondition, RouteSegmentDescription
 from sidewalk.cli._perception import _map_object
-from vehicle_sim.drive import TruthPose, decode
+from wire.drive import TruthPose, decode
 from vehicle_sim.worldfile import load_world
 from tests.modules._procs import ROOT, spawn, stop
 
@@ -50,7 +50,7 @@ async def test_real_perception_corrects_a_wrong_start_pose() -> None:
         procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
                              "--start-pose", f"0.6,-28.3,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
-        link = ZenohLink.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
+        link = Link.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
         link.subscribe(f"sidewalk/{ns}/sim/truth", lambda _k, b: truth.append(decode(TruthPose, b)))
         async with BlackboardClient(node.client_net(), source="test") as bb:
             await bb.post(_segment(), frame="world", stamp=0.0)

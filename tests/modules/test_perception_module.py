@@ -13,7 +13,9 @@ import pytest
 from shapely.geometry import Point, Polygon
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Polygon as BbPolygon, Pose2D, Spec
-from blackboard.testing import free_port, start_node
+from blackboard.testing import start_node
+from wire.network import NetworkConfig
+from wire.ports import free_port
 from modules.perception.module import PerceptionConfig, PerceptionModule
 from modules.runtime import run_module_async
 from modules.vocabulary import DrivingUnitDescription, LineFix, PerceptionResult, PointFix
@@ -57,7 +59,7 @@ async def test_perception_answers_driving_units_over_the_blackboard(world) -> No
     node = await asyncio.to_thread(start_node, namespace=NS, types=("modules.vocabulary",))
     sim_ep = f"tcp/127.0.0.1:{free_port()}"
     sim = SimNode(world, NodeConfig(vehicle="terregator", rtf=1.0, seed=3),
-                  {"mode": "peer", "scouting": {"multicast": {"enabled": False}}, "listen": {"endpoints": [sim_ep]}}, namespace=NS)
+                  NetworkConfig(namespace=NS, listen=(sim_ep,)))
     await asyncio.to_thread(sim.start)
     net = NetworkConfig(namespace=NS, connect=(node.endpoint, sim_ep))
     bb = await BlackboardClient.connect(net, source="test")

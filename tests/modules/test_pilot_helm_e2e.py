@@ -19,11 +19,11 @@ import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import start_node
-from modules.runtime import ZenohLink
+from modules.runtime import Link
 from modules.vocabulary import (
     DrivingConstraints, ExitCondition, MapObject, PerceptionResult, PointFix, Pose, RouteSegmentDescription,
 )
-from vehicle_sim.drive import TruthPose, decode
+from wire.drive import TruthPose, decode
 from tests.modules._procs import ROOT, spawn, stop
 
 pytestmark = pytest.mark.e2e
@@ -63,13 +63,13 @@ async def test_pilot_and_helm_drive_a_segment_by_dead_reckoning():
         at_rest = asyncio.Event()
         done = asyncio.Event()
 
-        def on_truth(_key: str, payload: bytes) -> None:  # runs on the loop (ZenohLink hands samples over)
+        def on_truth(_key: str, payload: bytes) -> None:  # runs on the loop (Link hands samples over)
             tp = decode(TruthPose, payload)
             truth.append(tp)
             if done.is_set() and abs(tp.v) < 0.02:
                 at_rest.set()
 
-        link = ZenohLink.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
+        link = Link.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
         link.subscribe(f"sidewalk/{ns}/sim/truth", on_truth)
         async with BlackboardClient(net, source="test-map-navigator") as bb:
             seg = _dorm_segment()
@@ -128,7 +128,7 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
         procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
                              "--start-pose", f"0.6,-28.3,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
-        link = ZenohLink.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
+        link = Link.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
         link.subscribe(f"sidewalk/{ns}/sim/truth", lambda _k, b: truth.append(decode(TruthPose, b)))
         async with BlackboardClient(node.client_net(), source="test-perception") as bb:
             answered: list[str] = []

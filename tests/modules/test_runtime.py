@@ -15,7 +15,7 @@ import pytest
 
 from modules.runtime import (
     READY_PREFIX, ClockNotRunningError, ClockPayloadError, HeartbeatError, HeartbeatTracker, ModuleKeys, QueryAnswer,
-    SimClock, ZenohLink, decode_clock, decode_heartbeat, encode_heartbeat, run_module_async,
+    SimClock, Link, decode_clock, decode_heartbeat, encode_heartbeat, run_module_async,
 )
 from modules.vocabulary import Heartbeat
 from tests.modules._net import net_pair
@@ -166,7 +166,7 @@ async def test_module_lifecycle_over_zenoh() -> None:
     """A module becomes alive, beats, sleeps in sim time, answers a query, and leaves cleanly."""
     listen, connect, _ = net_pair("rt1")
     keys = ModuleKeys("rt1")
-    peer = ZenohLink.open(listen)
+    peer = Link.open(listen)
     try:
         alive: asyncio.Queue[tuple[str, bool]] = asyncio.Queue()
         beats: asyncio.Queue[Heartbeat] = asyncio.Queue()
@@ -222,7 +222,7 @@ async def test_module_lifecycle_over_zenoh() -> None:
 
 _CHILD = """
 import asyncio, sys
-from blackboard.network import NetworkConfig
+from wire.network import NetworkConfig
 from modules.runtime import run_module
 
 async def main(rt):
@@ -239,7 +239,7 @@ async def test_module_process_shuts_down_cleanly_on_signal(sig: signal.Signals) 
     """A module process exits 0 on SIGTERM/SIGINT, its session closed and its token withdrawn."""
     listen, _, ep = net_pair("rt2")
     keys = ModuleKeys("rt2")
-    peer = ZenohLink.open(listen)
+    peer = Link.open(listen)
     proc = await asyncio.create_subprocess_exec(sys.executable, "-c", _CHILD, ep, cwd=str(ROOT),
                                                 stdout=asyncio.subprocess.PIPE, stderr=asyncio.subprocess.PIPE)
     try:
@@ -260,8 +260,8 @@ async def test_module_process_shuts_down_cleanly_on_signal(sig: signal.Signals) 
 
 
 def test_decode_clock_reads_the_simulators_clock_message() -> None:
-    from vehicle_sim.drive import SimClock as SimClockMsg
-    from vehicle_sim.drive import encode
+    from wire.drive import SimClock as SimClockMsg
+    from wire.drive import encode
 
     assert decode_clock(encode(SimClockMsg(stamp=42.5, rtf=20.0, rtf_actual=19.5, step=850))) == 42.5
     assert decode_clock(encode(SimClockMsg(stamp=1.25, rtf=1.0, rtf_actual=1.0, step=25), as_json=True)) == 1.25

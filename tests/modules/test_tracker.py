@@ -116,7 +116,7 @@ def test_skid_steer_turns_in_place_at_a_corner():
 
 def _drive_kinematics(tracker, params, start, steps=6000, dt=0.05, control_every=2):
     """Close the loop through the simulator's vehicle model (lags, rate limits) with control at dt·control_every."""
-    from vehicle_sim.drive import DriveCommand
+    from wire.drive import DriveCommand
     from vehicle_sim.kinematics import VehicleState, step
 
     st = VehicleState(x=start[0], y=start[1], yaw=start[2])
@@ -193,7 +193,7 @@ def test_command_horizon_reaches_the_lookahead_point_but_never_past_the_plan_end
 
 def test_helm_commands_are_timed_so_a_late_one_does_not_trip_the_watchdog():
     from modules.helm.helm import Helm, HelmConfig
-    from vehicle_sim.drive import MAX_COMMAND_DURATION
+    from wire.drive import MAX_COMMAND_DURATION
 
     helm = Helm.__new__(Helm)
     helm.cfg = HelmConfig(control_hz=10.0, max_hold_s=2.0)

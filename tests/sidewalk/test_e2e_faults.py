@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from blackboard.testing import free_port
+from wire.ports import free_port
 from sidewalk.launcher import RunConfig, build_plans, mission_path, prepare_out, preflight
 from sidewalk.system import SystemRun
 

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from vehicle_sim.drive import DriveCommand
+from wire.drive import DriveCommand
 from vehicle_sim.kinematics import NAVLAB, TERREGATOR, VehicleState, integrate_arc, limits_of, step
 
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from vehicle_sim.drive import DriveCommand
+from wire.drive import DriveCommand
 from vehicle_sim.simulator import CommandRejected, SimConfig, Simulator
 from vehicle_sim.worldfile import load_world
 

@@ -15,37 +15,30 @@ from pathlib import Path
 
 import pytest
 
-from vehicle_sim._zenoh import SimSession
-from vehicle_sim.drive import DriveCommand, Odometry, SimClock, SimEvent, SimHeartbeat, SimInfo, TruthPose, decode, encode
+from wire.network import NetworkConfig
+from wire.session import Session, open_session
+from wire.drive import DriveCommand, Odometry, SimClock, SimEvent, SimHeartbeat, SimInfo, TruthPose, decode, encode
 from vehicle_sim.node import NodeConfig, SimKeys, SimNode
 from vehicle_sim.worldfile import load_world, parse_world
 
 REPO = Path(__file__).resolve().parents[2]
 
 
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from wire.ports import free_port
 
 
-def zcfg(*, listen: str | None = None, connect: str | None = None) -> dict:
-    cfg: dict = {"mode": "peer", "scouting": {"multicast": {"enabled": False}}}
-    if listen:
-        cfg["listen"] = {"endpoints": [listen]}
-    if connect:
-        cfg["connect"] = {"endpoints": [connect]}
-    return cfg
+def zcfg(ns: str, *, listen: str | None = None, connect: str | None = None) -> NetworkConfig:
+    return NetworkConfig(namespace=ns, listen=(listen,) if listen else (), connect=(connect,) if connect else ())
 
 
 class Tap:
     """Collect decoded messages from a key; wait for one that satisfies a predicate."""
 
-    def __init__(self, z: SimSession, key: str, cls) -> None:
+    def __init__(self, z: Session, key: str, cls) -> None:
         self.q: queue.Queue = queue.Queue()
         self.cls = cls
         self.seen: list = []
-        z.subscribe(key, lambda b, k: self.q.put(b))
+        z.subscribe_payload(key, lambda k, b: self.q.put(b))
 
     def wait(self, pred, timeout: float = 10.0, *, poke=None):
         end = time.monotonic() + timeout
@@ -65,9 +58,9 @@ class Tap:
 @pytest.fixture(scope="module")
 def served():
     port = free_port()
-    node = SimNode(load_world("campus"), NodeConfig(vehicle="terregator", rtf=10.0, seed=4), zcfg(listen=f"tcp/127.0.0.1:{port}"), namespace="nodetest")
+    node = SimNode(load_world("campus"), NodeConfig(vehicle="terregator", rtf=10.0, seed=4), zcfg("nodetest", listen=f"tcp/127.0.0.1:{port}"))
     node.start()
-    z = SimSession(zcfg(connect=f"tcp/127.0.0.1:{port}"))
+    z = open_session(zcfg("nodetest", connect=f"tcp/127.0.0.1:{port}"))
     try:
         yield node, z, SimKeys("nodetest")
     finally:
@@ -79,13 +72,13 @@ def served():
 def test_liveliness_and_info(served):
     node, z, k = served
     alive = threading.Event()
-    z.liveliness_subscribe(k.alive, lambda key, up: up and alive.set())
+    z.liveliness_subscribe(k.alive, lambda key, up: up and alive.set(), history=True)
     assert alive.wait(10.0)
-    (r,) = z.get(k.info, timeout=10.0)
+    (r,) = z.get_blocking(k.info, timeout=10.0)
     info = decode(SimInfo, r.payload)
     assert info.world == "campus" and info.vehicle == "terregator" and info.limits.turns_in_place
     assert info.publish_hz == 20.0 and info.rtf == 10.0
-    (r,) = z.get(k.info, b"{}", as_json=True, timeout=10.0)
+    (r,) = z.get_blocking(k.info, b"{}", as_json=True, timeout=10.0)
     assert r.is_json and json.loads(r.payload)["world"] == "campus"
     hb = Tap(z, k.heartbeat, SimHeartbeat).wait(lambda m: m.seq >= 1)
     assert hb.module == "sim" and hb.pid == os.getpid() and hb.sim_time is not None
@@ -148,24 +141,24 @@ def test_json_commands_and_bad_payloads(served):
 
 def test_map_world_and_capture_queries(served):
     node, z, k = served
-    (r,) = z.get(k.map, timeout=10.0)
+    (r,) = z.get_blocking(k.map, timeout=10.0)
     m = parse_world(r.payload.decode(), source="sim/map")
     w = node.world
     assert m.name == "campus" and len(m.nodes) == len(w.nodes)
     assert m.to_geojson() != w.to_geojson()  # the map is (slightly) wrong
-    (r,) = z.get(k.world, timeout=10.0)
+    (r,) = z.get_blocking(k.world, timeout=10.0)
     assert parse_world(r.payload.decode(), source="sim/world").to_geojson() == w.to_geojson()
 
     from vehicle_sim.sensors import decode_capture
 
     clock = Tap(z, k.clock, SimClock)
     before = clock.wait(lambda m: True)
-    (r,) = z.get(k.capture, json.dumps({"camera_width": 64, "camera_height": 48}).encode(), as_json=True, timeout=30.0)
+    (r,) = z.get_blocking(k.capture, json.dumps({"camera_width": 64, "camera_height": 48}).encode(), as_json=True, timeout=30.0)
     assert r.ok, r.payload[:300]
     cap = decode_capture(r.payload)
     assert cap.stamp >= before.stamp - 0.2
     assert cap.camera_image.shape == (48, 64, 3) and cap.laser_range.shape == (64, 256)
-    (r,) = z.get(k.capture, b'{"camera_width": 3}', as_json=True, timeout=30.0)
+    (r,) = z.get_blocking(k.capture, b'{"camera_width": 3}', as_json=True, timeout=30.0)
     assert not r.ok and b"camera_width" in r.payload
 
 
@@ -183,11 +176,11 @@ def test_cli_serve_ready_and_sigterm():
         threading.Thread(target=lambda: ready.put(p.stdout.readline()), daemon=True).start()
         line = ready.get(timeout=60)
         assert line.startswith("ready sim world=north_hills vehicle=navlab"), (line, p.stderr.read() if p.poll() is not None else "")
-        with SimSession(zcfg(connect=f"tcp/127.0.0.1:{port}")) as z:
+        with open_session(zcfg("clitest", connect=f"tcp/127.0.0.1:{port}")) as z:
             alive = threading.Event()
-            z.liveliness_subscribe("sidewalk/clitest/alive/sim", lambda key, up: up and alive.set())
+            z.liveliness_subscribe("sidewalk/clitest/alive/sim", lambda key, up: up and alive.set(), history=True)
             assert alive.wait(10.0)
-            (r,) = z.get("sidewalk/clitest/sim/info", timeout=10.0)
+            (r,) = z.get_blocking("sidewalk/clitest/sim/info", timeout=10.0)
             info = decode(SimInfo, r.payload)
             assert info.vehicle == "navlab" and info.limits.min_turning_radius == 7.0 and info.seed == 2
         p.send_signal(signal.SIGTERM)

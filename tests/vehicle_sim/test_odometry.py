@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from vehicle_sim.drive import DriveCommand
+from wire.drive import DriveCommand
 from vehicle_sim.odometry import PERFECT_ODOMETRY, NoiseSource, OdometryModel, OdometryState, odometry_step
 from vehicle_sim.simulator import SimConfig, Simulator
 from vehicle_sim.worldfile import load_world

@@ -25,6 +25,7 @@ from vehicle_sim.sensors import (
 from vehicle_sim.sensors.camera import CameraConfig
 from vehicle_sim.sensors.laser import LaserConfig
 from vehicle_sim.worldfile import KINDS, Colour, FlatShape, WorldObject
+from wire.capture import TRUTH_FIELDS
 
 MARK = WorldObject(id="mark", kind="intersection", role="path", cost=1.0, colour=Colour(mean=(200.0, 40.0, 40.0), std=(3.0, 3.0, 3.0)),
                    shape=FlatShape(), polygon=box(7.0, -0.9, 7.6, -0.3))
@@ -220,13 +221,16 @@ def test_wire_roundtrip_and_bad_payloads(scene) -> None:
     res = capture(scene, (1.0, 0.0, 0.2), 3.0, CaptureRequest(camera_width=160, camera_height=120), vehicle="terregator",
                   rng=np.random.default_rng(6))
     assert res.camera_image.shape == (120, 160, 3) and res.camera_labels.shape == (120, 160)
-    back = decode_capture(encode_capture(res))
+    back = decode_capture(encode_capture(res, truth=True))
     for name, val in vars(res).items():
         if isinstance(val, np.ndarray):
             np.testing.assert_array_equal(getattr(back, name), val)
             assert getattr(back, name).dtype == val.dtype
         else:
             assert getattr(back, name) == val
+    plain = decode_capture(encode_capture(res))  # no truth unless asked for
+    assert all(getattr(plain, name) is None for name in TRUTH_FIELDS)
+    np.testing.assert_array_equal(plain.camera_image, res.camera_image)
     only = capture(scene, (1.0, 0.0, 0.2), 3.0, CaptureRequest(camera=False))
     back = decode_capture(encode_capture(only))
     assert back.camera_image is None and back.colored_range is None and back.laser_code.shape == (64, 256)
@@ -234,7 +238,7 @@ def test_wire_roundtrip_and_bad_payloads(scene) -> None:
         decode_capture(b"\xc1garbage")
     import msgpack
 
-    d = msgpack.unpackb(encode_capture(res), raw=False)
+    d = msgpack.unpackb(encode_capture(res, truth=True), raw=False)
     d["arrays"]["laser_range"]["data"] = d["arrays"]["laser_range"]["data"][:-4]
     with pytest.raises(CaptureDecodeError, match="laser_range"):
         decode_capture(msgpack.packb(d, use_bin_type=True))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from vehicle_sim.drive import DriveCommand
+from wire.drive import DriveCommand
 from vehicle_sim.simulator import SimConfig, Simulator
 from vehicle_sim.watchdog import STOP, CommandSupervisor
 from vehicle_sim.worldfile import load_world

@@ -14,6 +14,8 @@ from typing import Literal, TypeVar
 import msgpack
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
+from wire.errors import PayloadError
+
 __all__ = [
     "DriveCommand",
     "Odometry",
@@ -25,6 +27,7 @@ __all__ = [
     "SimHeartbeat",
     "EVENT_KINDS",
     "MAX_COMMAND_DURATION",
+    "DriveMessageError",
     "WireError",
     "encode",
     "decode",
@@ -39,8 +42,12 @@ EVENT_KINDS = ("collision", "off-path", "on-path", "watchdog", "commands-exhaust
 _FROZEN = ConfigDict(frozen=True, extra="forbid")
 
 
-class WireError(ValueError):
+class DriveMessageError(PayloadError, ValueError):
     """A payload that is not a valid drive-interface message; says what is wrong."""
+
+
+#: The name callers have used for it.
+WireError = DriveMessageError
 
 
 class DriveCommand(BaseModel):

@@ -1,0 +1,133 @@
+"""The one set of Zenoh flags every Sidewalk command shares: `--ns --connect --listen --mode`.
+
+Defined once (`FLAGS`) and offered to both command-line front ends: Typer (`with_network`, the
+`sidewalk` CLI) and argparse (`add_network_args` / `network_from_args`, the module entry points).
+Each flag has an environment variable. The default mode depends on the command's role: a `router`
+listens, a `peer` (modules, the blackboard node, the simulator) connects to the router, a `tool`
+(status, submit, cancel, bb …) is a client of the router.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import inspect
+import os
+from dataclasses import dataclass
+from typing import Annotated, Any, Callable, Literal, Optional
+
+from pydantic import ValidationError
+
+from wire.network import NetworkConfig
+
+__all__ = ["FLAGS", "Flag", "Role", "network_config", "with_network", "add_network_args", "network_from_args"]
+
+Role = Literal["router", "peer", "tool"]
+
+_ROLE_MODE = {"router": "router", "peer": "peer", "tool": "client"}
+
+
+@dataclass(frozen=True)
+class Flag:
+    """One shared flag: its name, short form, environment variable, help, and whether it repeats."""
+
+    name: str
+    short: str
+    env: str
+    help: str
+    repeat: bool = False
+
+
+#: The shared flags, in the order they are shown.
+FLAGS: tuple[Flag, ...] = (
+    Flag("ns", "", "SIDEWALK_NS", "Namespace: keys live under sidewalk/<ns>/… (default: default)"),
+    Flag("connect", "-e", "SIDEWALK_CONNECT", "Endpoint to connect to (repeatable), e.g. tcp/10.0.0.2:7447 (default: tcp/127.0.0.1:7447)", True),
+    Flag("listen", "-l", "SIDEWALK_LISTEN", "Endpoint to listen on (repeatable)", True),
+    Flag("mode", "-m", "SIDEWALK_MODE", "Zenoh mode: peer, client or router (default: by command — router for `up router`, client for tools, peer otherwise)"),
+)
+
+
+class FlagError(ValueError):
+    """A bad value for one of the shared flags (the message names the flag)."""
+
+
+def network_config(*, ns: str | None, connect: list[str] | None, listen: list[str] | None, mode: str | None,
+                   role: Role) -> NetworkConfig:
+    """Return the NetworkConfig of parsed flag values (None = not given: environment, then default); raise FlagError."""
+    env = os.environ
+    ns = ns if ns is not None else env.get("SIDEWALK_NS", "default")
+    if connect is None:
+        connect = [e for e in env.get("SIDEWALK_CONNECT", "").split(",") if e]
+    if listen is None:
+        listen = [e for e in env.get("SIDEWALK_LISTEN", "").split(",") if e]
+    mode = mode if mode is not None else env.get("SIDEWALK_MODE") or _ROLE_MODE[role]
+    try:
+        net = NetworkConfig(namespace=ns, mode=mode, connect=tuple(connect), listen=tuple(listen))
+    except ValidationError as exc:
+        msgs = "; ".join(f"--{e['loc'][0] if e['loc'] else '?'}: {e['msg']}" for e in exc.errors())
+        raise FlagError(msgs) from None
+    return net.with_defaults()
+
+
+# ---- Typer --------------------------------------------------------------------------------------
+
+def _typer_params() -> list[inspect.Parameter]:
+    import typer
+
+    out = []
+    for f in FLAGS:
+        names = [f"--{f.name}"] + ([f.short] if f.short else [])
+        annotation = Optional[list[str]] if f.repeat else Optional[str]
+        out.append(inspect.Parameter(
+            f.name, inspect.Parameter.KEYWORD_ONLY, default=None,
+            annotation=Annotated[annotation, typer.Option(*names, help=f.help, rich_help_panel="Zenoh")],
+        ))
+    return out
+
+
+def with_network(role: Role = "tool") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Add the shared Zenoh flags to a Typer command and pass them as `net: NetworkConfig`."""
+    import typer
+
+    def decorate(fn: Callable[..., Any]) -> Callable[..., Any]:
+        sig = inspect.signature(fn, eval_str=True)
+        params = [p for name, p in sig.parameters.items() if name != "net"]
+
+        @functools.wraps(fn)
+        def wrapper(*args: Any, ns: str | None, connect: list[str] | None, listen: list[str] | None, mode: str | None,
+                    **kwargs: Any) -> Any:
+            try:
+                net = network_config(ns=ns, connect=connect, listen=listen, mode=mode, role=role)
+            except FlagError as exc:
+                raise typer.BadParameter(str(exc)) from None
+            return fn(*args, net=net, **kwargs)
+
+        new_sig = sig.replace(parameters=params + _typer_params())
+        wrapper.__signature__ = new_sig  # type: ignore[attr-defined]
+        # evaluated annotations: Typer resolves hints in the wrapper's globals, not the command's
+        wrapper.__annotations__ = {p.name: p.annotation for p in new_sig.parameters.values()}
+        if new_sig.return_annotation is not inspect.Signature.empty:
+            wrapper.__annotations__["return"] = new_sig.return_annotation
+        del wrapper.__wrapped__
+        return wrapper
+
+    return decorate
+
+
+# ---- argparse -----------------------------------------------------------------------------------
+
+def add_network_args(parser: argparse.ArgumentParser) -> None:
+    """Add the shared flags to an argparse parser (same names, short forms and environment variables)."""
+    g = parser.add_argument_group("Zenoh")
+    for f in FLAGS:
+        names = [f"--{f.name}"] + ([f.short] if f.short else [])
+        g.add_argument(*names, action="append" if f.repeat else "store", default=None, help=f.help)
+
+
+def network_from_args(parser: argparse.ArgumentParser, args: argparse.Namespace, *, role: Role = "peer") -> NetworkConfig:
+    """Return the NetworkConfig of parsed flags; exit through `parser.error` naming the bad flag."""
+    try:
+        return network_config(ns=args.ns, connect=args.connect, listen=args.listen, mode=args.mode, role=role)
+    except FlagError as exc:
+        parser.error(str(exc))
+        raise  # parser.error exits

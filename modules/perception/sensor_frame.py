@@ -1,4 +1,4 @@
-"""The simulator's capture as PERCEPTION reads it: decode the `sidewalk.capture/1` wire format and
+"""The simulator's capture as PERCEPTION reads it: decode the `wire.capture` format (never truth) and
 build the registered colored-range image (seed: Sidewalk 1986 §3.4.1; Navlab 1990 §2.3.1).
 
 The capture is self-describing (extrinsics, intrinsics, ray angles), so nothing here imports the
@@ -8,32 +8,20 @@ into the camera, and the view is limited to one ambiguity interval of horizontal
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import cv2
-import msgpack
 import numpy as np
+
+from wire.capture import CaptureDecodeError, decode_capture
 
 from modules.perception.image import ColoredRangeImage
 from modules.perception.range_seg import unwrap_range
 
-__all__ = ["WIRE_FORMAT", "SensorFrameError", "SensorFrame", "decode_sensor_frame", "colored_range_image", "sensor_geometry"]
+__all__ = ["SensorFrameError", "SensorFrame", "decode_sensor_frame", "colored_range_image", "sensor_geometry"]
 
-WIRE_FORMAT = "sidewalk.capture/1"
-
-_NEEDED = {
-    "T_vehicle_laser": ("float64", (4, 4)),
-    "T_vehicle_camera": ("float64", (4, 4)),
-    "camera_K": ("float64", (3, 3)),
-    "laser_az": ("float32", None),
-    "laser_el": ("float32", None),
-    "laser_range": ("float32", "laser"),
-    "laser_valid": ("bool", "laser"),
-    "camera_image": ("uint8", None),
-}
-_OPTIONAL = {"laser_labels": ("uint8", "laser"), "truth_pose": ("float64", (3,))}
+_NEEDED = ("T_vehicle_laser", "T_vehicle_camera", "camera_K", "laser_az", "laser_el", "laser_range", "laser_valid", "camera_image")
 
 
 class SensorFrameError(ValueError):
@@ -45,7 +33,7 @@ class SensorFrame:
     """One capture: laser range (H, W) [m] wrapped, validity, ray angles [rad], camera image, calibration.
 
     `T_vehicle_laser`, `T_vehicle_camera` (4, 4) vehicle ← sensor; `camera_K` (3, 3); `stamp` [s] sim;
-    `ambiguity` [m]; `laser_labels` (H, W) truth class indices and `truth_pose` (3,) only for evaluation.
+    `ambiguity` [m]. There is no field for truth: PERCEPTION sees what the sensors see.
     """
 
     stamp: float
@@ -58,67 +46,26 @@ class SensorFrame:
     laser_range: np.ndarray
     laser_valid: np.ndarray
     camera_image: np.ndarray
-    laser_labels: np.ndarray | None = None
-    truth_pose: np.ndarray | None = None
     range_step: float = 0.08  # range quantum [m]
 
     @classmethod
     def from_fields(cls, obj: Any) -> "SensorFrame":
-        """Build from any object with the capture's attribute names (e.g. the simulator's CaptureResult)."""
-        kw = {}
-        for name in ("stamp", "ambiguity", "range_step", *_NEEDED, *_OPTIONAL):
+        """Build from any object with the capture's attribute names (e.g. a decoded `wire.capture.CaptureResult`)."""
+        kw: dict[str, Any] = {"stamp": obj.stamp, "ambiguity": obj.ambiguity, "range_step": obj.range_step}
+        for name in _NEEDED:
             v = getattr(obj, name, None)
-            if v is None and name in _NEEDED:
+            if v is None:
                 raise SensorFrameError(f"capture: field {name!r} is missing (request both laser and camera)")
-            if v is not None or name != "range_step":
-                kw[name] = v
+            kw[name] = v
         return cls(**kw)
 
 
 def decode_sensor_frame(payload: bytes) -> SensorFrame:
     """Decode the simulator's capture bytes (`sidewalk.capture/1`); SensorFrameError names what is wrong."""
     try:
-        d = msgpack.unpackb(payload, raw=False)
-    except Exception as exc:  # msgpack raises several unrelated types
-        raise SensorFrameError(f"capture payload: not msgpack ({type(exc).__name__}: {exc})") from None
-    if not isinstance(d, dict) or d.get("format") != WIRE_FORMAT:
-        raise SensorFrameError(f"capture payload: format must be {WIRE_FORMAT!r}, got {d.get('format') if isinstance(d, dict) else type(d).__name__!r}")
-    arrays = d.get("arrays")
-    if not isinstance(arrays, dict):
-        raise SensorFrameError("capture payload: field 'arrays' must be a map")
-    out: dict[str, Any] = {}
-    for key in ("stamp", "ambiguity", "range_step"):
-        v = d.get(key, 0.08 if key == "range_step" else None)
-        if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v):
-            raise SensorFrameError(f"capture payload: field {key!r} must be a finite number, got {v!r}")
-        out[key] = float(v)
-    for name, (dtype, _shape) in {**_NEEDED, **_OPTIONAL}.items():
-        spec = arrays.get(name)
-        if spec is None:
-            if name in _NEEDED:
-                raise SensorFrameError(f"capture payload: array {name!r} is missing (request both laser and camera)")
-            out[name] = None
-            continue
-        if not isinstance(spec, dict) or spec.get("dtype") != dtype or not isinstance(spec.get("data"), bytes):
-            raise SensorFrameError(f"capture payload: array {name!r} needs dtype {dtype}, shape and data bytes")
-        shape = spec.get("shape")
-        dt = np.dtype(dtype).newbyteorder("<")
-        if not isinstance(shape, list) or not all(isinstance(n, int) and n >= 0 for n in shape):
-            raise SensorFrameError(f"capture payload: array {name!r} has a bad shape {shape!r}")
-        if len(spec["data"]) != int(np.prod(shape, dtype=np.int64)) * dt.itemsize:
-            raise SensorFrameError(f"capture payload: array {name!r}: {len(spec['data'])} bytes do not fit shape {shape}")
-        out[name] = np.frombuffer(spec["data"], dtype=dt).reshape(shape).astype(np.dtype(dtype))
-    lshape = (len(out["laser_el"]), len(out["laser_az"]))
-    for name, (_, shape) in {**_NEEDED, **_OPTIONAL}.items():
-        a = out.get(name)
-        if a is None:
-            continue
-        want = lshape if shape == "laser" else shape
-        if want is not None and a.shape != tuple(want):
-            raise SensorFrameError(f"capture payload: array {name!r} must have shape {tuple(want)}, got {a.shape}")
-    if out["camera_image"].ndim != 3 or out["camera_image"].shape[2] != 3:
-        raise SensorFrameError(f"capture payload: camera_image must be (h, w, 3), got {out['camera_image'].shape}")
-    return SensorFrame(**out)
+        return SensorFrame.from_fields(decode_capture(payload))
+    except CaptureDecodeError as exc:
+        raise SensorFrameError(str(exc)) from None
 
 
 def colored_range_image(frame: SensorFrame, max_horizontal: float | None = None) -> ColoredRangeImage:

@@ -2,7 +2,7 @@
 
 This file is the composition root for perception evaluation: it captures frames with `vehicle_sim`
 (pure, no network), turns them into `ColoredRangeImage`s on the laser grid, and hands them to the pure
-`modules.perception.evaluation`.
+`sidewalk.perception_eval`.
 """
 
 from __future__ import annotations
@@ -187,7 +187,7 @@ def objects_in_view(src: FrameSource, pose: tuple[float, float, float], reach: f
 
 def eval_frames(src: FrameSource, frames: int, rng: np.random.Generator, pose_error: tuple[float, float] = (0.5, 2.0)) -> Iterator:
     """Yield `EvalFrame`s: half on approaches to the slope and stairs, half anywhere on the routes."""
-    from modules.perception.evaluation import EvalFrame
+    from sidewalk.perception_eval import EvalFrame
 
     routes, src.routes_from = _route_edges(src)
     focus = [p for p, f in routes if f] or [p for p, _ in routes]
@@ -216,7 +216,7 @@ def eval_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
 ) -> None:
     """Score colour, range and colored-range segmentation, position fixes and cycle time against truth."""
-    from modules.perception.evaluation import evaluate
+    from sidewalk.perception_eval import evaluate
     from modules.perception.pipeline import PerceptionPipeline
 
     try:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
-from modules.perception.evaluation import oracle_labels, IouAccumulator
+from sidewalk.perception_eval import oracle_labels, IouAccumulator
 from modules.perception.patch_maker import Segmentation, make_segmentation
 from modules.perception.pipeline import PerceptionPipeline
 from modules.perception.results import build_result

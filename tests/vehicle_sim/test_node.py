@@ -162,6 +162,24 @@ def test_map_world_and_capture_queries(served):
     assert not r.ok and b"camera_width" in r.payload
 
 
+def test_capture_carries_truth_only_when_asked(served):
+    """A capture without the truth flag has no truth field on the wire; evaluation's request gets it."""
+    import msgpack
+
+    from wire.capture import TRUTH_FIELDS, CaptureRequest, decode_capture
+
+    node, z, k = served
+    (r,) = z.get_blocking(k.capture, encode(CaptureRequest(camera_width=64, camera_height=48)), timeout=30.0)
+    assert r.ok, r.payload[:300]
+    raw = msgpack.unpackb(r.payload, raw=False)
+    assert not set(TRUTH_FIELDS) & (set(raw) | set(raw["arrays"]))
+    cap = decode_capture(r.payload)
+    assert all(getattr(cap, f) is None for f in TRUTH_FIELDS) and cap.laser_range is not None
+    (r,) = z.get_blocking(k.capture, encode(CaptureRequest(camera_width=64, camera_height=48, truth=True)), timeout=30.0)
+    cap = decode_capture(r.payload)
+    assert cap.truth_pose is not None and cap.laser_labels is not None and cap.camera_labels.shape == (48, 64)
+
+
 def _run_cli(args: list[str]) -> subprocess.Popen:
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     return subprocess.Popen([sys.executable, "-m", "sidewalk", *args], cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)

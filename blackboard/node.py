@@ -34,6 +34,8 @@ import collections
 import gc
 import logging
 import threading
+import os
+import socket
 import signal
 import sys
 import time
@@ -41,11 +43,12 @@ from typing import Any, Callable, Literal
 
 import msgpack
 
-from wire.session import Query as ZQuery, Session as ZSession, open_session
+from wire.session import Query as ZQuery, Session as ZSession, open_session, session_stats
 from blackboard.codec import MAX_PAYLOAD, decode, encode, pack_array_of_packed
 from blackboard.core import BlackboardCore, Monitor
 from blackboard.errors import BadRequestError, BlackboardError
 from blackboard.frames import FrameTree
+from wire.health import Heartbeat, encode_heartbeat
 from wire.keys import BlackboardKeys
 from wire.network import NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry
@@ -101,6 +104,7 @@ class BlackboardNode:
         self.store = Store(db, sync=sync)
         self.core = BlackboardCore(self.store, registry if registry is not None else default_registry, frames)
         self.heartbeat_period = heartbeat_period
+        self._hb_seq = 0
         self._session: ZSession | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self.dispatch = dispatch
@@ -171,7 +175,10 @@ class BlackboardNode:
         s = self._session
         assert s is not None
         while True:
-            s.put(self.keys.heartbeat, encode({"t": time.time(), "tokens": len(self.store)}))
+            self._hb_seq += 1
+            s.put(self.keys.heartbeat, encode_heartbeat(Heartbeat(
+                module="blackboard", seq=self._hb_seq, wall_time=time.time(), period_s=self.heartbeat_period,
+                pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"])))
             await asyncio.sleep(self.heartbeat_period)
 
     # ------------------------------------------------------------------ dispatch

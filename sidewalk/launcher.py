@@ -1,4 +1,4 @@
-"""`sidewalk run`: the blackboard node, the simulator and every module as OS processes on loopback.
+"""`sidewalk run`: the router, the blackboard node, the simulator and every module as OS processes on loopback.
 
 The launcher starts each process, waits for its ready line, submits the mission to the CAPTAIN over
 Zenoh (as `sidewalk submit` does), follows the mission status on the blackboard, records truth and
@@ -154,12 +154,13 @@ def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
 
 
 def build_plans(cfg: RunConfig, world: World, vehicle: str, out: Path, ns: str, endpoint: str) -> list[ProcessPlan]:
-    """Return the processes of a run in start order: node, simulator, then the modules."""
+    """Return the processes of a run in start order: router, node, simulator, then the modules."""
     zflags = ("--ns", ns, "--connect", endpoint)
     sx, sy, syaw = _start_pose(world, cfg)
     map_file = _map_file(world, cfg, out)
     plans = [
-        ProcessPlan("blackboard", ("-m", "sidewalk", "up", "blackboard", "--ns", ns, "--listen", endpoint,
+        ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint)),
+        ProcessPlan("blackboard", ("-m", "sidewalk", "up", "blackboard", *zflags,
                                    "--db", str(out / "blackboard.db"), "--types", "modules.vocabulary")),
         ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", cfg.world, "--vehicle", vehicle,
                             "--rtf", str(cfg.rtf), "--seed", str(cfg.seed), "--watchdog", str(cfg.watchdog_s), *zflags)),

@@ -15,6 +15,7 @@ import msgpack
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from wire.errors import PayloadError
+from wire.health import Heartbeat
 
 __all__ = [
     "DriveCommand",
@@ -180,19 +181,10 @@ class SimInfo(BaseModel):
     map_error: float
 
 
-class SimHeartbeat(BaseModel):
-    """The node's sign of life, the same shape as every module's heartbeat: seq, sim time [s], wall time [s], period [s]."""
-
-    model_config = _FROZEN
+class SimHeartbeat(Heartbeat):
+    """The node's sign of life, the heartbeat every process publishes (`wire.health.Heartbeat`), named "sim"."""
 
     module: str = "sim"
-    seq: int = Field(ge=0)
-    sim_time: float | None = None
-    wall_time: float = Field(ge=0.0)
-    period_s: float = Field(gt=0.0)
-    pid: int = Field(ge=0)
-    host: str = ""
-    state: Literal["starting", "ready", "stopping"] = "ready"
 
 
 M = TypeVar("M", bound=BaseModel)

@@ -181,7 +181,8 @@ def _open_zenoh(net: NetworkConfig) -> "zenoh.Session":
     except Exception as exc:  # zenoh raises ZError for every failure
         where = ", ".join(net.endpoints) or "no endpoint"
         hint = " (is `sidewalk up router` running there, and are --connect/--ns right?)" if net.mode == "client" else ""
-        raise ConnectError(f"cannot open a Zenoh {net.mode} session on {where}: {exc}{hint}") from None
+        detail = str(exc).split(" at /", 1)[0].rstrip(" .!")  # zenoh appends its source location
+        raise ConnectError(f"cannot open a Zenoh {net.mode} session on {where}: {detail}{hint}") from None
 
 
 def open_session(net: NetworkConfig) -> "Session":

@@ -79,6 +79,7 @@ class Captain:
         ahead = len(self._queue) + sum(1 for e in self._entries.values() if e.run.status.state == "running")
         await self.bb.post(mission, stamp=self._now())
         entry.status_token = await self.bb.post(run.status, stamp=self._now())
+        self.rt.link.put(self.rt.keys.mission_events, run.status.model_dump_json().encode(), as_json=True)
         # queue only once the status token exists: a busy run loop picks queued missions up at once
         self._queue.append(mission.mission_id)
         self._wake.set()
@@ -120,6 +121,8 @@ class Captain:
 
     async def _publish(self, e: _Entry) -> None:
         st = e.run.status
+        # the JSON stream any tool can follow (`z_sub -k sidewalk/<ns>/mission/events`)
+        self.rt.link.put(self.rt.keys.mission_events, st.model_dump_json().encode(), as_json=True)
         tok = e.status_token
         for _ in range(3 if tok is not None else 0):
             try:
@@ -255,20 +258,20 @@ class Captain:
         try:
             mission = parse_mission(req.payload, source="submitted mission")
         except MissionFileError as exc:
-            return QueryAnswer(ok=False, payload=rejection_from(exc).to_bytes())
+            return QueryAnswer(as_json=True, ok=False, payload=rejection_from(exc).to_bytes())
         acc = await self.accept(mission)
-        return QueryAnswer(ok=True, payload=acc.model_dump_json().encode())
+        return QueryAnswer(as_json=True, ok=True, payload=acc.model_dump_json().encode())
 
     async def on_status(self, req: QueryRequest) -> QueryAnswer:
         """Answer a status query for `…/mission/status/<id>` with the MissionStatus JSON."""
         mid = req.key.rsplit("/", 1)[-1]
         if mid in ("*", "**"):
-            return QueryAnswer(ok=True, replies=tuple(
+            return QueryAnswer(as_json=True, ok=True, replies=tuple(
                 (self.rt.keys.mission_status(s.mission_id), s.model_dump_json().encode()) for s in self.statuses()))
         st = self.status(mid)
         if st is None:
-            return QueryAnswer(ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid!r} known to this CAPTAIN").to_bytes())
-        return QueryAnswer(ok=True, payload=st.model_dump_json().encode(), key=self.rt.keys.mission_status(mid))
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid!r} known to this CAPTAIN").to_bytes())
+        return QueryAnswer(as_json=True, ok=True, payload=st.model_dump_json().encode(), key=self.rt.keys.mission_status(mid))
 
     async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
         """Answer a cancel request (mission id text or JSON) with the mission's status, or a rejection."""
@@ -276,12 +279,12 @@ class Captain:
             creq = parse_cancel(req.payload)
             st = await self.cancel(creq.mission_id, creq.reason)
         except WireError as exc:
-            return QueryAnswer(ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
         except KeyError as exc:
-            return QueryAnswer(ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {exc.args[0]!r} known to this CAPTAIN").to_bytes())
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {exc.args[0]!r} known to this CAPTAIN").to_bytes())
         except ValueError as exc:
-            return QueryAnswer(ok=False, payload=Rejection(error="finished", message=str(exc)).to_bytes())
-        return QueryAnswer(ok=True, payload=st.model_dump_json().encode())
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="finished", message=str(exc)).to_bytes())
+        return QueryAnswer(as_json=True, ok=True, payload=st.model_dump_json().encode())
 
     def declare(self) -> None:
         """Declare the submit, status and cancel queryables and the navigator watch on the runtime's link."""

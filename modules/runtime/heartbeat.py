@@ -10,36 +10,19 @@ import msgpack
 from pydantic import ValidationError
 
 from modules.vocabulary import Heartbeat
+from wire.health import HeartbeatError, encode_heartbeat
+from wire.health import decode_heartbeat as _decode_wire_heartbeat
 
 __all__ = ["encode_heartbeat", "decode_heartbeat", "HeartbeatError", "HeartbeatTracker", "decode_clock", "ClockPayloadError"]
-
-
-class HeartbeatError(ValueError):
-    """A heartbeat payload that does not decode to a `Heartbeat`."""
 
 
 class ClockPayloadError(ValueError):
     """A sim clock payload that does not decode to a sim time."""
 
 
-def encode_heartbeat(hb: Heartbeat) -> bytes:
-    """Return the msgpack wire form of a heartbeat."""
-    return msgpack.packb(hb.model_dump(mode="json"))
-
-
 def decode_heartbeat(payload: bytes) -> Heartbeat:
-    """Return the heartbeat in a msgpack (or JSON) payload; raise HeartbeatError saying what is wrong."""
-    try:
-        raw = msgpack.unpackb(payload)
-    except Exception:
-        try:
-            raw = json.loads(payload)
-        except ValueError:
-            raise HeartbeatError(f"heartbeat payload is neither msgpack nor JSON ({len(payload)} bytes)") from None
-    try:
-        return Heartbeat.model_validate(raw)
-    except ValidationError as exc:
-        raise HeartbeatError(f"invalid heartbeat: {exc.errors()[0]['loc']}: {exc.errors()[0]['msg']}") from None
+    """Return the module heartbeat in a msgpack (or JSON) payload; raise HeartbeatError saying what is wrong."""
+    return Heartbeat.model_validate(_decode_wire_heartbeat(payload).model_dump())
 
 
 _CLOCK_FIELDS = ("stamp", "t", "sim_time", "time", "now")

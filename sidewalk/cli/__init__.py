@@ -5,6 +5,7 @@ from __future__ import annotations
 import importlib
 import logging
 import os
+import sys
 
 import typer
 
@@ -20,6 +21,7 @@ app = typer.Typer(
 
 # (module, attribute, name) — each area registers its commands in its own file.
 _SUBAPPS = [
+    ("sidewalk.cli._router", "router_app", "router"),
     ("sidewalk.cli._blackboard", "blackboard_app", "blackboard"),
     ("sidewalk.cli._bb", "bb_app", "bb"),
     ("sidewalk.cli._sim", "sim_app", "sim"),
@@ -59,4 +61,10 @@ def main() -> None:
         level=os.environ.get("SIDEWALK_LOG", "WARNING").upper(),
         format="%(asctime)s %(name)s %(levelname)s %(message)s",
     )
-    app()
+    from wire.errors import WireError
+
+    try:
+        app()
+    except WireError as exc:  # e.g. no router at the endpoint: one line, no traceback
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(3)

@@ -111,11 +111,11 @@ def run(
     raise typer.Exit(0 if report.success else 1)
 
 
-def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="blackboard, sim, captain, map_navigator, pilot, helm or perception")]) -> None:
+def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, blackboard, sim, captain, map_navigator, pilot, helm or perception")]) -> None:
     """Run one part of the system on this host; the rest of the arguments go to it (try `up pilot --help`)."""
     name = module.replace("-", "_")
     argv = list(ctx.args)
-    if name in ("blackboard", "sim"):
+    if name in ("router", "blackboard", "sim"):
         from typer.main import get_command
 
         sub = importlib.import_module(f"sidewalk.cli._{name}")
@@ -125,7 +125,7 @@ def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="blackboar
         cmd.main(args=args, prog_name=f"sidewalk up {name}", standalone_mode=True)
         return
     if name not in UP_TARGETS:
-        known = ", ".join(["blackboard", "sim", *UP_TARGETS])
+        known = ", ".join(["router", "blackboard", "sim", *UP_TARGETS])
         raise typer.BadParameter(f"unknown module {module!r}; known: {known}", param_hint="MODULE")
     modname, fn = UP_TARGETS[name]
     main: Callable[[list[str]], int] = getattr(importlib.import_module(modname), fn)
@@ -191,40 +191,67 @@ async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -
 @with_network()
 def status(
     timeout: Annotated[float, typer.Option(help="Seconds to wait for answers")] = 2.0,
+    heartbeat_wait: Annotated[float, typer.Option(help="Seconds to listen for heartbeats: a live module silent that long is reported wedged (0: skip)")] = 3.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object instead of tables")] = False,
     net: NetworkConfig = None,  # type: ignore[assignment]
 ) -> None:
-    """List the live modules (liveliness and heartbeat) and the missions the CAPTAIN knows."""
-    raise typer.Exit(asyncio.run(_status(net, timeout)))
+    """List the live modules (liveliness, heartbeat age, wedged ones) and the missions the CAPTAIN knows."""
+    if timeout <= 0 or heartbeat_wait < 0:
+        raise typer.BadParameter("--timeout must be > 0 and --heartbeat-wait ≥ 0 [s]")
+    raise typer.Exit(asyncio.run(_status(net, timeout, heartbeat_wait, as_json)))
 
 
-async def _status(net: NetworkConfig, timeout: float) -> int:
+async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_json: bool) -> int:
+    import json as _json
+    import time as _time
+
     from rich.console import Console
     from rich.table import Table
 
     from modules.captain.client import MissionClient
-    from modules.runtime import ModuleKeys, Link
+    from modules.runtime import Link, ModuleKeys
+    from sidewalk.health import ModuleHealth, collect_heartbeats
 
+    keys = ModuleKeys(net.namespace)
     link = Link.open(net)
     try:
-        keys = await link.alive_keys(ModuleKeys(net.namespace).alive_everything, timeout=timeout)
-        table = Table("module", "liveliness key", title=f"live in namespace {net.namespace!r}")
-        for k in keys:
-            table.add_row(k.rsplit("/", 1)[-1] if "/bbclient/" not in k else "bb client " + k.rsplit("/", 1)[-1], k)
-        console = Console()
-        console.print(table)
-        if not keys:
-            console.print("[yellow]nothing alive: is the system running, and are --connect/--ns right?[/yellow]")
-            return 1
+        alive = await link.alive_keys(keys.alive_everything, timeout=timeout)
+        names = sorted(k.rsplit("/", 1)[-1] for k in alive if "/bbclient/" not in k)
+        clients = sum(1 for k in alive if "/bbclient/" in k)
+        beats = await collect_heartbeats(link, keys, set(names), heartbeat_wait) if heartbeat_wait > 0 else {}
+        now = _time.time()
+        health = [ModuleHealth.judge(n, beats.get(n), now, listened_s=heartbeat_wait) for n in names]
         try:
-            sts = await MissionClient(link, ModuleKeys(net.namespace), timeout=timeout).statuses()
+            sts = await MissionClient(link, keys, timeout=timeout).statuses() if names else []
         except Exception:  # no CAPTAIN: nothing more to show
             sts = []
-        if sts:
-            mt = Table("mission", "name", "state", "step", "reason", title="missions")
-            for s in sts:
-                mt.add_row(s.mission_id, s.name, s.state, f"{(s.current_step or 0) + 1}/{s.step_count}", s.reason)
-            console.print(mt)
-        return 0
+        wedged = [h.name for h in health if h.state == "wedged"]
+        if as_json:
+            print(_json.dumps({
+                "namespace": net.namespace, "modules": [h.model_dump(mode="json") for h in health],
+                "blackboard_clients": clients, "wedged": wedged,
+                "missions": [s.model_dump(mode="json") for s in sts],
+            }))
+        else:
+            console = Console()
+            table = Table("module", "state", "heartbeat age [s]", "host", "pid", title=f"live in namespace {net.namespace!r}")
+            for h in health:
+                age = "-" if h.heartbeat_age_s is None else f"{h.heartbeat_age_s:.1f}"
+                style = "red" if h.state == "wedged" else ""
+                table.add_row(h.name, f"[{style}]{h.state}[/{style}]" if style else h.state, age, h.host or "-", str(h.pid or "-"))
+            console.print(table)
+            if clients:
+                console.print(f"{clients} blackboard client(s) connected")
+            if not names:
+                console.print("[yellow]nothing alive: is the system running, and are --connect/--ns right?[/yellow]")
+            if sts:
+                mt = Table("mission", "name", "state", "step", "reason", title="missions")
+                for s in sts:
+                    mt.add_row(s.mission_id, s.name, s.state, f"{(s.current_step or 0) + 1}/{s.step_count}", s.reason)
+                console.print(mt)
+        if not names:
+            return 1
+        return 4 if wedged else 0
     finally:
         link.close()
 

@@ -1,0 +1,33 @@
+"""`sidewalk router serve` (also `sidewalk up router`): the system's Zenoh router."""
+
+# No `from __future__ import annotations`: `with_network` copies the signature without evaluating it.
+import signal
+import threading
+
+import typer
+
+from wire.errors import WireError
+from wire.flags import with_network
+from wire.network import NetworkConfig
+
+__all__ = ["router_app"]
+
+router_app = typer.Typer(help="The system's Zenoh router: every peer and tool connects to it.", no_args_is_help=True)
+
+
+@router_app.command("serve")
+@with_network("router")
+def serve(*, net: NetworkConfig) -> None:
+    """Run the router until SIGINT/SIGTERM; prints "router ready …" once listening (default tcp/127.0.0.1:7447)."""
+    from wire.router import serve_router
+
+    stop = threading.Event()
+    old = {s: signal.signal(s, lambda *_: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        serve_router(net, stop)
+    except WireError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(3) from None
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)

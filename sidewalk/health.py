@@ -1,0 +1,85 @@
+"""Module health as an operator sees it: alive by liveliness, and beating, silent or wedged by heartbeat.
+
+A liveliness token says a process's Zenoh session is up; it does not reveal a wedged process (a
+stopped or stuck Python keeps its token). So a module alive by its token whose heartbeat is older
+than `WEDGED_AFTER_S` [s] wall is reported **wedged**.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import time
+from typing import Literal, Optional
+
+from pydantic import BaseModel, ConfigDict
+
+from wire.aio import Link
+from wire.health import Heartbeat, HeartbeatError, decode_heartbeat
+from wire.keys import ModuleKeys
+
+__all__ = ["ModuleHealth", "HealthState", "collect_heartbeats", "WEDGED_AFTER_S", "HeardBeat"]
+
+#: A live module whose newest heartbeat is older than this [s] wall is wedged.
+WEDGED_AFTER_S = 3.0
+
+HealthState = Literal["starting", "ready", "stopping", "wedged", "silent"]
+
+
+class HeardBeat(BaseModel):
+    """A heartbeat and the wall time [s] it was received."""
+
+    model_config = ConfigDict(frozen=True)
+
+    beat: Heartbeat
+    received: float
+
+
+class ModuleHealth(BaseModel):
+    """One live module: its state, heartbeat age [s] wall, host and pid (from its heartbeat)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    name: str
+    state: HealthState
+    heartbeat_age_s: Optional[float] = None
+    host: str = ""
+    pid: Optional[int] = None
+    sim_time: Optional[float] = None
+
+    @classmethod
+    def judge(cls, name: str, heard: HeardBeat | None, now: float, *, listened_s: float,
+              wedged_after_s: float = WEDGED_AFTER_S) -> "ModuleHealth":
+        """Judge a module alive by liveliness from its newest heartbeat (None: none heard in `listened_s` [s])."""
+        if heard is None:
+            # silent for the whole listening window: wedged if that window was long enough to tell
+            return cls(name=name, state="wedged" if listened_s >= wedged_after_s else "silent")
+        age = max(0.0, now - heard.received)
+        b = heard.beat
+        state: HealthState = "wedged" if age > wedged_after_s else b.state
+        return cls(name=name, state=state, heartbeat_age_s=round(age, 3), host=b.host, pid=b.pid, sim_time=b.sim_time)
+
+
+async def collect_heartbeats(link: Link, keys: ModuleKeys, expect: set[str], wait_s: float) -> dict[str, HeardBeat]:
+    """Listen to every heartbeat for up to `wait_s` [s] wall, returning early once each of `expect` was heard."""
+    heard: dict[str, HeardBeat] = {}
+    done = asyncio.Event()
+
+    def on_beat(key: str, payload: bytes) -> None:
+        try:
+            hb = decode_heartbeat(payload)
+        except HeartbeatError:
+            return
+        heard[key.rsplit("/", 1)[-1]] = HeardBeat(beat=hb, received=time.time())
+        if expect <= set(heard):
+            done.set()
+
+    sub = link.subscribe(keys.heartbeat_all, on_beat)
+    try:
+        if expect:
+            try:
+                await asyncio.wait_for(done.wait(), wait_s)
+            except asyncio.TimeoutError:
+                pass
+    finally:
+        link.undeclare(sub)
+    return heard

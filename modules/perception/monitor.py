@@ -15,8 +15,7 @@ import numpy as np
 from shapely.geometry import Polygon as ShapelyPolygon
 from shapely import affinity
 
-from modules.perception.colour import ColourModel
-from modules.perception.patch_maker import Segmentation, SegmentationParams
+from modules.perception.patch_maker import ColourModel, Segmentation, SegmentationParams
 from modules.vocabulary import MapObject
 
 __all__ = [

@@ -16,11 +16,10 @@ from shapely.geometry import Polygon as ShapelyPolygon
 from shapely.ops import unary_union
 
 from modules.perception.calibrator import CalibrationError, CalibrationResult, EdgeObservation, PointObservation, calibrate
-from modules.perception.colour import ColourModel
+from modules.perception.patch_maker import ColourModel, Segmentation, SegmentationParams, Segmented, make_segmentation
 from modules.perception.image import ColoredRangeImage
 from modules.perception.monitor import ResolutionTable, ViewPlan, colour_model_for, segmentation_params, select_segmentation
 from modules.perception.object_finder import FoundObject, find_objects
-from modules.perception.patch_maker import Segmentation, SegmentationParams, Segmented, make_segmentation
 from modules.perception.predicted import PredictedObject, predict
 from modules.vocabulary import MapObject
 

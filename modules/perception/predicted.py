@@ -12,8 +12,7 @@ import numpy as np
 from shapely.geometry import Point as ShapelyPoint
 from shapely.geometry import Polygon as ShapelyPolygon
 
-from modules.perception.colour import colour_type_name
-from modules.perception.range_seg import SurfaceType
+from modules.perception.patch_maker import colour_type_name, SurfaceType
 from modules.vocabulary import MapObject
 
 __all__ = ["PredictedObject", "predict", "world_to_vehicle", "vehicle_to_world", "expected_surfaces", "is_ground_kind"]

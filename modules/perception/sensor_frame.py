@@ -17,7 +17,7 @@ import numpy as np
 from wire.capture import CaptureDecodeError, decode_capture
 
 from modules.perception.image import ColoredRangeImage
-from modules.perception.range_seg import unwrap_range
+from modules.perception.patch_maker import unwrap_range
 
 __all__ = ["SensorFrameError", "SensorFrame", "decode_sensor_frame", "colored_range_image", "sensor_geometry"]
 

@@ -17,10 +17,8 @@ from modules.perception.monitor import (
     select_segmentation,
 )
 from modules.perception.object_finder import find_objects
-from modules.perception.patch_maker import Segmentation
-from modules.perception.patches import make_patches
+from modules.perception.patch_maker import Segmentation, make_patches, SurfaceType
 from modules.perception.predicted import predict, vehicle_to_world, world_to_vehicle
-from modules.perception.range_seg import SurfaceType
 from modules.vocabulary import ColourStats, MapObject, SlopeShape, StairsShape, TreeShape
 
 GREY = ColourStats(mean=(128.0, 128.0, 126.0), std=(8.0, 8.0, 8.0))

@@ -7,10 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from modules.perception.colour import ColourModel, colour_type_name
-from modules.perception.overlap import overlap_labels, split_label
-from modules.perception.patches import make_patches
-from modules.perception.range_seg import (
+from modules.perception.patch_maker import ColourModel, colour_type_name, make_patches, overlap_labels, split_label
+from modules.perception.patch_maker.range_seg import (
     SurfaceType,
     jump_edges,
     surface_features,

@@ -10,11 +10,11 @@ from enum import Enum
 
 import numpy as np
 
-from modules.perception.colour import ColourModel
+from modules.perception.patch_maker.colour import ColourModel
 from modules.perception.image import ColoredRangeImage
-from modules.perception.overlap import overlap_labels, split_label
-from modules.perception.patches import PatchSet, make_patches
-from modules.perception.range_seg import RangeSegParams, SurfaceType, segment_range
+from modules.perception.patch_maker.overlap import overlap_labels, split_label
+from modules.perception.patch_maker.patches import PatchSet, make_patches
+from modules.perception.patch_maker.range_seg import RangeSegParams, SurfaceType, segment_range
 
 __all__ = ["Segmentation", "SegmentationParams", "Segmented", "make_segmentation"]
 

@@ -14,8 +14,8 @@ Who writes what (type name: writer → readers; all coordinates in attrs are wor
 - route_plan: MAP NAVIGATOR → monitors (never the PILOT: it sees one segment at a time)
 - route_segment: MAP NAVIGATOR → PILOT (one active at a time; state "cancelled" withdraws it)
 - segment_result: PILOT → MAP NAVIGATOR (end_xy: where the PILOT thinks the vehicle is)
-- driving_unit: PILOT → PERCEPTION, which updates status and fills `result`
-- perception_result: PERCEPTION → PILOT (also embedded in the driving unit)
+- driving_unit: PILOT → PERCEPTION, which updates only its status (pending → perceived/failed)
+- perception_result: PERCEPTION → PILOT (posted once per driving unit, its own token)
 - position_estimate, local_path_constraints: PILOT → monitors
 - local_path_plan: PILOT → HELM (newest `seq` wins)
 - map_object: MAP NAVIGATOR (copies of the map; also embedded in segments and driving units)

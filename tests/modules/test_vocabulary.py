@@ -77,7 +77,7 @@ def _samples() -> list:
         DrivingUnitDescription(unit_id="u1", segment_id="s1", unit_index=0, mode="follow-road", region=SQUARE,
                                centreline=((0.0, 1.5), (4.0, 1.5)), objects=(_sidewalk(),)),
         DrivingUnitDescription(unit_id="u1", segment_id="s1", unit_index=0, mode="follow-road", region=SQUARE,
-                               centreline=((0.0, 1.5), (4.0, 1.5)), status="perceived", result=_result()),
+                               centreline=((0.0, 1.5), (4.0, 1.5)), status="perceived"),
         _result(),
         PerceptionResult(unit_id="u2", segment_id="s1", status="perceived", captured_at=3.0, sensor="colour",
                          fix=PointFix(pose=Pose(x=1.0, y=2.0, yaw=0.1), covariance=COV)),
@@ -145,13 +145,11 @@ def test_map_object_footprint_is_outline_xor_point() -> None:
     assert not MapObject(object_id="b", kind="building", role="obstacle", polygon=SQUARE).traversable
 
 
-def test_driving_unit_status_and_result_agree() -> None:
-    with pytest.raises(ValidationError, match="needs a result"):
+def test_the_driving_unit_carries_a_status_never_the_result() -> None:
+    # PERCEPTION's result is written once, as its own perception_result token
+    with pytest.raises(ValidationError, match="result"):
         DrivingUnitDescription(unit_id="u", segment_id="s", unit_index=0, mode="follow-road", region=SQUARE,
-                               centreline=((0, 0), (1, 0)), status="perceived")
-    with pytest.raises(ValidationError, match="disagrees"):
-        DrivingUnitDescription(unit_id="u", segment_id="s", unit_index=0, mode="follow-road", region=SQUARE,
-                               centreline=((0, 0), (1, 0)), status="failed", result=_result())
+                               centreline=((0, 0), (1, 0)), status="perceived", result=_result())
     with pytest.raises(ValidationError, match="failure_reason"):
         PerceptionResult(unit_id="u", segment_id="s", status="failed", captured_at=0.0, sensor="colour")
 

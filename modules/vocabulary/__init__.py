@@ -28,7 +28,7 @@ from modules.vocabulary.driving import (
 )
 from modules.vocabulary.health import Heartbeat, ModuleState
 from modules.vocabulary.mapdata import (
-    ColourStats, FlatShape, MapObject, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
+    ColourType, FlatShape, MapColour, MapObject, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
     TreeShape,
 )
 from modules.vocabulary.mission import (
@@ -65,7 +65,7 @@ __all__ = [
     "XY", "Cov3", "Frozen", "Polyline2", "Pose", "Ring",
     "DrivingUnitDescription", "LocalPathConstraints", "LocalPathPlan", "PlanPose", "PositionEstimate", "UnitStatus",
     "Heartbeat", "ModuleState",
-    "ColourStats", "FlatShape", "MapObject", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
+    "ColourType", "MapColour", "FlatShape", "MapObject", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
     "StairsShape", "TreeShape",
     "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionState", "MissionStatus", "MissionStep",
     "MissionStepSpec", "StepConstraints", "StepOutcome", "StepResult", "Trigger", "TriggerAction",

@@ -15,7 +15,7 @@ from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import start_node
 from modules.runtime import Link
 from modules.vocabulary import DrivingConstraints, ExitCondition, RouteSegmentDescription
-from sidewalk.cli._perception import _map_object
+from modules.map_navigator.mapdata import map_object
 from wire.drive import TruthPose, decode
 from vehicle_sim.worldfile import load_world
 from tests.modules._procs import ROOT, spawn, stop
@@ -26,7 +26,7 @@ pytestmark = [pytest.mark.e2e, pytest.mark.timeout(240)]
 
 def _segment() -> RouteSegmentDescription:
     m = load_world(ROOT / "worlds" / "campus.map.geojson")
-    objs = tuple(_map_object(m.object(i)) for i in ("sw_dorm", "grass_lower"))
+    objs = tuple(map_object(m.object(i)) for i in ("sw_dorm", "grass_lower"))
     a, b = (0.3, -28.25), (0.22, -12.0)
     return RouteSegmentDescription(
         segment_id="pe-seg-0", plan_id="pe-plan", segment_index=0, mode="follow-road",

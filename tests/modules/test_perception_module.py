@@ -25,7 +25,7 @@ from modules.perception.module import PerceptionConfig, PerceptionModule
 from modules.perception.predicted import world_to_vehicle
 from modules.runtime import run_module_async
 from modules.vocabulary import DrivingUnitDescription, LineFix, PerceptionResult, PointFix
-from sidewalk.cli._perception import _map_object
+from modules.map_navigator.mapdata import map_object
 from vehicle_sim.node import NodeConfig, SimNode
 from vehicle_sim.worldfile import load_world
 
@@ -43,7 +43,7 @@ PRIOR_ERROR = (0.8, -0.6, math.radians(3.0))
 def _displaced(o):
     """Return the map's version of world object `o`: moved by `MAP_OFFSET`, the walk `sw_dorm` widened."""
     dx, dy = MAP_OFFSET
-    m = _map_object(o)
+    m = map_object(o)
     if m.polygon is None:
         return m.model_copy(update={"center": (m.center[0] + dx, m.center[1] + dy)})
     ring = [(x + dx, y + dy) for x, y in m.polygon]

@@ -11,8 +11,8 @@ from pydantic import ValidationError
 
 import modules.vocabulary as voc
 from modules.vocabulary import (
-    ColourStats, Destination, DetectedObject, DrivingConstraints, DrivingUnitDescription, ExitCondition,
-    FlatShape, Heartbeat, LineFix, LocalPathConstraints, LocalPathPlan, MapObject, Mission, MissionStatus,
+    Destination, DetectedObject, DrivingConstraints, DrivingUnitDescription, ExitCondition,
+    FlatShape, Heartbeat, LineFix, LocalPathConstraints, LocalPathPlan, MapColour, MapObject, Mission, MissionStatus,
     MissionStep, MissionStepSpec, PerceptionResult, PlanPose, PointFix, Pose, PositionEstimate, RoutePlan,
     RouteSegmentDescription, SegmentResult, SlopeShape, StepConstraints, StepOutcome, StepResult, Trigger,
 )
@@ -24,7 +24,7 @@ COV = (0.04, 0.0, 0.0, 0.0, 0.04, 0.0, 0.0, 0.0, 0.001)
 def _sidewalk() -> MapObject:
     return MapObject(
         object_id="sw1", kind="sidewalk", role="path", cost=1.0,
-        colour=ColourStats(mean=(150, 150, 150), std=(8, 8, 8)), shape=FlatShape(), polygon=SQUARE,
+        colour=MapColour(type="GRAY", nominal=(150, 150, 150)), shape=FlatShape(), polygon=SQUARE,
     )
 
 
@@ -135,6 +135,17 @@ def test_non_finite_numbers_and_bad_rings_are_rejected() -> None:
         MapObject(object_id="a", kind="grass", role="none", polygon=((0, 0), (1, 1)))
     with pytest.raises(ValidationError, match="symmetric"):
         PointFix(pose=Pose(x=0, y=0), covariance=(1, 2, 0, 0, 1, 0, 0, 0, 1))
+
+
+def test_a_map_object_states_a_colour_type_never_the_world_s_appearance() -> None:
+    with pytest.raises(ValidationError, match="type"):
+        MapObject(object_id="a", kind="sidewalk", role="path", polygon=SQUARE, colour={"mean": (150, 150, 150), "std": (8, 8, 8)})
+    with pytest.raises(ValidationError, match="GRAY"):
+        MapColour(type="GREY", nominal=(150, 150, 150))
+    with pytest.raises(ValidationError, match="appearance"):
+        MapObject(object_id="a", kind="sidewalk", role="path", polygon=SQUARE, appearance={"mean": (1, 2, 3), "std": (1, 1, 1)})
+    with pytest.raises(ValidationError, match="reflectance"):
+        MapObject(object_id="a", kind="sidewalk", role="path", polygon=SQUARE, reflectance=0.5)
 
 
 def test_map_object_footprint_is_outline_xor_point() -> None:

@@ -7,14 +7,14 @@ edges, normals, curvature, surface labels), `overlap` (AND of colour and surface
 (label image → patches), `segmentation` (the three modules behind one call).
 """
 
-from modules.perception.patch_maker.colour import ColourClass, ColourModel, ColourModelError, colour_type_name
+from modules.perception.patch_maker.colour import ColourClass, ColourModel, ColourModelError, ColourPrior
 from modules.perception.patch_maker.overlap import overlap_labels, split_label
 from modules.perception.patch_maker.patches import Patch, PatchSet, make_patches
 from modules.perception.patch_maker.range_seg import RangeSegParams, SurfaceType, segment_range, unwrap_range
 from modules.perception.patch_maker.segmentation import Segmentation, SegmentationParams, Segmented, make_segmentation
 
 __all__ = [
-    "ColourClass", "ColourModel", "ColourModelError", "colour_type_name",
+    "ColourClass", "ColourModel", "ColourModelError", "ColourPrior",
     "overlap_labels", "split_label",
     "Patch", "PatchSet", "make_patches",
     "RangeSegParams", "SurfaceType", "segment_range", "unwrap_range",

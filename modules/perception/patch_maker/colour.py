@@ -1,8 +1,14 @@
-"""Colour segmentation: Gaussian colour classes in RGB, quadratic discrimination, frame-to-frame adaptation.
+"""Colour segmentation: Gaussian colour classes in RGB, quadratic discrimination, adaptation from the images.
 
-Seeds: Sidewalk 1986 §3.4.3 (Wallace's quadratic discrimination of multivariate normal RGB classes) and
-Navlab 1990 §2.2.1 (SCARF: several classes per colour — sunlit and shaded — re-estimated every frame from
-the confidently classified pixels, so slow illumination change does not derail the classifier).
+Seeds: Sidewalk 1986 §3.3.4 and §3.4.3 (the map names colour types such as GRAY and GREEN; Wallace's
+quadratic discrimination of multivariate normal RGB classes) and Navlab 1990 §2.2.1 (SCARF: several
+classes per colour type — sunlit, shaded, wet — whose statistics are re-estimated from the labelled
+pixels of recent frames, so the classifier follows the light and the surfaces it actually sees).
+
+The classes start from what the map says — a colour type and a nominal colour — with generous
+priors: a lit class at the nominal colour and a shaded class of unknown darkness, both stretched
+along their colour ray. They know nothing of how the world is drawn; `train` fits them to the
+pixels whose type is known, `adapt` follows them from frame to frame.
 """
 
 from __future__ import annotations
@@ -12,41 +18,29 @@ from typing import Sequence
 
 import numpy as np
 
-#: Relative colour of skylight to sunlight: what lights a shadow is bluer than what lights the sun side.
-SKYLIGHT_TINT: tuple[float, float, float] = (0.90, 0.96, 1.12)
-
-__all__ = [
-    "SKYLIGHT_TINT",
-    "ColourClass",
-    "ColourModel",
-    "ColourModelError",
-    "colour_type_name",
-]
+__all__ = ["ColourClass", "ColourModel", "ColourModelError", "ColourPrior"]
 
 
 class ColourModelError(ValueError):
-    """A colour class with a bad mean or covariance."""
+    """A colour class with a bad mean or covariance, or a colour without a type."""
 
 
-def colour_type_name(mean_rgb: Sequence[float]) -> str:
-    """Name the colour type (GREY, GREEN, BROWN, RED, BLUE, YELLOW, DARK, WHITE) of an sRGB mean (0–255)."""
-    r, g, b = (float(v) for v in mean_rgb)
-    mx, mn = max(r, g, b), min(r, g, b)
-    sat = (mx - mn) / mx if mx > 1e-6 else 0.0
-    if mx < 45:
-        return "DARK"
-    if sat < 0.18:
-        return "WHITE" if mn > 215 else "GREY"
-    if g >= r and g >= b:
-        return "GREEN"
-    if b >= r and b >= g:
-        return "BLUE"
-    # red dominant
-    if g > 0.75 * r:
-        return "YELLOW"
-    if g > 0.45 * r:
-        return "BROWN"
-    return "RED"
+@dataclass(frozen=True)
+class ColourPrior:
+    """How little the map's nominal colour is trusted: spreads of the starting classes.
+
+    `chroma_sigma` per channel, relative to the class's mean level (darker surfaces vary less in
+    absolute terms), at least `chroma_floor` [DN]; `brightness_sigma` relative spread
+    along the colour ray (lighting and weathering change brightness far more than hue); the shaded
+    class starts `shade_brightness` as bright as the nominal with relative spread `shade_sigma` —
+    a guess of "darker, by how much unknown", left for `train` and `adapt` to settle.
+    """
+
+    chroma_sigma: float = 0.15
+    chroma_floor: float = 4.0
+    brightness_sigma: float = 0.25
+    shade_brightness: float = 0.5
+    shade_sigma: float = 0.35
 
 
 @dataclass(frozen=True)
@@ -62,7 +56,7 @@ class ColourClass:
 
 @dataclass
 class ColourModel:
-    """Classify RGB pixels among Gaussian classes and re-estimate the classes frame to frame (SCARF).
+    """Classify RGB pixels among Gaussian classes; re-estimate the classes from labelled pixels (Wallace, SCARF).
 
     Labels are 1-based indices into `types` (0 = rejected: farther than `reject_mahal2` from every class).
     """
@@ -97,35 +91,27 @@ class ColourModel:
 
     # ---------------------------------------------------------------- construction
     @classmethod
-    def from_predicted(
-        cls,
-        colours: Sequence[tuple[Sequence[float], Sequence[float]]],
-        shade_factor: float = 0.5,
-        std_inflation: float = 1.2,
-        brightness_sigma: float = 0.12,
-        shade_tint: Sequence[float] = SKYLIGHT_TINT,
-    ) -> "ColourModel":
-        """Build sunlit and shaded classes for each predicted (mean, std) sRGB colour; types named by hue.
+    def from_map(cls, colours: Sequence[tuple[str, Sequence[float]]], prior: ColourPrior = ColourPrior()) -> "ColourModel":
+        """Build a lit and a shaded class for each (colour type, nominal sRGB) the map states, with generous priors.
 
-        Shade is skylight only: `shade_factor` as bright and tinted by `shade_tint` (bluer). Each class's
-        covariance adds brightness variation along its own mean colour (`brightness_sigma`, relative),
-        so a class stretches along its colour ray rather than swelling in every direction.
+        Nominal colours of one type closer than 8 DN share their classes.
         """
         classes: list[ColourClass] = []
-        seen: list[np.ndarray] = []
-        tint = np.asarray(shade_tint, dtype=np.float64)
-        for mean, std in colours:
-            m = np.asarray(mean, dtype=np.float64)
-            s = np.maximum(np.asarray(std, dtype=np.float64) * std_inflation, 3.0)
-            if m.shape != (3,) or s.shape != (3,):
-                raise ColourModelError(f"predicted colour {mean!r}/{std!r}: need three channels each")
-            if any(np.linalg.norm(m - q) < 8.0 for q in seen):
+        seen: list[tuple[str, np.ndarray]] = []
+        for ctype, nominal in colours:
+            m = np.asarray(nominal, dtype=np.float64)
+            if m.shape != (3,) or not np.all(np.isfinite(m)):
+                raise ColourModelError(f"nominal colour {nominal!r} of {ctype!r}: need three finite channels")
+            if not ctype:
+                raise ColourModelError(f"nominal colour {nominal!r}: no colour type")
+            if any(t == ctype and np.linalg.norm(m - q) < 8.0 for t, q in seen):
                 continue
-            seen.append(m)
-            ctype = colour_type_name(m)
+            seen.append((ctype, m))
             k = len(seen)
-            for tag, mu, sd in (("sun", m, s), ("shade", m * shade_factor * tint, s * max(shade_factor, 0.3))):
-                cov = np.diag(sd**2) + brightness_sigma**2 * np.outer(mu, mu)
+            shade = m * prior.shade_brightness
+            for tag, mu, rel in (("lit", m, prior.brightness_sigma), ("shade", shade, prior.shade_sigma)):
+                chroma = max(prior.chroma_floor, prior.chroma_sigma * float(mu.mean()))
+                cov = np.eye(3) * chroma**2 + rel**2 * np.outer(mu, mu)
                 classes.append(ColourClass(f"{ctype}-{k}-{tag}", ctype, tuple(mu), tuple(map(tuple, cov))))  # type: ignore[arg-type]
         return cls(classes)
 
@@ -136,26 +122,38 @@ class ColourModel:
         self._prec = np.linalg.inv(reg)
         self._logdet = np.linalg.slogdet(reg)[1]
 
-    def discriminants(self, rgb: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return (g (N, K) quadratic discriminants, m2 (N, K) squared Mahalanobis distances) of (N, 3) pixels."""
+    def discriminants(self, rgb: np.ndarray, classes: Sequence[int] | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Return (g (N, K) quadratic discriminants, m2 (N, K) squared Mahalanobis distances) of (N, 3) pixels.
+
+        `classes` limits the columns to those class indices (default: every class).
+        """
         x = rgb.reshape(-1, 3).astype(np.float64)
-        k = len(self._means)
-        m2 = np.empty((x.shape[0], k))
-        for i in range(k):
-            d = x - self._means[i]
-            m2[:, i] = ((d @ self._prec[i]) * d).sum(axis=1)
-        g = -0.5 * m2 - 0.5 * self._logdet[None, :] + np.log(self._priors)[None, :]
+        sel = np.arange(len(self._means)) if classes is None else np.asarray(list(classes), dtype=np.int64)
+        # (x - μ)ᵀ P (x - μ) = [quadratic monomials of x] · A + x · B + c, for all classes at once
+        P, mu = self._prec[sel], self._means[sel]
+        quad = np.stack([x[:, 0] ** 2, x[:, 1] ** 2, x[:, 2] ** 2, x[:, 0] * x[:, 1], x[:, 0] * x[:, 2], x[:, 1] * x[:, 2]], axis=1)
+        A = np.stack([P[:, 0, 0], P[:, 1, 1], P[:, 2, 2], 2 * P[:, 0, 1], 2 * P[:, 0, 2], 2 * P[:, 1, 2]], axis=0)
+        Pmu = np.einsum("kij,kj->ki", P, mu)
+        m2 = quad @ A - 2.0 * (x @ Pmu.T) + np.einsum("ki,ki->k", mu, Pmu)[None, :]
+        np.maximum(m2, 0.0, out=m2)
+        g = -0.5 * m2 - 0.5 * self._logdet[sel][None, :] + np.log(self._priors[sel])[None, :]
         return g, m2
 
     def classify(self, rgb: np.ndarray, mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Label (H, W, 3) pixels: (type labels (H, W) int16, class index (H, W) int16 or -1, posterior (H, W) float32)."""
+        """Label (H, W, 3) pixels: (type labels (H, W) int16, class index (H, W) int16 or -1, posterior (H, W) float32).
+
+        The posterior is that of the pixel's colour type (its classes together), the label's confidence.
+        """
         h, w = rgb.shape[:2]
         flat = rgb.reshape(-1, 3)
         sel = np.flatnonzero(mask.reshape(-1)) if mask is not None else np.arange(flat.shape[0])
         g, m2 = self.discriminants(flat[sel])
         best = np.argmax(g, axis=1)
         gmax = g[np.arange(g.shape[0]), best]
-        p = 1.0 / np.exp(g - gmax[:, None]).sum(axis=1)
+        e = np.exp(g - gmax[:, None])
+        onehot = (self._type_of[:, None] == np.arange(1, len(self.types) + 1)[None, :]).astype(np.float64)
+        per_type = e @ onehot
+        p = per_type[np.arange(len(best)), self._type_of[best] - 1] / per_type.sum(axis=1)
         ok = m2[np.arange(m2.shape[0]), best] <= self.reject_mahal2
         cls_idx = np.full(flat.shape[0], -1, np.int16)
         labels = np.zeros(flat.shape[0], np.int16)
@@ -165,38 +163,75 @@ class ColourModel:
         post[sel] = p
         return labels.reshape(h, w), cls_idx.reshape(h, w), post.reshape(h, w)
 
-    # ---------------------------------------------------------------- adaptation
+    # ---------------------------------------------------------------- re-estimation
+    def _reestimate(self, i: int, xs: np.ndarray, rate: float) -> None:
+        mu = xs.mean(axis=0)
+        cov = np.cov(xs, rowvar=False)
+        self._means[i] = (1 - rate) * self._means[i] + rate * mu
+        self._covs[i] = (1 - rate) * self._covs[i] + rate * cov
+
+    def train(
+        self,
+        rgb: np.ndarray,
+        types: np.ndarray,
+        rate: float = 0.8,
+        rounds: int = 1,
+        trim_mahal2: float = 9.0,
+        min_pixels: int = 30,
+        max_pixels: int = 1500,
+    ) -> int:
+        """Re-estimate the classes from pixels whose colour type is known; return how many pixels taught them.
+
+        `types` (H, W) int: 1-based index into `types` of each pixel's known type, 0 = unknown (the
+        PERCEPTION MONITOR's predicted objects say which). Each labelled pixel joins the class of its
+        type with the nearest mean (nearest-mean clustering, as SCARF collects new statistics) unless
+        it lies farther than `trim_mahal2` from that class (leaves on a walk, a wall beside it); each
+        class then moves `rate` (0–1) of the way to its pixels' mean and covariance. `rounds` repeats
+        assignment and update.
+        """
+        x = rgb.reshape(-1, 3).astype(np.float64)
+        lab = np.asarray(types).reshape(-1)
+        used = 0
+        for t in range(1, len(self.types) + 1):
+            idx = np.flatnonzero(lab == t)
+            if idx.size < min_pixels:
+                continue
+            if idx.size > max_pixels:
+                idx = idx[:: idx.size // max_pixels]  # an even subsample is plenty for 3x3 statistics
+            xs = x[idx]
+            members = [i for i in range(len(self.classes)) if self._type_of[i] == t]
+            for _ in range(rounds):
+                d2 = ((xs[:, None, :] - self._means[members][None, :, :]) ** 2).sum(axis=2)
+                best = np.argmin(d2, axis=1)
+                _, m2 = self.discriminants(xs, members)
+                near = m2[np.arange(len(xs)), best] <= trim_mahal2
+                for j, i in enumerate(members):
+                    sel = near & (best == j)
+                    if sel.sum() >= min_pixels:
+                        self._reestimate(i, xs[sel], rate)
+                self._regularise()
+            used += int(near.sum())
+        return used
+
     def adapt(
         self,
         rgb: np.ndarray,
-        class_idx: np.ndarray,
+        labels: np.ndarray,
         posterior: np.ndarray,
         rate: float = 0.3,
         min_confidence: float = 0.9,
-        min_pixels: int = 40,
-        max_pixels: int = 1500,
-    ) -> None:
-        """Re-estimate each class from its confidently classified pixels, blended at `rate` (0–1)."""
-        x = rgb.reshape(-1, 3)
-        ci = class_idx.reshape(-1)
-        conf = posterior.reshape(-1) >= min_confidence
-        for i in range(len(self._means)):
-            sel = conf & (ci == i)
-            n = int(sel.sum())
-            if n < min_pixels:
-                continue
-            idx = np.flatnonzero(sel)
-            if n > max_pixels:
-                idx = idx[:: n // max_pixels]  # an even subsample is plenty for 3x3 statistics
-            xs = x[idx].astype(np.float64)
-            mu = xs.mean(axis=0)
-            cov = np.cov(xs, rowvar=False)
-            self._means[i] = (1 - rate) * self._means[i] + rate * mu
-            self._covs[i] = (1 - rate) * self._covs[i] + rate * cov
-        self._regularise()
+    ) -> int:
+        """Re-estimate the classes from this frame's confidently classified pixels, for the next frame (SCARF).
+
+        `labels` and `posterior` are what `classify` returned; pixels of at least `min_confidence`
+        teach the classes of their type as in `train`, at `rate` (0–1), in one round, trimmed only as
+        far as classification rejects (the light may have moved them). Returns how many did.
+        """
+        known = np.where(posterior >= min_confidence, labels, 0)
+        return self.train(rgb, known, rate=rate, rounds=1, trim_mahal2=self.reject_mahal2)
 
     def current(self) -> list[ColourClass]:
-        """Return the classes as they stand after adaptation."""
+        """Return the classes as they stand after training and adaptation."""
         return [
             ColourClass(c.name, c.colour_type, tuple(self._means[i]), tuple(map(tuple, self._covs[i])), c.prior)  # type: ignore[arg-type]
             for i, c in enumerate(self.classes)

@@ -215,3 +215,23 @@ def test_labelled_image_gives_the_known_patches() -> None:
     assert big1.boundary_flags[on_shared].mean() > 0.6
     assert not big1.boundary_flags[big1.boundary[:, 0] > 0.1 * (h - 6)].any()
     assert (ps.ids[labels == 0] == 0).all()
+
+
+def test_perception_copies_no_constant_of_the_renderer() -> None:
+    """The camera's ambient factor and sky tint are the simulator's; PERCEPTION must learn shade from the images."""
+    import io
+    import tokenize
+    from pathlib import Path
+
+    from vehicle_sim.sensors import camera
+
+    perception = Path(__file__).resolve().parents[2] / "modules" / "perception"
+    literals: dict[float, str] = {}
+    for path in perception.rglob("*.py"):
+        for tok in tokenize.generate_tokens(io.StringIO(path.read_text()).readline):
+            if tok.type == tokenize.NUMBER:
+                literals[round(float(tok.string), 6)] = f"{path.name}:{tok.start[0]}"
+    ambient = round(camera.CameraConfig().ambient, 6)
+    assert ambient not in literals, f"the camera's ambient factor {ambient} at {literals.get(ambient)}"
+    tint = [round(float(v), 6) for v in camera._SKY_TINT]  # one channel alone (0.9) may be a coincidence, not all three
+    assert not all(v in literals for v in tint), f"the camera's sky tint {tint} at {[literals[v] for v in tint]}"

@@ -154,3 +154,27 @@ def test_column_order_does_not_change_what_is_seen(scene: Scene) -> None:
     np.testing.assert_array_equal(a.label, b.label[:, ::-1])
     np.testing.assert_allclose(a.s, b.s[:, ::-1], rtol=1e-6)
     assert (a.label == KINDS.index("building")).sum() > 50
+
+
+def test_weather_comes_and_goes_on_the_ground_covers_only(world: World) -> None:
+    """Wet patches and leaves change the ground over a run (seeded: the same at the same time), never the solids."""
+    from vehicle_sim.worldfile import Weather
+
+    wet = World(name="wet", objects=world.objects, sun=world.sun,
+                weather=Weather(wet_cover=0.3, leaf_cover=0.1, swing=0.8, period_s=100.0))
+    dry, rainy, again = Scene(world, seed=3), Scene(wet, seed=3), Scene(wet, seed=3)
+    az = np.linspace(0.6, -0.6, 120)
+    el = np.linspace(-0.15, -0.6, 60)
+    hits = rainy.cast(np.array([-4.0, 0.0, 1.6]), az, el)
+    ground = np.isin(hits.material, [1, 2])  # the lawn and the walk
+    assert ground.mean() > 0.5
+    base = dry.albedo(hits, 0.0)
+    wet_a, wet_b = rainy.covers_at(0.0), rainy.covers_at(30.0)
+    assert wet_a != wet_b and all(0.0 < c < 1.0 for c in wet_a + wet_b)
+    a, b = rainy.albedo(hits, 0.0), rainy.albedo(hits, 30.0)
+    np.testing.assert_array_equal(a, again.albedo(hits, 0.0))  # reproducible from the seed
+    changed = np.any(np.abs(a - base) > 1.0, axis=-1)
+    assert 0.05 < changed[ground].mean() < 0.8  # patches of the ground, not all of it
+    assert not changed[~ground & hits.hit].any()  # trees, buildings and mailboxes stay as they are
+    assert np.any(np.abs(a - b) > 1.0, axis=-1)[ground].mean() > 0.02  # and the patches move over the run
+    assert dry.albedo(hits, 0.0).tolist() == dry.albedo(hits, 30.0).tolist()  # no weather: nothing changes

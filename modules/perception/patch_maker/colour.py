@@ -41,6 +41,14 @@ class ColourPrior:
     brightness_sigma: float = 0.25
     shade_brightness: float = 0.5
     shade_sigma: float = 0.35
+    #: A shaded class only learns from pixels at most this bright relative to its lit class, and the lit
+    #: class only from pixels at least 1/`shade_ratio` as bright as its shade: a frame without shadows
+    #: teaches nothing about shade (else the shaded class drifts up into the lit one and shadows go unlabelled).
+    shade_ratio: float = 0.8
+    #: Least relative spread along the colour ray each class keeps through adaptation: the light on a
+    #: lit surface drifts a little, the darkness of a shadow a lot (penumbra, open sky, wet ground).
+    lit_floor: float = 0.08
+    shade_floor: float = 0.25
 
 
 @dataclass(frozen=True)
@@ -52,6 +60,8 @@ class ColourClass:
     mean: tuple[float, float, float]
     cov: tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]]
     prior: float = 1.0
+    shade_of: str | None = None  # the name of the lit class this class is the shade of
+    ray_floor: float = 0.0  # least relative spread along the colour ray kept through adaptation
 
 
 @dataclass
@@ -64,6 +74,7 @@ class ColourModel:
     classes: list[ColourClass]
     reject_mahal2: float = 30.0
     min_var: float = 4.0
+    shade_ratio: float = ColourPrior.shade_ratio
     types: tuple[str, ...] = field(init=False)
     _means: np.ndarray = field(init=False, repr=False)
     _covs: np.ndarray = field(init=False, repr=False)
@@ -82,6 +93,14 @@ class ColourModel:
         self._covs = np.array([c.cov for c in self.classes], dtype=np.float64)
         self._priors = np.array([c.prior for c in self.classes], dtype=np.float64)
         self._type_of = np.array([types.index(c.colour_type) + 1 for c in self.classes], dtype=np.int16)
+        self._ray_floor = np.array([c.ray_floor for c in self.classes], dtype=np.float64)
+        names = [c.name for c in self.classes]
+        self._pairs: list[tuple[int, int]] = []  # (lit, shade) class indices
+        for i, c in enumerate(self.classes):
+            if c.shade_of is not None:
+                if c.shade_of not in names:
+                    raise ColourModelError(f"colour class {c.name!r}: shade of unknown class {c.shade_of!r}")
+                self._pairs.append((names.index(c.shade_of), i))
         for i, c in enumerate(self.classes):
             if self._means[i].shape != (3,) or self._covs[i].shape != (3, 3):
                 raise ColourModelError(f"colour class {c.name!r}: mean must be (3,), cov (3, 3)")
@@ -109,11 +128,13 @@ class ColourModel:
             seen.append((ctype, m))
             k = len(seen)
             shade = m * prior.shade_brightness
-            for tag, mu, rel in (("lit", m, prior.brightness_sigma), ("shade", shade, prior.shade_sigma)):
+            lit = f"{ctype}-{k}-lit"
+            for name, mu, rel, of, floor in ((lit, m, prior.brightness_sigma, None, prior.lit_floor),
+                                             (f"{ctype}-{k}-shade", shade, prior.shade_sigma, lit, prior.shade_floor)):
                 chroma = max(prior.chroma_floor, prior.chroma_sigma * float(mu.mean()))
                 cov = np.eye(3) * chroma**2 + rel**2 * np.outer(mu, mu)
-                classes.append(ColourClass(f"{ctype}-{k}-{tag}", ctype, tuple(mu), tuple(map(tuple, cov))))  # type: ignore[arg-type]
-        return cls(classes)
+                classes.append(ColourClass(name, ctype, tuple(mu), tuple(map(tuple, cov)), shade_of=of, ray_floor=floor))  # type: ignore[arg-type]
+        return cls(classes, shade_ratio=prior.shade_ratio)
 
     # ---------------------------------------------------------------- classification
     def _regularise(self) -> None:
@@ -169,6 +190,13 @@ class ColourModel:
         cov = np.cov(xs, rowvar=False)
         self._means[i] = (1 - rate) * self._means[i] + rate * mu
         self._covs[i] = (1 - rate) * self._covs[i] + rate * cov
+        m = self._means[i]
+        n2 = float(m @ m)
+        if self._ray_floor[i] > 0 and n2 > 1e-9:
+            u = m / np.sqrt(n2)
+            short = self._ray_floor[i] ** 2 * n2 - float(u @ self._covs[i] @ u)
+            if short > 0:
+                self._covs[i] += short * np.outer(u, u)
 
     def train(
         self,
@@ -186,8 +214,9 @@ class ColourModel:
         PERCEPTION MONITOR's predicted objects say which). Each labelled pixel joins the class of its
         type with the nearest mean (nearest-mean clustering, as SCARF collects new statistics) unless
         it lies farther than `trim_mahal2` from that class (leaves on a walk, a wall beside it); each
-        class then moves `rate` (0–1) of the way to its pixels' mean and covariance. `rounds` repeats
-        assignment and update.
+        class then moves `rate` (0–1) of the way to its pixels' mean and covariance — a shaded class
+        only from pixels clearly darker than its lit class, the lit one only from pixels clearly
+        brighter than its shade (`shade_ratio`). `rounds` repeats assignment and update.
         """
         x = rgb.reshape(-1, 3).astype(np.float64)
         lab = np.asarray(types).reshape(-1)
@@ -205,13 +234,23 @@ class ColourModel:
                 best = np.argmin(d2, axis=1)
                 _, m2 = self.discriminants(xs, members)
                 near = m2[np.arange(len(xs)), best] <= trim_mahal2
+                level = {i: self._means[i].mean() for i in members}
                 for j, i in enumerate(members):
                     sel = near & (best == j)
-                    if sel.sum() >= min_pixels:
+                    if sel.sum() >= min_pixels and self._own(i, float(xs[sel].mean()), level):
                         self._reestimate(i, xs[sel], rate)
                 self._regularise()
             used += int(near.sum())
         return used
+
+    def _own(self, i: int, level: float, levels: dict[int, float]) -> bool:
+        """Return whether pixels of mean level `level` [DN] may teach class `i` (not the other side of its lit/shade pair)."""
+        for lit, shade in self._pairs:
+            if i == shade and lit in levels and level > self.shade_ratio * levels[lit]:
+                return False
+            if i == lit and shade in levels and level < levels[shade] / self.shade_ratio:
+                return False
+        return True
 
     def adapt(
         self,
@@ -233,6 +272,6 @@ class ColourModel:
     def current(self) -> list[ColourClass]:
         """Return the classes as they stand after training and adaptation."""
         return [
-            ColourClass(c.name, c.colour_type, tuple(self._means[i]), tuple(map(tuple, self._covs[i])), c.prior)  # type: ignore[arg-type]
+            ColourClass(c.name, c.colour_type, tuple(self._means[i]), tuple(map(tuple, self._covs[i])), c.prior, c.shade_of, c.ray_floor)  # type: ignore[arg-type]
             for i, c in enumerate(self.classes)
         ]

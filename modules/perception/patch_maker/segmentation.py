@@ -71,7 +71,9 @@ def make_segmentation(
             model.train(img.rgb, np.where(mask, training, 0), rate=params.train_rate)
         colour_lab, cls_idx, post = model.classify(img.rgb, mask)
         if adapt and params.adapt_rate > 0:
-            model.adapt(img.rgb, colour_lab, post, rate=params.adapt_rate)
+            # what the predicted objects contradict teaches nothing (a shadow taken for another colour type)
+            agreed = colour_lab if training is None else np.where((training == 0) | (training == colour_lab), colour_lab, 0)
+            model.adapt(img.rgb, agreed, post, rate=params.adapt_rate)
     if method is Segmentation.COLOUR:
         assert model is not None and colour_lab is not None
         colour_of = {i + 1: t for i, t in enumerate(model.types)}

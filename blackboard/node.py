@@ -43,12 +43,12 @@ from typing import Any, Callable, Literal
 
 import msgpack
 
-from wire.session import Query as ZQuery, Session as ZSession, open_session, session_stats
+from wire.session import Query as ZQuery, Session as ZSession, open_session, session_stats, traffic
 from blackboard.codec import MAX_PAYLOAD, decode, encode, pack_array_of_packed
 from blackboard.core import BlackboardCore, Monitor
 from blackboard.errors import BadRequestError, BlackboardError
 from blackboard.frames import FrameTree
-from wire.health import Heartbeat, encode_heartbeat
+from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import BlackboardKeys
 from wire.network import NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry
@@ -178,7 +178,8 @@ class BlackboardNode:
             self._hb_seq += 1
             s.put(self.keys.heartbeat, encode_heartbeat(Heartbeat(
                 module="blackboard", seq=self._hb_seq, wall_time=time.time(), period_s=self.heartbeat_period,
-                pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"])))
+                pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"],
+                usage=process_usage(traffic()))))
             await asyncio.sleep(self.heartbeat_period)
 
     # ------------------------------------------------------------------ dispatch

@@ -22,7 +22,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from wire.keys import SimKeys
 from wire.network import NetworkConfig
-from wire.session import Query, Session, open_session
+from wire.health import process_usage
+from wire.session import Query, Session, open_session, traffic
 from wire.drive import DriveCommand, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
 from vehicle_sim.mapgen import map_for
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, OdometryModel
@@ -278,7 +279,8 @@ class SimNode:
             if now >= hb_next:
                 self._hb_seq += 1
                 self._pub_hb.put(encode(SimHeartbeat(seq=self._hb_seq, sim_time=sim.t, wall_time=time.time(), period_s=1.0,
-                                                     pid=os.getpid(), host=socket.gethostname())))
+                                                     pid=os.getpid(), host=socket.gethostname(),
+                                                     usage=process_usage(traffic()))))
                 hb_next = now + 1.0
             next_wall = wall0 + (sim.t + dt - sim0) / rtf
             delay = max(next_wall - perf(), 0.0)

@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Callable, Optional
 
 import msgpack
-import numpy as np
 
 from blackboard import BlackboardClient, MonitorStream, NetworkConfig, Spec
 from modules.captain.client import CaptainUnavailableError, MissionClient
@@ -16,6 +15,7 @@ from modules.runtime import ModuleKeys, Link
 from wire.keys import BlackboardKeys
 from modules.vocabulary import MissionStatus, RoutePlan
 from sidewalk.recorder import Recorder
+from sidewalk.run_record import RecordedPlan
 from sidewalk.supervisor import ProcessPlan, Supervisor
 
 __all__ = ["SystemRun"]
@@ -26,7 +26,8 @@ class SystemRun:
 
     `start()` waits for every process's ready line, then opens a Zenoh session and a blackboard
     client, starts the recorder (truth, events, clock, estimates) and monitors mission status tokens.
-    `close()` stops everything in reverse order and returns CPU seconds and exit codes per process.
+    `close()` stops everything in reverse order (still listening, so the processes' last heartbeats
+    reach the recorder) and returns the exit code of each process.
     """
 
     def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path) -> None:
@@ -115,15 +116,15 @@ class SystemRun:
         """Start a process again with its original plan and wait for its ready line."""
         await self.sup.start(self.plans[name], ready_timeout=ready_timeout)
 
-    async def route_plans(self, mission_id: str) -> list[tuple[int, int, np.ndarray]]:
-        """Return (step index, revision, polyline (N,2) `world` [m]) of every route plan of the mission."""
+    async def route_plans(self, mission_id: str) -> list[RecordedPlan]:
+        """Return every route plan of the mission (each revision of each step), polylines in `world` [m]."""
         assert self.bb is not None
         out = []
         for tok in await self.bb.retrieve(Spec(type="route_plan")):
             rp = tok.attrs
             if isinstance(rp, RoutePlan) and rp.mission_id == mission_id:
-                out.append((rp.step_index, rp.revision, np.asarray(rp.polyline, dtype=float)))
-        return out
+                out.append(RecordedPlan(step_index=rp.step_index, revision=rp.revision, stamp=tok.stamp, polyline=rp.polyline))
+        return sorted(out, key=lambda p: (p.step_index, p.revision))
 
     async def blackboard_stats(self) -> dict:
         """Return the blackboard node's counters (empty if it does not answer)."""
@@ -136,16 +137,17 @@ class SystemRun:
         except (ValueError, msgpack.ExtraData, msgpack.FormatError, msgpack.StackError, TypeError):
             return dict(json.loads(replies[0].payload))
 
-    async def close(self) -> tuple[dict[str, float], dict[str, Optional[int]]]:
-        """Stop observing, stop every process; return (CPU seconds, exit codes) by process name."""
+    async def close(self) -> dict[str, Optional[int]]:
+        """Stop observing the blackboard, stop every process, then close the session; return exit codes by process name."""
         if self._status is not None:
             await self._status.close()
         if self.recorder is not None:
             await self.recorder.close()
-        cpu = self.sup.sample_cpu()
         if self.bb is not None:
             await self.bb.close()
-        if self.link is not None:
-            self.link.close()
-        codes = await self.sup.stop_all()
-        return cpu, codes
+        try:
+            codes = await self.sup.stop_all()
+        finally:
+            if self.link is not None:
+                self.link.close()
+        return codes

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from wire.ports import free_port
-from sidewalk.launcher import RunConfig, build_plans, mission_path, prepare_out, preflight
+from sidewalk.launcher import RunConfig, build_plans, mission_path, prepare_run
 from sidewalk.system import SystemRun
 
 DATA = Path(__file__).parent / "data"
@@ -16,12 +16,10 @@ ALL = ("blackboard", "sim", "helm", "pilot", "map_navigator", "captain")
 
 async def _system(tmp_path: Path, mission: str) -> tuple[SystemRun, str]:
     cfg = RunConfig(world="campus", mission=mission, rtf=25.0, seed=5, out=tmp_path, perception=False)
-    world, m, _ = preflight(cfg)
-    prepare_out(tmp_path)
+    setup = prepare_run(cfg)
     ns = f"fault{free_port()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    system = SystemRun(build_plans(cfg, world, m.vehicle or "terregator", tmp_path, ns, endpoint),
-                       ns=ns, endpoint=endpoint, log_dir=tmp_path / "logs")
+    system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=tmp_path / "logs")
     await system.start()
     return system, mission_path(mission).read_text()
 
@@ -49,7 +47,7 @@ async def test_killing_the_pilot_leaves_the_others_up_and_the_mission_resumes_or
         assert all(system.alive(n) for n in ALL)
         assert system.crashed() == []
     finally:
-        cpu, codes = await system.close()
+        codes = await system.close()
     assert all(c == 0 for c in codes.values()), codes
 
 

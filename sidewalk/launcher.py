@@ -10,7 +10,6 @@ everything — also on Ctrl-C.
 
 from __future__ import annotations
 
-import asyncio
 import math
 import os
 import time
@@ -27,7 +26,7 @@ from modules.captain.missionfile import MissionFileError, load_mission
 from modules.vocabulary import Destination, Mission
 from sidewalk.map_error import MapErrorSummary, measure_map_error
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
-from sidewalk.run_record import RecordedPlan, RunRecord, StampedStatus, save_record
+from sidewalk.run_record import RecordedPlan, RunRecord, save_record
 from sidewalk.supervisor import ProcessPlan, ProcessStartError
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
@@ -36,13 +35,13 @@ from wire.ports import free_port
 
 __all__ = [
     "RunConfig", "RunSetup", "Progress", "preflight", "prepare_run", "build_plans", "prepare_out", "run_mission",
-    "mission_path", "MODULES", "LaunchError", "RECORD_FILE",
+    "mission_path", "MODULES", "LaunchError", "RECORD_FILE", "record_run",
 ]
 
 #: The run record's file name in the output directory.
 RECORD_FILE = "run_record.json"
 
-#: How much sim time [s] before the submission the record keeps.
+#: How much sim time [s] before the submission and after the vehicle came to rest the record keeps.
 RECORD_LEAD_S = 1.0
 
 #: Every module of the Sidewalk system in start order (the consumers before the producers).
@@ -72,6 +71,8 @@ class RunConfig(BaseModel):
     max_wall_time_s: float = Field(default=1800.0, gt=0.0)
     namespace: Optional[str] = None
     watchdog_s: float = Field(default=1.0, gt=0.0)
+    #: how long [s] wall the MAP NAVIGATOR waits for a PILOT that went away before it fails the segment
+    pilot_grace_s: float = Field(default=15.0, gt=0.0)
 
 
 @dataclass
@@ -239,7 +240,7 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
                               "--perception", "on" if cfg.perception else "off",
                               f"--start-pose={sx},{sy},{syaw}", "--seed", str(cfg.seed), *zflags)),
         ProcessPlan("map_navigator", ("-m", "sidewalk", "up", "map_navigator", "--map", str(setup.map_file),
-                                      "--vehicle", vehicle, *zflags)),
+                                      "--vehicle", vehicle, "--pilot-grace", str(cfg.pilot_grace_s), *zflags)),
         ProcessPlan("captain", ("-m", "sidewalk", "up", "captain", *zflags)),
     ]
     return plans
@@ -255,21 +256,53 @@ def prepare_out(out: Path) -> None:
         old_log.unlink()
 
 
+def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: str, exit_codes: dict[str, Optional[int]],
+               *, stop_reason: str = "", gave_up_at: tuple[float, float] | None = None) -> RunRecord:
+    """Return the record of a run observed by `system` (after `finish` and `close`).
+
+    The run ends when the mission's terminal status was received, else when the launcher gave up
+    (`gave_up_at`: wall, sim [s] as `SystemRun.stamps`; `stop_reason` says why), else at the newest status.
+    """
+    rec = system.recorder
+    if rec is None or mission_id not in system.submitted:
+        raise LaunchError("the system stopped before the mission was submitted")
+    submitted_wall, submitted_sim = system.submitted[mission_id]
+    statuses = system.statuses.get(mission_id, [])
+    terminal = next((s for s in statuses if s.status.terminal), None)
+    end = terminal or (statuses[-1] if statuses else None)
+    ended_wall = end.wall_s if end is not None else submitted_wall
+    ended_sim = end.sim_s if end is not None and end.sim_s is not None else submitted_sim
+    if terminal is None and gave_up_at is not None:
+        ended_wall, ended_sim = gave_up_at
+    # what happened while the system started, or after the vehicle came to rest, is no part of the mission
+    rest = system.rest.get(mission_id)
+    kept_from, kept_to = submitted_sim - RECORD_LEAD_S, (math.inf if rest is None else max(rest, ended_sim) + RECORD_LEAD_S)
+    return RunRecord(
+        architecture="codger", mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
+        perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
+        rtf_requested=cfg.rtf, destinations=setup.destinations,
+        submitted_wall_s=round(submitted_wall, 6), submitted_sim_s=submitted_sim,
+        ended_wall_s=round(ended_wall, 6), ended_sim_s=ended_sim, rest_sim_s=rest,
+        stop_reason=stop_reason,
+        truth=tuple(r for r in rec.truth.rows if kept_from <= r[0] <= kept_to),
+        estimate=tuple(r for r in rec.estimate.rows if kept_from <= r[0] <= kept_to),
+        events=tuple(e for e in rec.events if kept_from <= e.stamp <= kept_to),
+        statuses=tuple(statuses), plans=tuple(system.routes.get(mission_id, ())), processes=rec.process_costs(),
+        blackboard=system.bb_stats, exit_codes=exit_codes,
+    )
+
+
 async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | None = None) -> RunReport:
     """Run one mission end to end; write `run_record.json`, `report.json` and `trajectory.png` to `cfg.out`; return the report."""
-    run_t0 = time.monotonic()
     setup = prepare_run(cfg)
     out = Path(cfg.out)
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs")
     progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)
-    statuses: list[StampedStatus] = []
     stop_reason = ""
-    submitted_wall = submitted_sim = None
-    ended_wall, ended_sim = 0.0, 0.0
-    plans: list[RecordedPlan] = []
-    stats: dict | None = None
+    gave_up_at: tuple[float, float] | None = None
+    mission_id: str | None = None
     try:
         def starting(name: str) -> None:
             progress.step = f"starting {name}"
@@ -280,74 +313,59 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             await system.start(on_starting=starting)
         except ProcessStartError as exc:
             raise LaunchError(str(exc)) from None
-        rec = system.recorder
-        assert rec is not None
         mission_id = await system.submit(setup.mission_file.read_text())
-        submitted_wall, submitted_sim = time.monotonic() - run_t0, rec.sim_time
+        submitted_wall, submitted_sim = system.submitted[mission_id]
         deadline = time.monotonic() + cfg.max_wall_time_s
         while True:
             st = await system.next_status(mission_id, timeout=0.5)
-            now_wall, now_sim = time.monotonic() - run_t0, rec.sim_time
-            if st is not None:
-                statuses.append(StampedStatus(wall_s=now_wall, sim_s=now_sim, status=st))
+            now_wall, now_sim = system.stamps()
             for dead in system.crashed():
                 progress.state = f"{dead} exited"
             progress.sim_time_s = now_sim - submitted_sim
-            progress.distance_m = rec.distance_m()
+            progress.distance_m = system.recorder.distance_m() if system.recorder else 0.0
             progress.rtf = progress.sim_time_s / max(1e-6, now_wall - submitted_wall)
-            ended_wall, ended_sim = now_wall, now_sim
-            if statuses:
-                last = statuses[-1].status
-                progress.state = last.state
-                if last.current_step is not None:
-                    progress.step_index = last.current_step
-                    progress.step = last.steps[last.current_step].name if last.steps else ""
-                if last.terminal:
+            if st is not None:
+                progress.state = st.state
+                if st.current_step is not None:
+                    progress.step_index = st.current_step
+                    progress.step = st.steps[st.current_step].name if st.steps else ""
+                if st.terminal:
                     break
             if on_progress:
                 on_progress(progress)
             if progress.sim_time_s > cfg.max_sim_time_s:
                 stop_reason = f"sim-time budget of {cfg.max_sim_time_s:.0f} s used up"
-                break
-            if time.monotonic() > deadline:
+            elif time.monotonic() > deadline:
                 stop_reason = f"wall-time budget of {cfg.max_wall_time_s:.0f} s used up"
+            if stop_reason:
+                gave_up_at = (now_wall, now_sim)
                 break
-        plans = await system.route_plans(mission_id)
-        stats = await system.blackboard_stats()
+        await system.finish(mission_id)
     finally:
         exit_codes = await system.close()
-    recorder = system.recorder
-    if recorder is None or submitted_wall is None:
-        raise LaunchError("the system stopped before the mission was submitted")
-    kept_from = submitted_sim - RECORD_LEAD_S  # what happened while the system started is no part of the mission
-    record = RunRecord(
-        architecture="codger", mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
-        perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
-        rtf_requested=cfg.rtf, destinations=setup.destinations,
-        submitted_wall_s=round(submitted_wall, 6), submitted_sim_s=submitted_sim,
-        ended_wall_s=round(ended_wall, 6), ended_sim_s=ended_sim, stop_reason=stop_reason,
-        truth=tuple(r for r in recorder.truth.rows if r[0] >= kept_from),
-        estimate=tuple(r for r in recorder.estimate.rows if r[0] >= kept_from),
-        events=tuple(e for e in recorder.events if e.stamp >= kept_from),
-        statuses=tuple(statuses), plans=tuple(plans), processes=recorder.process_costs(),
-        blackboard=stats or None, exit_codes=exit_codes,
-    )
+    record = record_run(system, cfg, setup, mission_id or "", exit_codes, stop_reason=stop_reason, gave_up_at=gave_up_at)
     save_record(record, out / RECORD_FILE)
     report = build_report(record)
     write_report(report, out)
+    _plot(out / "trajectory.png", record, setup, report)
+    return report
+
+
+def _plot(path: Path, record: RunRecord, setup: RunSetup, report: RunReport) -> None:
+    """Draw the run: the world, each step's newest route, the true and the estimated track."""
     newest: dict[int, RecordedPlan] = {}
-    for p in plans:
+    for p in record.plans:
         if p.step_index not in newest or p.revision > newest[p.step_index].revision:
             newest[p.step_index] = p
     route = np.concatenate([np.asarray(newest[k].polyline) for k in sorted(newest)]) if newest else None
-    truth, est = recorder.truth.array(), recorder.estimate.array()
+    truth = np.asarray(record.truth, dtype=float).reshape(-1, 4)
+    est = np.asarray(record.estimate, dtype=float).reshape(-1, 4)
     verdict = "success" if report.success else "FAILED" + (" (claimed success)" if report.claimed_success else "")
     plot_trajectory(
-        out / "trajectory.png",
+        path,
         objects=_object_outlines(setup.world),
         route=route,
         truth=truth[:, 1:3] if len(truth) else None,
         estimate=est[:, 1:3] if len(est) else None,
-        title=f"{setup.mission.name} on {setup.world.name} ({setup.vehicle}, seed {cfg.seed}) — {verdict}",
+        title=f"{setup.mission.name} on {setup.world.name} ({setup.vehicle}, seed {record.seed}) — {verdict}",
     )
-    return report

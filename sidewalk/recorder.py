@@ -49,6 +49,7 @@ class Recorder:
         self.events: list[SimEvent] = []
         self.clock: SimClock | None = None
         self.costs: dict[tuple[str, int], ProcessCost] = {}
+        self._new_truth = asyncio.Event()
         self.estimate_period_s = estimate_period_s
         self.bad_samples = 0
         self._last_estimate_t = -1e9
@@ -98,6 +99,7 @@ class Recorder:
             self.bad_samples += 1
             return
         self.truth.rows.append((t.stamp, t.x, t.y, t.yaw))
+        self._new_truth.set()
         if t.stamp - self._last_estimate_t >= self.estimate_period_s and not self._estimating:
             self._last_estimate_t = t.stamp
             self._estimating = True
@@ -121,6 +123,39 @@ class Recorder:
             self.events.append(decode(SimEvent, payload))
         except WireError:
             self.bad_samples += 1
+
+    def rest_since(self, still_s: float, tol_m: float = 0.01, tol_rad: float = 0.005) -> float | None:
+        """Return when [s] sim the true vehicle stopped, if it has not moved (tol_m [m], tol_rad [rad]) for `still_s` [s]; else None."""
+        rows = self.truth.rows
+        if not rows:
+            return None
+        t, x, y, yaw = rows[-1]
+        since = t
+        for r in reversed(rows):
+            if abs(r[1] - x) > tol_m or abs(r[2] - y) > tol_m or abs(r[3] - yaw) > tol_rad:
+                break
+            since = r[0]
+        else:
+            return None  # still since the first sample: not yet known to have stopped for long enough
+        return since if t - since >= still_s else None
+
+    async def wait_rest(self, *, still_s: float = 1.0, max_sim_s: float = 30.0, max_wall_s: float = 20.0) -> float | None:
+        """Wait until the true vehicle has stood still for `still_s` [s] sim; return when it stopped [s] sim.
+
+        Gives up (None) after `max_sim_s` [s] sim or `max_wall_s` [s] wall.
+        """
+        loop = asyncio.get_running_loop()
+        wall_end = loop.time() + max_wall_s
+        sim_end = self.sim_time + max_sim_s
+        while (left := wall_end - loop.time()) > 0 and self.sim_time <= sim_end:
+            if (since := self.rest_since(still_s)) is not None:
+                return since
+            self._new_truth.clear()
+            try:
+                await asyncio.wait_for(self._new_truth.wait(), left)
+            except (asyncio.TimeoutError, TimeoutError):
+                break
+        return None
 
     def process_costs(self) -> tuple[ProcessCost, ...]:
         """Return the newest usage heard from each process incarnation, by name then pid."""

@@ -22,6 +22,7 @@ from modules.vocabulary import MissionStatus, StepOutcome
 from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
 from sidewalk.run_record import RunRecord
+from wire.drive import SimEvent
 
 __all__ = [
     "StepReport",
@@ -59,8 +60,10 @@ class ErrorSummary(BaseModel):
 class StepReport(BaseModel):
     """One mission step: truth's verdict and the robot's, when it started and ended [s] from submission (sim).
 
-    `distance_m` is the true distance [m] from the vehicle to the step's destination when the step
-    ended (or when the run ended, for a step still running); `success` is `distance_m <= tolerance_m`.
+    `distance_m` is the true distance [m] from the vehicle to the step's destination as judged: for
+    an intermediate step the closest the vehicle came between the step's start and the next step's
+    end, for the last step where the vehicle came to rest; `success` is `distance_m <= tolerance_m`.
+    `distance_at_claim_m` is the true distance when the robot said the step was done.
     Cross-track error is against the step's first plan; `..._newest_m` against the newest plan in
     force at each moment (the first until a replan was posted).
     """
@@ -74,6 +77,7 @@ class StepReport(BaseModel):
     reason: str = ""
     tolerance_m: float
     distance_m: Optional[float] = None
+    distance_at_claim_m: Optional[float] = None
     started_s: Optional[float] = None
     finished_s: Optional[float] = None
     replans: int = 0
@@ -161,11 +165,10 @@ def _true_xy_at(truth: np.ndarray, t: float) -> np.ndarray | None:
     return interpolate_track(np.array([t]), truth[:, 0], truth[:, 1:3])[0]
 
 
-def _off_path_s(rec: RunRecord) -> float:
-    """Return the sim time [s] spent off the path objects between submission and the end."""
-    t0, t1 = rec.submitted_sim_s, rec.ended_sim_s
+def _off_path_s(events: Sequence[SimEvent], t0: float, t1: float) -> float:
+    """Return the sim time [s] spent off the path objects between t0 and t1 [s]."""
     total, since = 0.0, None
-    for e in sorted(rec.events, key=lambda e: e.stamp):
+    for e in sorted(events, key=lambda e: e.stamp):
         if e.kind == "off-path" and since is None:
             since = e.stamp
         elif e.kind == "on-path" and since is not None:
@@ -205,22 +208,42 @@ def _bb_usage(stats: dict[str, int | float] | None) -> BlackboardUsage | None:
     return BlackboardUsage(**usage)
 
 
-def _step_report(rec: RunRecord, i: int, outcome: StepOutcome | None, origin: float, truth: np.ndarray) -> tuple[StepReport, np.ndarray, np.ndarray]:
-    """Judge step i; return its report and its cross-track errors against the first and the newest plan [m]."""
+def _distance_to(truth: np.ndarray, dest: tuple[float, float]) -> np.ndarray:
+    """Return the distance [m] of each track row (N,4) from `dest` (x, y) [m]."""
+    return np.hypot(truth[:, 1] - dest[0], truth[:, 2] - dest[1])
+
+
+def _step_report(rec: RunRecord, i: int, outcomes: dict[int, StepOutcome], origin: float, truth: np.ndarray,
+                 settled: float) -> tuple[StepReport, np.ndarray, np.ndarray]:
+    """Judge step i; return its report and its cross-track errors against the first and the newest plan [m].
+
+    An intermediate step counts as reached when the true track came within its tolerance between the
+    step's start and the next step's end (the robot declares arrival at an exit gate short of the
+    destination and drives on through it); the last step when the vehicle came to rest within it.
+    """
     spec = rec.mission.steps[i]
+    outcome = outcomes.get(i)
     state = outcome.state if outcome is not None else "pending"
     started = outcome.started_at if outcome is not None else None
-    # the step's end: when it finished, or the end of the run for a step still under way
-    end = outcome.finished_at if outcome is not None and outcome.finished_at is not None else (
-        rec.ended_sim_s if started is not None else None)
+    finished = outcome.finished_at if outcome is not None else None
+    last = i == len(rec.mission.steps) - 1
+    nxt = outcomes.get(i + 1)
+    judged_until = settled if last else (nxt.finished_at if nxt is not None and nxt.finished_at is not None else settled)
     dest = rec.destinations[i]
-    distance = None
-    if end is not None and dest is not None and (xy := _true_xy_at(truth, end)) is not None:
-        distance = round(float(math.hypot(xy[0] - dest[0], xy[1] - dest[1])), 3)
+    distance = at_claim = None
+    if started is not None and dest is not None and len(truth):
+        if last:
+            rest = _window(truth, started, settled)
+            distance = float(_distance_to(rest[-1:], dest)[0]) if len(rest) else None
+        else:
+            seen = _window(truth, started, judged_until)
+            distance = float(_distance_to(seen, dest).min()) if len(seen) else None
+        if finished is not None and (xy := _true_xy_at(truth, finished)) is not None:
+            at_claim = round(float(math.hypot(xy[0] - dest[0], xy[1] - dest[1])), 3)
     plans = sorted((p for p in rec.plans if p.step_index == i), key=lambda p: p.revision)
     cte_first = cte_newest = np.zeros(0)
-    if plans and started is not None and end is not None:
-        rows = _window(truth, started, end)
+    if plans and started is not None:
+        rows = _window(truth, started, finished if finished is not None else rec.ended_sim_s)
         per_plan = np.array([cross_track_errors(rows[:, 1:3], np.asarray(p.polyline)) for p in plans]).reshape(len(plans), -1)
         cte_first = per_plan[0]
         # the plan in force at each sample: the newest one posted by then (the first before any was posted)
@@ -228,9 +251,10 @@ def _step_report(rec: RunRecord, i: int, outcome: StepOutcome | None, origin: fl
         cte_newest = per_plan[in_force, np.arange(len(rows))]
     report = StepReport(
         name=spec.name, success=distance is not None and distance <= spec.tolerance, claimed_success=state == "succeeded",
-        state=state, reason=outcome.reason if outcome is not None else "", tolerance_m=spec.tolerance, distance_m=distance,
+        state=state, reason=outcome.reason if outcome is not None else "", tolerance_m=spec.tolerance,
+        distance_m=None if distance is None else round(distance, 3), distance_at_claim_m=at_claim,
         started_s=None if started is None else round(started - origin, 3),
-        finished_s=None if outcome is None or outcome.finished_at is None else round(outcome.finished_at - origin, 3),
+        finished_s=None if finished is None else round(finished - origin, 3),
         replans=max(0, len(plans) - 1), cross_track_error_m=ErrorSummary.of(cte_first),
         cross_track_error_newest_m=ErrorSummary.of(cte_newest),
     )
@@ -251,22 +275,27 @@ def _disagreement(claimed: bool, claimed_reason: str, steps: list[StepReport], c
 
 
 def build_report(rec: RunRecord) -> RunReport:
-    """Return the report of a recorded run (a pure function of the record)."""
+    """Return the report of a recorded run (a pure function of the record).
+
+    Times and RTF span submission to the mission's end; what the vehicle did (distance, collisions,
+    off-path time, position error, goal error) spans submission until it came to rest after the end.
+    """
     truth_all = np.asarray(rec.truth, dtype=float).reshape(-1, 4)
     est_all = np.asarray(rec.estimate, dtype=float).reshape(-1, 4)
     t0, t1 = rec.submitted_sim_s, rec.ended_sim_s
-    truth = _window(truth_all, t0, t1)
-    est = _window(est_all, t0, t1)
+    settled = max(t1, rec.rest_sim_s) if rec.rest_sim_s is not None else t1
+    truth = _window(truth_all, t0, settled)
+    est = _window(est_all, t0, settled)
     final = _final_status(rec)
     origin = final.submitted_at if final is not None and final.submitted_at is not None else t0
     outcomes = {o.step_index: o for o in final.steps} if final is not None else {}
     steps, ctes, ctes_newest = [], [], []
     for i in range(len(rec.mission.steps)):
-        sr, c, cn = _step_report(rec, i, outcomes.get(i), origin, truth_all)
+        sr, c, cn = _step_report(rec, i, outcomes, origin, truth_all, settled)
         steps.append(sr)
         ctes.append(c)
         ctes_newest.append(cn)
-    events = [e for e in rec.events if t0 <= e.stamp <= t1]
+    events = [e for e in rec.events if t0 <= e.stamp <= settled]
     collisions = sum(1 for e in events if e.kind == "collision")
     claimed = final is not None and final.state == "succeeded"
     success = all(s.success for s in steps) and collisions == 0
@@ -274,7 +303,7 @@ def build_report(rec: RunRecord) -> RunReport:
     goal = rec.destinations[-1]
     goal_error = None
     if goal is not None and len(truth):
-        goal_error = round(float(math.hypot(truth[-1, 1] - goal[0], truth[-1, 2] - goal[1])), 3)
+        goal_error = round(float(_distance_to(truth[-1:], goal)[0]), 3)
     sim_span = t1 - t0
     wall_span = rec.ended_wall_s - rec.submitted_wall_s
     pe = position_errors(est[:, 0], est[:, 1:3], truth_all[:, 0], truth_all[:, 1:3]) if len(est) else np.zeros(0)
@@ -302,7 +331,7 @@ def build_report(rec: RunRecord) -> RunReport:
         replans=sum(s.replans for s in steps),
         position_error_m=ErrorSummary.of(pe),
         collisions=collisions,
-        off_path_s=round(_off_path_s(rec), 3),
+        off_path_s=round(_off_path_s(rec.events, t0, settled), 3),
         sim_events=dict(Counter(e.kind for e in events)),
         blackboard=_bb_usage(rec.blackboard),
         modules=_module_costs(rec),

@@ -70,7 +70,9 @@ class RunRecord(BaseModel):
     `destinations` are the steps' true destinations (x, y) [m] in `world`, resolved from the world
     file (None: a place the world lacks). `submitted_*` is when the CAPTAIN accepted the mission and
     `ended_*` when the launcher saw it end (or gave up); `*_wall_s` [s] since the run started, `*_sim_s`
-    the sim clock [s] then. `stop_reason` says why the launcher gave up before the mission ended.
+    the sim clock [s] then; `rest_sim_s` [s] when the vehicle was seen standing still after the end
+    (None: not seen); the truth goes on until then. `stop_reason` says why the launcher gave up
+    before the mission ended.
     """
 
     model_config = _FROZEN
@@ -89,6 +91,7 @@ class RunRecord(BaseModel):
     submitted_sim_s: float
     ended_wall_s: float
     ended_sim_s: float
+    rest_sim_s: Optional[float] = None
     stop_reason: str = ""
     truth: tuple[tuple[float, float, float, float], ...] = ()
     estimate: tuple[tuple[float, float, float, float], ...] = ()

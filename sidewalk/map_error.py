@@ -28,9 +28,14 @@ class MapErrorSummary(BaseModel):
     requested_m: Optional[float] = None
 
 
+def _corners(o: WorldObject) -> np.ndarray:
+    """Return the vertices a map file gives an object: its polygon (M,2), or its centre (1,2) [m]."""
+    return np.asarray(o.polygon if o.polygon is not None else (o.center,), dtype=float)
+
+
 def _displacements(true: WorldObject, mapped: WorldObject) -> np.ndarray:
     """Return each map vertex's distance from its true vertex [m] (by index; nearest true vertex if the counts differ)."""
-    a, b = true.vertices, mapped.vertices
+    a, b = _corners(true), _corners(mapped)
     if len(a) == len(b):
         return np.hypot(*(b - a).T)
     return np.min(np.hypot(b[:, None, 0] - a[None, :, 0], b[:, None, 1] - a[None, :, 1]), axis=1)

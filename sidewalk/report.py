@@ -115,7 +115,7 @@ class ModuleCost(BaseModel):
 
 
 class RunReport(BaseModel):
-    """Everything a run measured; written as `report.json`. Times [s] count from submission."""
+    """Everything a run measured; written as `report.json`. Times [s] count from submission (see `build_report`)."""
 
     model_config = ConfigDict(frozen=True)
 
@@ -277,8 +277,10 @@ def _disagreement(claimed: bool, claimed_reason: str, steps: list[StepReport], c
 def build_report(rec: RunRecord) -> RunReport:
     """Return the report of a recorded run (a pure function of the record).
 
-    Times and RTF span submission to the mission's end; what the vehicle did (distance, collisions,
-    off-path time, position error, goal error) spans submission until it came to rest after the end.
+    Times span submission to the mission's end: `sim_time_s` by the CAPTAIN's clock (as the steps'
+    times), `wall_time_s` and `rtf_achieved` (sim over wall) over the same interval as the launcher
+    saw it. What the vehicle did (distance, collisions, off-path time, position error, goal error)
+    spans submission until it came to rest after the end.
     """
     truth_all = np.asarray(rec.truth, dtype=float).reshape(-1, 4)
     est_all = np.asarray(rec.estimate, dtype=float).reshape(-1, 4)
@@ -304,7 +306,11 @@ def build_report(rec: RunRecord) -> RunReport:
     goal_error = None
     if goal is not None and len(truth):
         goal_error = round(float(_distance_to(truth[-1:], goal)[0]), 3)
-    sim_span = t1 - t0
+    # the mission's span by the CAPTAIN's clock, which also stamps the steps; RTF over what the launcher saw
+    if final is not None and final.submitted_at is not None and final.finished_at is not None:
+        sim_span = final.finished_at - final.submitted_at
+    else:
+        sim_span = t1 - t0
     wall_span = rec.ended_wall_s - rec.submitted_wall_s
     pe = position_errors(est[:, 0], est[:, 1:3], truth_all[:, 0], truth_all[:, 1:3]) if len(est) else np.zeros(0)
     return RunReport(
@@ -322,7 +328,7 @@ def build_report(rec: RunRecord) -> RunReport:
         sim_time_s=round(sim_span, 3),
         wall_time_s=round(wall_span, 3),
         rtf_requested=rec.rtf_requested,
-        rtf_achieved=round(sim_span / wall_span, 3) if wall_span > 0 else 0.0,
+        rtf_achieved=round((t1 - t0) / wall_span, 3) if wall_span > 0 else 0.0,
         distance_m=round(path_length(truth[:, 1:3]), 3),
         steps=steps,
         goal_error_m=goal_error,

@@ -164,6 +164,11 @@ def _pivot(world: World) -> np.ndarray:
     return np.array([(xmin + xmax) / 2, (ymin + ymax) / 2])
 
 
+def _corners(o: WorldObject) -> np.ndarray:
+    """Return the vertices the map file gives an object: its polygon (M,2), or its centre (1,2) [m]."""
+    return np.asarray(o.polygon if o.polygon is not None else (o.center,), dtype=float)
+
+
 def _key(p: np.ndarray) -> tuple[int, int]:
     """Return a position rounded to 1 cm: features sharing it share one scatter draw."""
     return (int(round(float(p[0]) * 100)), int(round(float(p[1]) * 100)))
@@ -201,7 +206,7 @@ class _UnitError:
         pts: list[np.ndarray] = []
         cap: dict[tuple[int, int], float] = {}
         for o in kept:
-            v = o.vertices
+            v = _corners(o)
             pts.append(v)
             c = _CLEARANCE_SHARE * _clearance(v) if o.polygon is not None and len(v) >= 3 else math.inf
             for p in v:
@@ -267,9 +272,9 @@ class _UnitError:
         for o in kept:
             update: dict = {}
             if o.polygon is not None:
-                update["polygon"] = tup(self.move(o.vertices, k))
+                update["polygon"] = tup(self.move(_corners(o), k))
             else:
-                update["center"] = tup(self.move(o.vertices, k))[0]
+                update["center"] = tup(self.move(_corners(o), k))[0]
             if isinstance(o.shape, (SlopeShape, StairsShape)):
                 update["shape"] = o.shape.model_copy(update={"axis_deg": o.shape.axis_deg + rot_deg})
             objects.append(WorldObject(**{**{f: getattr(o, f) for f in WorldObject.model_fields}, **update}))

@@ -45,7 +45,7 @@ def run(
     seed: Annotated[int, typer.Option(help="Seed: the run is reproducible from it")] = 0,
     out: Annotated[Path, typer.Option(help="Directory for report.json, trajectory.png, logs/")] = Path("runs/latest"),
     no_perception: Annotated[bool, typer.Option("--no-perception", help="Run without PERCEPTION: the PILOT dead-reckons on the map")] = False,
-    pose_error: Annotated[str, typer.Option(help="Initial pose error M,DEG given to the PILOT")] = "0,0",
+    pose_error: Annotated[str, typer.Option(help="Pose error M,DEG added to the start the PILOT is told (the mission's start, else the map's)")] = "0,0",
     map_error: Annotated[Optional[float], typer.Option(help="Give the robot a map derived with error M [m]: offset, rotation, scattered vertices, missing objects; M is the largest vertex displacement (default: the shipped map)")] = None,
     max_sim_time: Annotated[float, typer.Option(help="Give up after this much sim time [s]")] = 3600.0,
     max_wall_time: Annotated[float, typer.Option(help="Give up after this much wall time [s]")] = 1800.0,

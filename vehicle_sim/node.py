@@ -49,6 +49,8 @@ class NodeConfig(BaseModel):
     map_error: float = Field(default=1.0, ge=0.0)
     odometry: OdometryModel = DEFAULT_ODOMETRY
     capture_workers: int = Field(default=1, ge=1, le=8)
+    #: where the vehicle starts: x, y [m] in `world`, yaw [rad]; None = the world file's start
+    start: tuple[float, float, float] | None = None
 
 
 class SimNode:
@@ -65,6 +67,7 @@ class SimNode:
             world,
             SimConfig(vehicle=config.vehicle, physics_hz=config.physics_hz, watchdog_timeout=config.watchdog_timeout,
                       odometry=config.odometry, seed=config.seed),
+            start=config.start,
         )
         self._publish_every = max(1, int(round(config.physics_hz / config.publish_hz)))
         self._cmds: deque[bytes] = deque()

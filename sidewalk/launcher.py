@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from shapely import LineString, Point
 
 from modules.captain.missionfile import MissionFileError, load_mission
-from modules.vocabulary import Destination, Mission
+from modules.vocabulary import Destination, Mission, MissionStepSpec
 from sidewalk.map_error import MapErrorSummary, measure_map_error
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
 from sidewalk.run_record import RecordedPlan, RunRecord, save_record
@@ -123,6 +123,7 @@ class RunSetup(BaseModel):
     start_truth: Optional[tuple[float, float, float]] = None
     start_belief: tuple[float, float, float]
     destinations: tuple[Optional[tuple[float, float]], ...]
+    lane_offsets: tuple[float, ...] = ()
 
 
 def _with_pose_error(pose: tuple[float, float, float], cfg: RunConfig) -> tuple[float, float, float]:
@@ -170,6 +171,34 @@ def _destination_xy(world: World, dest: Destination) -> Optional[tuple[float, fl
     return n.x, n.y
 
 
+def _lane_offset(world: World, step: MissionStepSpec) -> float:
+    """Return the signed offset [m] (+ left of travel) of the lane a step keeps to at its destination.
+
+    Keeping right on a path of width w ends w/4 right of its centre, as the MAP NAVIGATOR plans it;
+    the width is the widest path edge meeting the destination (the nearest edge for a point).
+    """
+    keep = step.constraints.keep
+    if keep is None or not world.edges:
+        return 0.0
+    dest = step.destination
+    if dest.xy is not None:
+        p = Point(dest.xy)
+        width = min(world.edges, key=lambda e: LineString(e.coords).distance(p)).width
+    else:
+        node = None
+        for look in (world.place, world.node):
+            try:
+                node = look(dest.place)
+                break
+            except KeyError:
+                continue
+        widths = [e.width for e in world.edges if node is not None and node.id in (e.from_node, e.to_node)]
+        if not widths:
+            return 0.0
+        width = max(widths)
+    return -width / 4.0 if keep == "right" else width / 4.0
+
+
 def _object_outlines(world: World) -> list[tuple[str, np.ndarray]]:
     out = []
     for o in world.objects:
@@ -215,6 +244,7 @@ def prepare_run(cfg: RunConfig) -> RunSetup:
         map_file=map_file, map_error=measure_map_error(world, map_, requested_m=cfg.map_error_m),
         start_truth=start_truth, start_belief=_with_pose_error(told, cfg),
         destinations=tuple(_destination_xy(world, s.destination) for s in mission.steps),
+        lane_offsets=tuple(_lane_offset(world, s) for s in mission.steps),
     )
 
 
@@ -280,7 +310,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
     return RunRecord(
         architecture="codger", mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
         perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
-        rtf_requested=cfg.rtf, destinations=setup.destinations,
+        rtf_requested=cfg.rtf, destinations=setup.destinations, lane_offsets=setup.lane_offsets,
         submitted_wall_s=round(submitted_wall, 6), submitted_sim_s=submitted_sim,
         ended_wall_s=round(ended_wall, 6), ended_sim_s=ended_sim, rest_sim_s=rest,
         stop_reason=stop_reason,

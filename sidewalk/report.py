@@ -158,11 +158,11 @@ def _window(track: np.ndarray, t0: float, t1: float) -> np.ndarray:
     return track[(track[:, 0] >= t0) & (track[:, 0] <= t1)] if len(track) else track
 
 
-def _true_xy_at(truth: np.ndarray, t: float) -> np.ndarray | None:
-    """Return the true (x, y) [m] at sim time t [s], interpolated; None without truth."""
-    if len(truth) == 0:
-        return None
-    return interpolate_track(np.array([t]), truth[:, 0], truth[:, 1:3])[0]
+def _true_pose_at(truth: np.ndarray, t: float) -> np.ndarray:
+    """Return the true track row (1,4: t, x, y, yaw) at sim time t [s], interpolated (yaw unwrapped)."""
+    ts = truth[:, 0]
+    yaw = np.unwrap(truth[:, 3])
+    return np.array([[t, np.interp(t, ts, truth[:, 1]), np.interp(t, ts, truth[:, 2]), np.interp(t, ts, yaw)]])
 
 
 def _off_path_s(events: Sequence[SimEvent], t0: float, t1: float) -> float:
@@ -208,9 +208,16 @@ def _bb_usage(stats: dict[str, int | float] | None) -> BlackboardUsage | None:
     return BlackboardUsage(**usage)
 
 
-def _distance_to(truth: np.ndarray, dest: tuple[float, float]) -> np.ndarray:
-    """Return the distance [m] of each track row (N,4) from `dest` (x, y) [m]."""
-    return np.hypot(truth[:, 1] - dest[0], truth[:, 2] - dest[1])
+def _distance_to(truth: np.ndarray, dest: tuple[float, float], lane_offset: float = 0.0) -> np.ndarray:
+    """Return the distance [m] of each track row (N,4: t, x, y, yaw) from `dest` (x, y) [m] in its lane.
+
+    A step that keeps to a side ends in that lane: the point judged is `dest` moved `lane_offset` [m]
+    to the left of the vehicle's heading at that row (negative: to the right).
+    """
+    yaw = truth[:, 3]
+    lx = dest[0] - lane_offset * np.sin(yaw)
+    ly = dest[1] + lane_offset * np.cos(yaw)
+    return np.hypot(truth[:, 1] - lx, truth[:, 2] - ly)
 
 
 def _step_report(rec: RunRecord, i: int, outcomes: dict[int, StepOutcome], origin: float, truth: np.ndarray,
@@ -230,16 +237,17 @@ def _step_report(rec: RunRecord, i: int, outcomes: dict[int, StepOutcome], origi
     nxt = outcomes.get(i + 1)
     judged_until = settled if last else (nxt.finished_at if nxt is not None and nxt.finished_at is not None else settled)
     dest = rec.destinations[i]
+    lane = rec.lane_offsets[i] if i < len(rec.lane_offsets) else 0.0
     distance = at_claim = None
     if started is not None and dest is not None and len(truth):
         if last:
             rest = _window(truth, started, settled)
-            distance = float(_distance_to(rest[-1:], dest)[0]) if len(rest) else None
+            distance = float(_distance_to(rest[-1:], dest, lane)[0]) if len(rest) else None
         else:
             seen = _window(truth, started, judged_until)
-            distance = float(_distance_to(seen, dest).min()) if len(seen) else None
-        if finished is not None and (xy := _true_xy_at(truth, finished)) is not None:
-            at_claim = round(float(math.hypot(xy[0] - dest[0], xy[1] - dest[1])), 3)
+            distance = float(_distance_to(seen, dest, lane).min()) if len(seen) else None
+        if finished is not None and len(truth):
+            at_claim = round(float(_distance_to(_true_pose_at(truth, finished), dest, lane)[0]), 3)
     plans = sorted((p for p in rec.plans if p.step_index == i), key=lambda p: p.revision)
     cte_first = cte_newest = np.zeros(0)
     if plans and started is not None:
@@ -305,7 +313,7 @@ def build_report(rec: RunRecord) -> RunReport:
     goal = rec.destinations[-1]
     goal_error = None
     if goal is not None and len(truth):
-        goal_error = round(float(_distance_to(truth[-1:], goal)[0]), 3)
+        goal_error = round(float(_distance_to(truth[-1:], goal, rec.lane_offsets[-1] if rec.lane_offsets else 0.0)[0]), 3)
     # the mission's span by the CAPTAIN's clock, which also stamps the steps; RTF over what the launcher saw
     if final is not None and final.submitted_at is not None and final.finished_at is not None:
         sim_span = final.finished_at - final.submitted_at

@@ -68,7 +68,7 @@ class RunRecord(BaseModel):
     """Everything measured during one run, for `build_report`.
 
     `destinations` are the steps' true destinations (x, y) [m] in `world`, resolved from the world
-    file (None: a place the world lacks). `submitted_*` is when the CAPTAIN accepted the mission and
+    file (None: a place the world lacks); `lane_offsets` move each to the lane its step keeps to. `submitted_*` is when the CAPTAIN accepted the mission and
     `ended_*` when the launcher saw it end (or gave up); `*_wall_s` [s] since the run started, `*_sim_s`
     the sim clock [s] then; `rest_sim_s` [s] when the vehicle was seen standing still after the end
     (None: not seen); the truth goes on until then. `stop_reason` says why the launcher gave up
@@ -87,6 +87,9 @@ class RunRecord(BaseModel):
     map_error: Optional[MapErrorSummary] = None
     rtf_requested: float
     destinations: tuple[Optional[tuple[float, float]], ...]
+    #: per step, the lane the mission asked for: the signed offset [m] from the path centre at the
+    #: destination, + left of travel (keep right on a 6 m road: −1.5); empty: every step on the centre
+    lane_offsets: tuple[float, ...] = ()
     submitted_wall_s: float
     submitted_sim_s: float
     ended_wall_s: float

@@ -85,3 +85,16 @@ def test_destinations_are_the_true_places(tmp_path):
     assert setup.destinations[1] == (60.0, 0.0)
     # a point off the walks is judged at its nearest point on a walk's centreline (x = 60 runs north)
     assert np.allclose(setup.destinations[2], (60.0, 30.0))
+
+
+def test_a_step_keeping_to_a_side_is_judged_in_its_lane(tmp_path):
+    mission = tmp_path / "lanes.yaml"
+    mission.write_text("mission: l\nworld: north_hills\nvehicle: navlab\nsteps:\n"
+                       "  - {destination: mailbox, constraints: [keep_right]}\n"
+                       "  - {destination: mailbox, constraints: [keep_left]}\n"
+                       "  - destination: mailbox\n")
+    setup = prepare_run(RunConfig(world="north_hills", mission=str(mission), out=tmp_path / "out"))
+    world = load_world("north_hills")
+    node = world.place("mailbox")
+    width = max(e.width for e in world.edges if node.id in (e.from_node, e.to_node))
+    assert setup.lane_offsets == pytest.approx((-width / 4.0, width / 4.0, 0.0))

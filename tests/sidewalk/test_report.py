@@ -225,3 +225,16 @@ def test_the_recorded_two_hop_run_figure_by_figure():
     assert set(r.modules) == {"router", "blackboard", "sim", "helm", "pilot", "map_navigator", "captain"}
     assert all(m.cpu_s > 0 and m.rss_mb > 10 and m.msgs_out > 0 for m in r.modules.values())
     assert r.map_error is not None and r.map_error.requested_m is None and r.map_error.missing == 1
+
+
+def test_a_keep_right_step_is_judged_in_its_lane_not_on_the_centre():
+    # b keeps right on a 6 m path: its end point is 1.5 m right of (10, 10) for a vehicle heading north,
+    # i.e. (11.5, 10); standing at (10, 9.5) on the centre is 1.58 m from it (tolerance 1.0 m)
+    r = build_report(_record(lane_offsets=(0.0, -1.5)))
+    b = r.steps[1]
+    assert b.success is False and b.distance_m == pytest.approx(math.hypot(1.5, 0.5), abs=1e-3)
+    assert r.goal_error_m == pytest.approx(math.hypot(1.5, 0.5), abs=1e-3) and r.success is False
+    # the same stop in the lane, 0.5 m short of the lane point, is reached
+    lane_truth = tuple((t, x + 1.5 if t >= 110 else x, y, yaw) for t, x, y, yaw in _truth())
+    ok = build_report(_record(lane_offsets=(0.0, -1.5), truth=lane_truth)).steps[1]
+    assert ok.success and ok.distance_m == pytest.approx(0.5, abs=1e-3)

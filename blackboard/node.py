@@ -48,6 +48,7 @@ from blackboard.codec import MAX_PAYLOAD, decode, encode, pack_array_of_packed
 from blackboard.core import BlackboardCore, Monitor
 from blackboard.errors import BadRequestError, BlackboardError
 from blackboard.frames import FrameTree
+from blackboard.ops import FramesRequest, LookupRequest, MonitorCancel, RetrieveRequest, StatsRequest, parse_monitor
 from wire.health import Heartbeat, encode_heartbeat
 from wire.keys import BlackboardKeys
 from wire.network import NetworkConfig
@@ -292,22 +293,22 @@ class BlackboardNode:
         self._pending.append((_Ack(client, rid), ops, False))
 
     def _on_post(self, q: ZQuery) -> None:
-        op = self._body(q)
-        if isinstance(op, dict):
-            op = {**op, "op": "post"} if op.get("op", "post") == "post" else op
-        self._enqueue(q, [op], True)
+        self._enqueue(q, [self._single_op(q, "post")], True)
 
     def _on_update(self, q: ZQuery) -> None:
-        op = self._body(q)
-        if isinstance(op, dict):
-            op = {**op, "op": "update"}
-        self._enqueue(q, [op], True)
+        self._enqueue(q, [self._single_op(q, "update")], True)
 
     def _on_delete(self, q: ZQuery) -> None:
+        self._enqueue(q, [self._single_op(q, "delete")], True)
+
+    def _single_op(self, q: ZQuery, kind: str) -> Any:
+        """Return the body of a one-operation queryable tagged as `kind` (validated in the commit)."""
         op = self._body(q)
-        if isinstance(op, dict):
-            op = {**op, "op": "delete"}
-        self._enqueue(q, [op], True)
+        if type(op) is not dict:
+            raise BadRequestError(f"{q.key}: payload must be an object (one {kind} operation)")
+        if op.get("op", kind) != kind:
+            raise BadRequestError(f"{q.key}: takes a {kind} operation, not {op.get('op')!r}"[:200])
+        return {**op, "op": kind}
 
     def _on_batch(self, q: ZQuery) -> None:
         ops = self._body(q)
@@ -421,49 +422,30 @@ class BlackboardNode:
 
     # reads -----------------------------------------------------------------
     def _on_retrieve(self, q: ZQuery) -> None:
-        spec = self._body(q, empty={})
-        params = q.parameters
-        frame = params.get("frame") or None
-        stamp: float | None = None
-        if params.get("stamp"):
-            try:
-                stamp = float(params["stamp"])
-            except ValueError:
-                raise BadRequestError(f"stamp parameter {params['stamp']!r} is not a number") from None
-        if isinstance(spec, dict) and "spec" in spec and set(spec) <= {"spec", "frame", "frame_stamp"}:
-            frame = spec.get("frame", frame)
-            stamp = spec.get("frame_stamp", stamp)
-            spec = spec["spec"]
+        req = RetrieveRequest.from_wire(self._body(q, empty={}), q.parameters)
         if q.is_json:
-            self._reply(q, self.core.retrieve(spec, frame, stamp))
+            self._reply(q, self.core.retrieve(req))
         else:
-            self._reply_bytes(q, self.core.retrieve_packed(spec, frame, stamp))
+            self._reply_bytes(q, self.core.retrieve_packed(req))
 
     def _on_lookup(self, q: ZQuery) -> None:
-        self._reply(q, self.core.lookup(self._body(q)))
+        self._reply(q, self.core.lookup(LookupRequest.parse(self._body(q))))
 
     def _on_frames(self, q: ZQuery) -> None:
-        self._reply(q, self.core.frame_info())
+        FramesRequest.parse(self._body(q, empty={}))
+        self._reply(q, self.core.frame_info().wire())
 
     def _on_stats(self, q: ZQuery) -> None:
-        d = self.core.stats.as_dict()
-        d["tokens"] = len(self.store)
-        d["monitors"] = len(self.core.monitors)
-        self._reply(q, d)
+        StatsRequest.parse(self._body(q, empty={}))
+        self._reply(q, self.core.stats_snapshot().model_dump())
 
     def _on_monitor(self, q: ZQuery) -> None:
-        req = self._body(q)
-        if not isinstance(req, dict):
-            raise BadRequestError("monitor request must be an object {client, mid, spec} or {client, mid, cancel}")
-        client, mid = req.get("client"), req.get("mid")
-        for name, v in (("client", client), ("mid", mid)):
-            if not isinstance(v, str) or not v or len(v) > 64 or not all(c.isalnum() or c in "_-" for c in v):
-                raise BadRequestError(f"monitor {name} {v!r} must be 1-64 letters, digits, '_' or '-'")
-        if req.get("cancel"):
-            self._reply(q, {"cancelled": self.core.cancel_monitor(client, mid)})
+        req = parse_monitor(self._body(q))
+        if type(req) is MonitorCancel:
+            self._reply(q, {"cancelled": self.core.cancel_monitor(req.client, req.mid)})
             return
-        self.core.register_monitor(client, mid, req.get("spec"))
-        self._reply(q, {"registered": mid})
+        self.core.register_monitor(req.client, req.mid, req.spec)
+        self._reply(q, {"registered": req.mid})
 
     def _client_gone(self, key: str) -> None:
         client = key.rsplit("/", 1)[-1]

@@ -245,7 +245,8 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
                 reason = f"wall-time budget of {cfg.max_wall_time_s:.0f} s used up"
                 break
         routes = await system.route_plans(mission_id)
-        stats = await system.blackboard_stats()
+        node_stats = await system.blackboard_stats()
+        stats = node_stats.model_dump() if node_stats is not None else {}
     finally:
         cpu, exit_codes = await system.close()
     wall = time.monotonic() - wall_mission0

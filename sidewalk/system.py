@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import asyncio
-import json
 from pathlib import Path
 from typing import Callable, Optional
 
-import msgpack
 import numpy as np
 
-from blackboard import BlackboardClient, MonitorStream, NetworkConfig, Spec
+from pydantic import ValidationError
+
+from blackboard import BlackboardClient, BlackboardError, MonitorStream, NetworkConfig, Spec
+from blackboard.codec import decode
+from blackboard.replies import NodeStats
 from modules.captain.client import CaptainUnavailableError, MissionClient
 from modules.runtime import ModuleKeys, Link
 from wire.keys import BlackboardKeys
@@ -125,16 +127,16 @@ class SystemRun:
                 out.append((rp.step_index, rp.revision, np.asarray(rp.polyline, dtype=float)))
         return out
 
-    async def blackboard_stats(self) -> dict:
-        """Return the blackboard node's counters (empty if it does not answer)."""
+    async def blackboard_stats(self) -> NodeStats | None:
+        """Return the blackboard node's counters (None if it does not answer)."""
         assert self.link is not None
         replies = await self.link.get(BlackboardKeys(self.ns).stats, timeout=5.0)
         if not replies or not replies[0].ok:
-            return {}
+            return None
         try:
-            return dict(msgpack.unpackb(replies[0].payload))
-        except (ValueError, msgpack.ExtraData, msgpack.FormatError, msgpack.StackError, TypeError):
-            return dict(json.loads(replies[0].payload))
+            return NodeStats.model_validate(decode(replies[0].payload, as_json=replies[0].is_json))
+        except (BlackboardError, ValidationError):
+            return None
 
     async def close(self) -> tuple[dict[str, float], dict[str, Optional[int]]]:
         """Stop observing, stop every process; return (CPU seconds, exit codes) by process name."""

@@ -129,8 +129,8 @@ class Pilot:
             # A correction left by an earlier PILOT of this run (restart): keep its perception fixes.
             # One stamped after the current sim time belongs to an earlier simulator run: ignore it.
             info = await self.bb.frames()
-            edge = next((e for e in info.get("edges", []) if e.get("parent") == "world" and e.get("child") == "local"), None)
-            if edge is not None and float(edge.get("newest", math.inf)) <= self.rt.clock.now() + 1.0:
+            edge = info.edge("world", "local")
+            if edge is not None and edge.newest is not None and edge.newest <= self.rt.clock.now() + 1.0:
                 wl = await self.bb.lookup_pose(parent="world", child="local", stamp=None)
                 start = compose(np.array([wl.x, wl.y, wl.yaw]), self.odom.pose)
                 how = "previous world←local correction"

@@ -93,8 +93,9 @@ async def test_pilot_and_helm_drive_a_segment_by_dead_reckoning():
             lags = []
             for _ in range(10):
                 info = await bb.frames()
-                edge = next(e for e in info["edges"] if e["parent"] == "local" and e["child"] == "vehicle")
-                lags.append(truth[-1].stamp - edge["newest"])
+                edge = info.edge("local", "vehicle")
+                assert edge is not None and edge.newest is not None
+                lags.append(truth[-1].stamp - edge.newest)
             assert min(lags) <= 0.2, lags
             t_end = truth[-1].stamp
             p1 = await bb.lookup_pose(parent="local", child="vehicle", stamp=t_end - 1.0)

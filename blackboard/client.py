@@ -199,6 +199,9 @@ class BlackboardClient:
         self._mids = itertools.count(1)
         self._closed = False
         self._spec_cache: dict[int, tuple[Spec, dict]] = {}
+        #: whether the node's liveliness token is up; `_node_change` is set (and replaced) on each change
+        self._node_alive = False
+        self._node_change = asyncio.Event()
 
     # ------------------------------------------------------------------ lifecycle
     @classmethod
@@ -216,17 +219,9 @@ class BlackboardClient:
         on_message = self._on_message
         s.subscribe_payload(self.keys.to_client(self.client_id), lambda _key, payload: loop.call_soon_threadsafe(on_message, payload))
         self._wpub = s.publisher(self.keys.write(self.client_id))
-        seen = loop.create_future()
-
-        def on_alive(key: str, alive: bool) -> None:
-            if alive:
-                loop.call_soon_threadsafe(lambda: seen.done() or seen.set_result(True))
-            else:
-                loop.call_soon_threadsafe(self._node_gone)
-
-        s.liveliness_subscribe(self.keys.alive, on_alive, history=True)
+        s.liveliness_subscribe(self.keys.alive, lambda _key, alive: loop.call_soon_threadsafe(self._on_node, alive), history=True)
         try:
-            await asyncio.wait_for(seen, self.connect_timeout)
+            await self.wait_node(timeout=self.connect_timeout)
         except (asyncio.TimeoutError, TimeoutError):
             await self.close()
             raise NodeUnavailableError(
@@ -373,6 +368,19 @@ class BlackboardClient:
             _distribute(batch, None, NodeUnavailableError(
                 f"no acknowledgement from the blackboard node within {self.timeout} s "
                 f"(namespace {self.net.namespace!r}); the write may or may not have been stored"))
+
+    def _on_node(self, alive: bool) -> None:
+        self._node_alive = alive
+        if not alive:
+            self._node_gone()
+        change, self._node_change = self._node_change, asyncio.Event()
+        change.set()
+
+    async def wait_node(self, alive: bool = True, *, timeout: float | None = None) -> None:
+        """Return once the node's liveliness token is up (`alive`) or gone; TimeoutError after `timeout` [s] wall."""
+        async with asyncio.timeout(timeout):
+            while self._node_alive != alive:
+                await self._node_change.wait()
 
     def _node_gone(self) -> None:
         """Fail every unacknowledged write: the node that would acknowledge them went away."""

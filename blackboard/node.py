@@ -93,6 +93,7 @@ class BlackboardNode:
         frames: FrameTree | None = None,
         heartbeat_period: float = 1.0,
         dispatch: Literal["inline", "loop"] = "inline",
+        test_hold_after_journal: str | None = None,
     ) -> None:
         if dispatch not in ("inline", "loop"):
             raise ValueError(f"dispatch must be 'inline' or 'loop', not {dispatch!r}")
@@ -119,6 +120,8 @@ class BlackboardNode:
         #: declared publishers on `bb/to/<client>`, kept while the client lives
         self._client_pubs: dict[str, Any] = {}
         self._settle_scheduled = False
+        #: test hook (durability tests only): hold after a commit's journal append while this file exists
+        self._hold_path = test_hold_after_journal
         self._stop = asyncio.Event()
         self.ready = asyncio.Event()
 
@@ -333,6 +336,8 @@ class BlackboardNode:
                     self._reply_err(q, err)
             self._deliver(acks, {})
             return
+        if self._hold_path is not None:
+            self._hold_after_journal(self._hold_path)
         events: dict[str, dict[str, list[bytes]]] = {}
         if self.core.monitors:
             try:
@@ -360,6 +365,20 @@ class BlackboardNode:
             except Exception:  # noqa: BLE001 - a vanished querier must not stop the others
                 log.debug("reply failed", exc_info=True)
         self._after_commit()
+
+    @staticmethod
+    def _hold_after_journal(path: str) -> None:
+        """Test hook: with the commit journaled and nothing acknowledged, hold while `path` exists.
+
+        Creates `path + ".held"` first, so a test knows the node stands between the journal write
+        and the acknowledgement (and can SIGKILL it there). Active only with --test-hold-after-journal.
+        """
+        if not os.path.exists(path):
+            return
+        with open(path + ".held", "w"):
+            pass
+        while os.path.exists(path):
+            time.sleep(0.005)
 
     def _after_commit(self) -> None:
         """Get the journaled writes into SQLite soon: at once past `_SETTLE_NOW`, else after `_SETTLE_DELAY`.
@@ -467,6 +486,7 @@ def serve(
     history: float = 60.0,
     dispatch: Literal["inline", "loop"] = "inline",
     ready_stream: Any = None,
+    test_hold_after_journal: str | None = None,
 ) -> None:
     """Run a node until SIGINT/SIGTERM; print one line starting with "blackboard ready" when serving."""
     reg = registry if registry is not None else default_registry
@@ -475,7 +495,8 @@ def serve(
     out = ready_stream if ready_stream is not None else sys.stdout
 
     async def main() -> None:
-        node = BlackboardNode(net, db=db, sync=sync, registry=reg, frames=FrameTree(history=history), dispatch=dispatch)
+        node = BlackboardNode(net, db=db, sync=sync, registry=reg, frames=FrameTree(history=history), dispatch=dispatch,
+                              test_hold_after_journal=test_hold_after_journal)
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, node._stop.set)

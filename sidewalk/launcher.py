@@ -28,6 +28,7 @@ from sidewalk.report import BlackboardUsage, ErrorSummary, RunReport, StepReport
 from sidewalk.supervisor import ProcessPlan, ProcessStartError
 from vehicle_sim.mapgen import derive_map, displaced_by_up_to
 from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
+from sidewalk.errors import SidewalkError
 
 __all__ = ["RunConfig", "Progress", "preflight", "build_plans", "prepare_out", "run_mission", "mission_path", "MODULES", "LaunchError"]
 
@@ -35,7 +36,7 @@ __all__ = ["RunConfig", "Progress", "preflight", "build_plans", "prepare_out", "
 MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
 
 
-class LaunchError(RuntimeError):
+class LaunchError(SidewalkError, RuntimeError):
     """The run could not be set up (bad world, mission, flag) or a process would not start."""
 
 

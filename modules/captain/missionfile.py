@@ -25,6 +25,7 @@ import yaml
 from pydantic import ValidationError
 
 from modules.vocabulary import Destination, Mission, MissionStepSpec, StepConstraints, Trigger
+from modules.captain.errors import CaptainError
 
 __all__ = ["MissionProblem", "MissionFileError", "parse_mission", "load_mission", "CONSTRAINT_NAMES"]
 
@@ -55,7 +56,7 @@ class MissionProblem:
         return f"{where}: {self.field or '(top level)'}: {self.message}"
 
 
-class MissionFileError(ValueError):
+class MissionFileError(CaptainError, ValueError):
     """A mission that cannot be used; names the source and, per problem, the line and field."""
 
     def __init__(self, source: str, problems: Iterable[MissionProblem]) -> None:

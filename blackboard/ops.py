@@ -58,9 +58,9 @@ class _Request(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    #: the error a validation failure raises; fields in `_bad_request_fields` raise BadRequestError
+    #: the error a validation failure raises, unless `_field_errors` names another for the field
     _error: ClassVar[type[BlackboardError]] = BadRequestError
-    _bad_request_fields: ClassVar[frozenset[str]] = frozenset()
+    _field_errors: ClassVar[dict[str, type[BlackboardError]]] = {}
     _what: ClassVar[str] = "request"
 
     @classmethod
@@ -98,8 +98,8 @@ class _Request(BaseModel):
         err: type[BlackboardError] = cls._error
         for e in errs[:5]:
             loc = e.get("loc", ())
-            if loc and loc[0] in cls._bad_request_fields:
-                err = BadRequestError
+            if loc and loc[0] in cls._field_errors:
+                err = cls._field_errors[loc[0]]
             where = ".".join(str(p) for p in loc) or "(root)"
             desc = cls.model_fields[loc[0]].description if loc and loc[0] in cls.model_fields else None
             parts.append(f"{where}{f' ({desc})' if desc else ''}: {e.get('msg')}")
@@ -111,7 +111,7 @@ class _Request(BaseModel):
 # ---------------------------------------------------------------------------------------- writes
 class _Write(_Request):
     _error: ClassVar[type[BlackboardError]] = InvalidTokenError
-    _bad_request_fields: ClassVar[frozenset[str]] = frozenset({"op"})
+    _field_errors: ClassVar[dict[str, type[BlackboardError]]] = {"op": BadRequestError}
 
 
 class PostOp(_Write):
@@ -143,7 +143,7 @@ class UpdateOp(_Write):
     """
 
     _what: ClassVar[str] = "update operation"
-    _bad_request_fields: ClassVar[frozenset[str]] = frozenset({"op", "id", "expected_version"})
+    _field_errors: ClassVar[dict[str, type[BlackboardError]]] = {k: BadRequestError for k in ("op", "id", "expected_version")}
 
     op: Literal["update"] = "update"
     id: _Str
@@ -286,8 +286,7 @@ class MonitorRegister(_Request):
     """Register (or replace) monitor `mid` of `client` on `spec`; events arrive on `bb/to/<client>`."""
 
     _what: ClassVar[str] = "monitor request"
-    _error: ClassVar[type[BlackboardError]] = BadSpecError
-    _bad_request_fields: ClassVar[frozenset[str]] = frozenset({"client", "mid", "cancel"})
+    _field_errors: ClassVar[dict[str, type[BlackboardError]]] = {"spec": BadSpecError}
 
     client: _Ident
     mid: _Ident

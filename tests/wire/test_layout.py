@@ -80,3 +80,15 @@ def test_one_root_error_per_package(package: str, left_out: tuple[str, ...]) -> 
     errors = {c for c in _error_classes(package) if not c.__module__.startswith(left_out)}
     roots = sorted(f"{c.__module__}.{c.__qualname__}" for c in errors if not any(b in errors for b in c.__mro__[1:]))
     assert len(roots) == 1, f"{package}: error roots {roots}"
+
+
+def test_the_pilots_cores_are_libraries_without_a_blackboard() -> None:
+    """EDDIE reuses the position estimator's filter and the local path planner: importing them pulls in no blackboard."""
+    import subprocess
+    import sys
+
+    code = ("import sys, modules.pilot, modules.pilot.kalman, modules.pilot.planner, modules.pilot.navigator, "
+            "modules.pilot.speed_profile, modules.pilot.segment, modules.pilot.driving_units; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in ('blackboard', 'zenoh') or m.startswith('modules.vocabulary')))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

@@ -11,6 +11,7 @@ EOF on stdin kills every node still running and exits.
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import signal
@@ -58,6 +59,8 @@ def _kill(pid: int) -> dict:
 def main() -> int:
     """Serve start/kill requests until stdin closes."""
     import tests.blackboard.sample_types  # noqa: F401 - registered before the first fork
+
+    gc.freeze()  # what every node inherits is long-lived: its collector need not scan it
 
     children: set[int] = set()
     try:

@@ -120,15 +120,19 @@ class PostOp(_Write):
     `reply="id"` answers just the new id instead of the whole token.
     """
 
+    # strict throughout (no list-to-tuple fields here): the cheapest validation on the hot path
+    model_config = ConfigDict(frozen=True, extra="forbid", strict=True)
     _what: ClassVar[str] = "post operation"
 
     op: Literal["post"] = "post"
     type: _Str = Field(description="a registered token type")
-    attrs: dict[str, Any] = Field(default_factory=dict, description="validated against the type's model")
+    #: an object, checked against the type's model by the node's registry (the type decides its fields)
+    attrs: Any = Field(default_factory=dict, description="an object, validated against the type's model")
     frame: FrameName = "world"
     stamp: _Finite = Field(description="sim time [s]")
     source: Annotated[str, Strict(), StringConstraints(max_length=128)] = ""
-    geometry: dict[str, Any] | None = Field(None, description="wire geometry [m], checked by blackboard.geometry")
+    #: a wire geometry object, checked (and its validity tested) by blackboard.geometry
+    geometry: Any = Field(None, description="wire geometry [m]: point, polyline or polygon")
     reply: Literal["id"] | None = None
 
     def wire(self) -> dict[str, Any]:

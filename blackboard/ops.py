@@ -110,6 +110,8 @@ class _Request(BaseModel):
 
 # ---------------------------------------------------------------------------------------- writes
 class _Write(_Request):
+    """A write: a bad field is an invalid token unless it is the operation itself."""
+
     _error: ClassVar[type[BlackboardError]] = InvalidTokenError
     _field_errors: ClassVar[dict[str, type[BlackboardError]]] = {"op": BadRequestError}
 

@@ -22,6 +22,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from shapely import LineString, Point
 
+from sidewalk.errors import SidewalkError
+
 from modules.captain.missionfile import MissionFileError, load_mission
 from modules.vocabulary import Destination, Mission, MissionStepSpec
 from sidewalk.map_error import MapErrorSummary, measure_map_error
@@ -48,7 +50,7 @@ RECORD_LEAD_S = 1.0
 MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
 
 
-class LaunchError(RuntimeError):
+class LaunchError(SidewalkError, RuntimeError):
     """The run could not be set up (bad world, mission, flag) or a process would not start."""
 
 

@@ -16,6 +16,7 @@ from typing import Literal, Optional
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from modules.vocabulary import Mission, MissionStatus
+from sidewalk.errors import SidewalkError
 from sidewalk.map_error import MapErrorSummary
 from wire.drive import SimEvent
 from wire.health import ProcessUsage
@@ -29,7 +30,7 @@ Architecture = Literal["codger", "eddie"]
 _FROZEN = ConfigDict(frozen=True, extra="forbid")
 
 
-class RunRecordError(ValueError):
+class RunRecordError(SidewalkError, ValueError):
     """A run record file that cannot be read; names the file and what is wrong."""
 
 

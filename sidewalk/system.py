@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import asyncio
-import json
 import time
 from pathlib import Path
 from typing import Callable, Optional
 
-import msgpack
+from pydantic import ValidationError
 
-from blackboard import BlackboardClient, MonitorStream, NetworkConfig, Spec
+from blackboard import BlackboardClient, BlackboardError, MonitorStream, NetworkConfig, Spec
+from blackboard.codec import decode
+from blackboard.replies import NodeStats
 from modules.captain.client import CaptainUnavailableError, MissionClient
 from modules.runtime import ModuleKeys, Link
 from wire.keys import BlackboardKeys
@@ -156,18 +157,19 @@ class SystemRun:
         assert self.recorder is not None
         self.rest[mission_id] = await self.recorder.wait_rest()
         self.routes[mission_id] = await self.route_plans(mission_id)
-        self.bb_stats = await self.blackboard_stats() or None
+        stats = await self.blackboard_stats()
+        self.bb_stats = stats.model_dump() if stats is not None else None
 
-    async def blackboard_stats(self) -> dict:
-        """Return the blackboard node's counters (empty if it does not answer)."""
+    async def blackboard_stats(self) -> NodeStats | None:
+        """Return the blackboard node's counters (None if it does not answer)."""
         assert self.link is not None
         replies = await self.link.get(BlackboardKeys(self.ns).stats, timeout=5.0)
         if not replies or not replies[0].ok:
-            return {}
+            return None
         try:
-            return dict(msgpack.unpackb(replies[0].payload))
-        except (ValueError, msgpack.ExtraData, msgpack.FormatError, msgpack.StackError, TypeError):
-            return dict(json.loads(replies[0].payload))
+            return NodeStats.model_validate(decode(replies[0].payload, as_json=replies[0].is_json))
+        except (BlackboardError, ValidationError):
+            return None
 
     async def close(self) -> dict[str, Optional[int]]:
         """Stop observing the blackboard, stop every process, then close the session; return exit codes by process name."""

@@ -27,6 +27,7 @@ import yaml
 from pydantic import ValidationError
 
 from modules.vocabulary import DEFAULT_TOLERANCE_M, Destination, Mission, MissionStart, MissionStepSpec, StepConstraints, Trigger
+from modules.captain.errors import CaptainError
 
 __all__ = ["MissionProblem", "MissionFileError", "parse_mission", "load_mission", "CONSTRAINT_NAMES"]
 
@@ -57,7 +58,7 @@ class MissionProblem:
         return f"{where}: {self.field or '(top level)'}: {self.message}"
 
 
-class MissionFileError(ValueError):
+class MissionFileError(CaptainError, ValueError):
     """A mission that cannot be used; names the source and, per problem, the line and field."""
 
     def __init__(self, source: str, problems: Iterable[MissionProblem]) -> None:

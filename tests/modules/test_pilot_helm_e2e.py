@@ -93,8 +93,9 @@ async def test_pilot_and_helm_drive_a_segment_by_dead_reckoning():
             lags = []
             for _ in range(10):
                 info = await bb.frames()
-                edge = next(e for e in info["edges"] if e["parent"] == "local" and e["child"] == "vehicle")
-                lags.append(truth[-1].stamp - edge["newest"])
+                edge = info.edge("local", "vehicle")
+                assert edge is not None and edge.newest is not None
+                lags.append(truth[-1].stamp - edge.newest)
             assert min(lags) <= 0.2, lags
             t_end = truth[-1].stamp
             p1 = await bb.lookup_pose(parent="local", child="vehicle", stamp=t_end - 1.0)
@@ -145,8 +146,8 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
                         fix=PointFix(pose=Pose(x=tp.x, y=tp.y, yaw=tp.yaw),
                                      covariance=(0.05**2, 0, 0, 0, 0.05**2, 0, 0, 0, 0.01**2)),
                     )
-                    await bb.update(ev.token.id, du.model_copy(update={"status": "perceived", "result": res}),
-                                    expected_version=ev.token.version)
+                    # PERCEPTION's answer is a perception_result token: the PILOT reads nothing else.
+                    await bb.post(res, frame="world", stamp=tp.stamp)
                     answered.append(du.unit_id)
 
             mon_task = asyncio.ensure_future(perceive())

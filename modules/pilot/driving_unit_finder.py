@@ -55,7 +55,7 @@ class DrivingUnitFinder:
             if res.status == "perceived" and await self.estimator.apply_fix(res):
                 fixed_unit = res.unit_id
             if drv.units[i].phase != "resolved" or region is not None:
-                drv.resolve(i, region, res.status == "perceived", f"perception {res.status}")
+                drv.resolve(i, region, res.status == "perceived", f"perception {res.status}", sensed_at=res.captured_at)
                 drv.planned_through = min(drv.planned_through, i - 1)  # a late region still reshapes the plan
             self.misses = 0
             if self.dead_reckoning and self.cfg.perception == "auto":

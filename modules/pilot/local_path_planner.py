@@ -40,8 +40,11 @@ class LocalPathPlanning:
         return await asyncio.to_thread(self.search.plan, start, goals, region)
 
     async def post(self, seg: RouteSegmentDescription, path: PlannedPath, world_local: np.ndarray, unit_ids: tuple[str, ...],
-                   speed_limit: float, stop_at_end: bool, now: float) -> LocalPathPlan:
-        """Post `path` (world) for the HELM in `local` given world←local (3,), with speeds ≤ `speed_limit` [m/s]."""
+                   speed_limit: float, stop_at_end: bool, now: float, *, sensed_at: float | None = None) -> LocalPathPlan:
+        """Post `path` (world) for the HELM in `local` given world←local (3,), with speeds ≤ `speed_limit` [m/s].
+
+        `sensed_at` [s sim]: the newest capture among the perceived units the plan was built on.
+        """
         # Only a segment that must stop at its exit ends in a stop; otherwise the HELM brakes to the
         # plan's end by itself unless the next plan (or the next segment's) arrives first.
         v = speed_profile(path.s, path.curvature, path.direction, speed_limit, stop_at_end=stop_at_end, cfg=self.cfg.speed)
@@ -54,7 +57,7 @@ class LocalPathPlanning:
             for (px, py), a, sp in zip(xy, yaw, v)
         )
         plan = LocalPathPlan(seq=self.seq, segment_id=seg.segment_id, unit_ids=unit_ids, frame="local", poses=poses,
-                             stop_at_end=stop_at_end)
+                             stop_at_end=stop_at_end, sensed_at=sensed_at)
         await self.bb.post(plan, frame="local", geometry=BbPolyline(points=tuple((p.x, p.y) for p in poses)), stamp=now)
         self.last_plan_t = now
         return plan

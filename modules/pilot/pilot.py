@@ -193,5 +193,5 @@ class Pilot:
         now = self.rt.clock.now()
         await self.navigator.post(seg, uc, start, unit_ids.get(newest, f"{seg.segment_id}.u{newest}"), speed_limit, stop_here, now)
         await self.planner.post(seg, path, self.estimator.world_from_local(), tuple(unit_ids[i] for i in uc.indices if i in unit_ids),
-                                speed_limit, stop_here, now)
+                                speed_limit, stop_here, now, sensed_at=drv.sensed_at(list(uc.indices)))
         drv.mark_planned(newest, float(uc.constraints.goal_s[-1]))

@@ -40,6 +40,9 @@ async def test_a_killed_pilot_is_restarted_resumes_and_the_mission_truly_arrives
         while system.recorder.distance_m() < 5.0 and loop.time() < end:
             await system.next_status(mid, timeout=0.5)
         assert system.recorder.distance_m() >= 5.0, "the vehicle never started moving"
+        # the first PILOT's cost is known only once one of its heartbeats (1 Hz wall) was heard
+        while not any(name == "pilot" for name, _pid in system.recorder.costs) and loop.time() < end:
+            await system.next_status(mid, timeout=0.2)
         await system.kill("pilot")
         assert system.crashed() == ["pilot"]
         assert all(system.alive(n) for n in ALL if n != "pilot")

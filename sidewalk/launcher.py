@@ -26,6 +26,7 @@ from sidewalk.metrics import cross_track_errors, path_length, position_errors
 from sidewalk.system import SystemRun
 from sidewalk.report import BlackboardUsage, ErrorSummary, RunReport, StepReport, plot_trajectory, write_report
 from sidewalk.supervisor import ProcessPlan, ProcessStartError
+from sidewalk.observers import RECORDING_NAME, observer_plans  # issue 11: monitor and recording
 from vehicle_sim.mapgen import derive_map, displaced_by_up_to
 from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
 
@@ -58,6 +59,10 @@ class RunConfig(BaseModel):
     max_wall_time_s: float = Field(default=1800.0, gt=0.0)
     namespace: Optional[str] = None
     watchdog_s: float = Field(default=1.0, gt=0.0)
+    # ---- monitor and recording (issue 11) ----
+    record: bool = True  # write run.mcap beside report.json
+    monitor_port: Optional[int] = Field(default=None, ge=1, le=65535)  # serve the monitor page on this port
+    # ---- end monitor and recording ----
 
 
 @dataclass
@@ -166,6 +171,8 @@ def build_plans(cfg: RunConfig, world: World, vehicle: str, out: Path, ns: str, 
                             "--rtf", str(cfg.rtf), "--seed", str(cfg.seed), "--watchdog", str(cfg.watchdog_s), *zflags)),
         ProcessPlan("helm", ("-m", "sidewalk", "up", "helm", "--vehicle", vehicle, *zflags)),
     ]
+    # ---- monitor and recording (issue 11): recorder and monitor start before the simulator ----
+    plans[2:2] = observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port)
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags)))
     plans += [
@@ -182,7 +189,7 @@ def build_plans(cfg: RunConfig, world: World, vehicle: str, out: Path, ns: str, 
 def prepare_out(out: Path) -> None:
     """Create the output directory and remove what an earlier run left there."""
     out.mkdir(parents=True, exist_ok=True)
-    for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson"):
+    for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson", RECORDING_NAME):
         (out / stale).unlink(missing_ok=True)
     for old_log in (out / "logs").glob("*.log"):
         old_log.unlink()

@@ -13,11 +13,11 @@ from __future__ import annotations
 
 import asyncio
 import logging
-from typing import Any, Iterable, Optional, Protocol
+from typing import Iterable, Optional, Protocol
 
 from blackboard import BlackboardClient, BlackboardError, Spec
+from sidewalk.values import num as _f, points_of
 from sidewalk.monitor.model import DrawnUnit, MonitorModel, Perceived, XYPose
-from sidewalk.recording.derive import points_of
 from sidewalk.recording.recorder import token_dict
 from wire.se2 import transform_points
 
@@ -49,13 +49,6 @@ class BlackboardFrames:
         except (BlackboardError, asyncio.TimeoutError):
             return None
         return (p.x, p.y, p.yaw)
-
-
-def _f(v: Any, default: float = 0.0) -> float:
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return default
 
 
 class CodgerInterpreter:

@@ -22,9 +22,10 @@ import json
 import logging
 from typing import Any
 
+from sidewalk.values import num as _f, points_of
 from sidewalk.monitor.model import MonitorModel, XYPose
 from sidewalk.recording.channels import decode_payload
-from sidewalk.recording.derive import annotation_points, points_of
+from sidewalk.recording.derive import annotation_points
 from wire.aio import Link
 from wire.keys import EddieKeys
 
@@ -36,13 +37,6 @@ log = logging.getLogger(__name__)
 STREAMS = (("controller", "state"), ("controller", "path"), ("navigator", "world_from_local"), ("map_manager", "triggers"))
 #: Streams where only the newest sample matters (the others: every sample).
 LATEST_STREAMS = (("controller", "state"), ("controller", "path"), ("navigator", "world_from_local"))
-
-
-def _f(v: Any, default: float = 0.0) -> float:
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return default
 
 
 class EddieInterpreter:

@@ -14,6 +14,7 @@ from typing import Any
 from pydantic import ValidationError
 
 from sidewalk.mapdraw import drawable_features
+from sidewalk.values import num as _f
 from sidewalk.monitor.model import MonitorModel, XYPose
 from wire.health import Heartbeat
 
@@ -32,13 +33,6 @@ def image_bytes(v: Any) -> bytes | None:
         except ValueError:
             return None
     return None
-
-
-def _f(v: Any, default: float = 0.0) -> float:
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return default
 
 
 class SimSource:

@@ -14,13 +14,14 @@ from typing import Any, Iterable, NamedTuple
 from pydantic import BaseModel
 
 from sidewalk.mapdraw import drawable_features
+from sidewalk.values import num as _num, points_of
 from sidewalk.recording.foxglove import (
     CompressedImage, KeyValuePair, Pose, SceneEntity, SceneEntityDeletion, SceneUpdate, SpherePrimitive, TextPrimitive,
     Time, Vector3, frame_transform, line, rgba,
 )
 
 __all__ = ["Derived", "derive_sample", "derive_token", "map_scene", "annotation_scene", "TF_TOPIC", "TRUTH_TF_TOPIC",
-           "STATIC_TF_TOPIC", "points_of", "annotation_points"]
+           "STATIC_TF_TOPIC", "annotation_points"]
 
 TF_TOPIC = "/tf"
 TRUTH_TF_TOPIC = "/tf/truth"
@@ -41,24 +42,6 @@ class Derived(NamedTuple):
 
 _UNIT_RGB = {"pending": rgba(1.0, 0.8, 0.1), "perceived": rgba(0.1, 0.8, 0.3), "failed": rgba(0.9, 0.1, 0.1),
              "cancelled": rgba(0.5, 0.5, 0.5, 0.5)}
-
-
-def _num(v: Any, default: float = 0.0) -> float:
-    try:
-        return float(v)
-    except (TypeError, ValueError):
-        return default
-
-
-def points_of(v: Any) -> list[tuple[float, float]]:
-    """Return (x, y) pairs [m] of a list of [x, y] pairs or of {x, y} maps (anything else: none)."""
-    out = []
-    for p in v or ():
-        if isinstance(p, dict) and "x" in p and "y" in p:
-            out.append((_num(p["x"]), _num(p["y"])))
-        elif isinstance(p, (list, tuple)) and len(p) >= 2:
-            out.append((_num(p[0]), _num(p[1])))
-    return out
 
 
 def _entity(t: float, frame: str, eid: str, lines=(), texts=(), spheres=(), meta: dict | None = None) -> SceneEntity:

@@ -34,7 +34,7 @@ def test_every_host_sees_every_module(tmp_path) -> None:
     with Hosts(3) as hosts:
         endpoint = f"tcp/{hosts.addr(0)}:7447"
         ns = "multihost"
-        cfg = RunConfig(world="campus", mission=str(MISSION), out=tmp_path, namespace=ns)
+        cfg = RunConfig(world="campus", mission=str(MISSION), out=tmp_path, namespace=ns, record=False)
         plans = build_plans(cfg, load_world("campus"), "terregator", tmp_path, ns, endpoint)
         procs = []
         try:
@@ -42,7 +42,7 @@ def test_every_host_sees_every_module(tmp_path) -> None:
                 host = 0 if plan.name in ON_A else 1
                 ready = READY.get(plan.name, f"SIDEWALK-READY {plan.name}")
                 procs.append(spawn(hosts.exec(host, [sys.executable, *plan.args]), ready, timeout=90))
-            expected = {"router", "blackboard", "sim", "recorder", "helm", "perception", "pilot", "map_navigator", "captain"}
+            expected = {"router", "blackboard", "sim", "helm", "perception", "pilot", "map_navigator", "captain"}
             seen = []
             for _ in range(50):
                 r = _sidewalk(hosts, 2, "status", "--json", "--heartbeat-wait", "0", "--ns", ns, "--connect", endpoint)

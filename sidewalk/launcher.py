@@ -21,6 +21,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from shapely import LineString, Point
+from sidewalk.observers import RECORDING_NAME, observer_plans  # issue 11: monitor and recording
 
 from sidewalk.errors import SidewalkError
 
@@ -75,6 +76,10 @@ class RunConfig(BaseModel):
     watchdog_s: float = Field(default=1.0, gt=0.0)
     #: how long [s] wall the MAP NAVIGATOR waits for a PILOT that went away before it fails the segment
     pilot_grace_s: float = Field(default=15.0, gt=0.0)
+    # ---- monitor and recording (issue 11) ----
+    record: bool = True  # write run.mcap beside report.json
+    monitor_port: Optional[int] = Field(default=None, ge=1, le=65535)  # serve the monitor page on this port
+    # ---- end monitor and recording ----
 
 
 @dataclass
@@ -265,6 +270,8 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
                             "--rtf", str(cfg.rtf), "--seed", str(cfg.seed), "--watchdog", str(cfg.watchdog_s), *zflags)),
         ProcessPlan("helm", ("-m", "sidewalk", "up", "helm", "--vehicle", vehicle, *zflags)),
     ]
+    # ---- monitor and recording (issue 11): recorder and monitor start before the simulator ----
+    plans[2:2] = observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port)
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags)))
     plans += [
@@ -282,7 +289,7 @@ def prepare_out(out: Path) -> None:
     """Create the output directory and remove what an earlier run left there."""
     out.mkdir(parents=True, exist_ok=True)
     for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson",
-                  RECORD_FILE):
+                  RECORD_FILE, RECORDING_NAME):
         (out / stale).unlink(missing_ok=True)
     for old_log in (out / "logs").glob("*.log"):
         old_log.unlink()

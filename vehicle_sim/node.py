@@ -88,6 +88,7 @@ class SimNode:
         self.step_time_total = 0.0
         self._error: BaseException | None = None
         self._hb_seq = 0
+        self.captures_served = 0
 
     # ---- lifecycle ---------------------------------------------------------------------------
 
@@ -117,6 +118,7 @@ class SimNode:
             self._pub_truth = z.publisher(k.truth, droppable=True)
             self._pub_events = z.publisher(k.events)
             self._pub_hb = z.publisher(k.heartbeat, droppable=True)
+            self._pub_preview = z.publisher(k.preview, droppable=True)  # monitor/recorder only: may drop, never blocks
             z.subscribe_payload(k.cmd, self._on_cmd)
             z.queryable(k.capture, self._on_capture)
             z.queryable(k.info, self._on_info)
@@ -194,6 +196,7 @@ class SimNode:
             if item is None:
                 return
             q, t, state = item
+            res = None
             try:
                 if self._stop.is_set():
                     q.reply_err(json.dumps({"error": "simulator is shutting down"}).encode(), as_json=True)
@@ -208,6 +211,19 @@ class SimNode:
                 q.reply_err(json.dumps({"error": "capture failed", "detail": f"{type(exc).__name__}: {exc}"}).encode(), as_json=True)
             finally:
                 q.finish()
+            if res is not None:  # after the reply is finished: the asker never waits for the preview
+                self._publish_preview(res)
+
+    def _publish_preview(self, res) -> None:
+        """Publish a small camera / colored-range preview of a capture served (droppable; no pose, no truth)."""
+        from vehicle_sim.preview import make_preview
+        from wire.preview import encode_preview
+
+        self.captures_served += 1
+        try:
+            self._pub_preview.put(encode_preview(make_preview(res, self.captures_served)))
+        except Exception:  # noqa: BLE001 - a preview must never disturb the simulator
+            log.exception("preview failed")
 
     # ---- physics loop -------------------------------------------------------------------------
 

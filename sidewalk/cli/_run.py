@@ -37,6 +37,27 @@ def _parse_pose_error(text: str) -> tuple[float, float]:
     return m, deg
 
 
+# ---- monitor and recording (issue 11) ----
+#: Progress steps shown before the monitor process has said it is ready.
+_BEFORE_MONITOR = ("starting", "starting router", "starting blackboard", "starting recorder", "starting monitor")
+
+
+def _monitor_preflight(cfg, console) -> Optional[str]:  # noqa: ANN001 - RunConfig, rich Console
+    """Return the monitor page's URL (None without --monitor); exit 2 with one line if its port is taken."""
+    if cfg.monitor_port is None:
+        return None
+    from sidewalk.monitor import PortInUseError, check_port
+    from sidewalk.observers import monitor_url
+
+    try:
+        check_port("127.0.0.1", cfg.monitor_port)
+    except PortInUseError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from None
+    return monitor_url(cfg.monitor_port)
+# ---- end monitor and recording ----
+
+
 def run(
     world: Annotated[str, typer.Option(help="World name (worlds/<name>.world.geojson) or file")] = "campus",
     mission: Annotated[str, typer.Option(help="Mission name (worlds/<name>.yaml) or file")] = "campus-tour",
@@ -50,8 +71,13 @@ def run(
     max_sim_time: Annotated[float, typer.Option(help="Give up after this much sim time [s]")] = 3600.0,
     max_wall_time: Annotated[float, typer.Option(help="Give up after this much wall time [s]")] = 1800.0,
     ns: Annotated[Optional[str], typer.Option("--ns", help="Namespace (default: a fresh one per run)")] = None,
+    # ---- monitor and recording (issue 11) ----
+    monitor: Annotated[bool, typer.Option("--monitor", help="Serve the NAVIGATION MONITOR page for the run (prints its URL)")] = False,
+    monitor_port: Annotated[int, typer.Option("--monitor-port", help="HTTP port of the monitor page")] = 8080,
+    no_record: Annotated[bool, typer.Option("--no-record", help="Do not write run.mcap")] = False,
+    # ---- end monitor and recording ----
 ) -> None:
-    """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh."""
+    """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh; writes run.mcap."""
     from rich.console import Console
     from rich.progress import BarColumn, Progress as RichProgress, TextColumn, TimeElapsedColumn
 
@@ -61,13 +87,16 @@ def run(
 
     if vehicle is not None and vehicle not in ("terregator", "navlab"):
         raise typer.BadParameter(f"{vehicle!r} is not terregator or navlab", param_hint="--vehicle")
+    if not 0 < monitor_port < 65536:  # issue 11
+        raise typer.BadParameter(f"must be 1-65535, got {monitor_port}", param_hint="--monitor-port")
     pe_m, pe_deg = _parse_pose_error(pose_error)
     if map_error is not None and not (math.isfinite(map_error) and map_error >= 0):
         raise typer.BadParameter(f"{map_error!r} is not a distance >= 0 [m]", param_hint="--map-error")
     try:
         cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
                         perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
-                        max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns)
+                        max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns,
+                        record=not no_record, monitor_port=monitor_port if monitor else None)  # issue 11
     except ValidationError as exc:
         e = exc.errors()[0]
         raise typer.BadParameter(f"{e['loc'][0]}: {e['msg']}") from None
@@ -77,6 +106,7 @@ def run(
     except LaunchError as exc:
         console.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(2) from None
+    url = _monitor_preflight(cfg, console)  # issue 11: the monitor's port, checked before anything starts
     with RichProgress(
         TextColumn("[bold]{task.fields[step]}"),
         BarColumn(),
@@ -92,8 +122,12 @@ def run(
         task = bar.add_task("run", total=1, step="starting", dist=0.0, sim=0.0, rtf=0.0, state="starting")
 
         announced = []
+        url_shown: list[bool] = []
 
         def show(p: Progress) -> None:
+            if url and not url_shown and p.step not in _BEFORE_MONITOR:  # issue 11: the page is up now
+                url_shown.append(True)
+                bar.console.print(f"monitor: [bold]{url}[/bold]")
             if not announced:
                 announced.append(True)
                 bar.console.print(f"namespace [bold]{p.namespace}[/bold], endpoint [bold]{p.endpoint}[/bold] — inspect with "

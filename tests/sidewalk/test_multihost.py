@@ -33,7 +33,7 @@ def test_every_host_sees_every_module(tmp_path) -> None:
     with Hosts(3) as hosts:
         endpoint = f"tcp/{hosts.addr(0)}:7447"
         ns = "multihost"
-        cfg = RunConfig(world="campus", mission=str(MISSION), out=tmp_path, namespace=ns)
+        cfg = RunConfig(world="campus", mission=str(MISSION), out=tmp_path, namespace=ns, record=False)
         plans = build_plans(cfg, prepare_run(cfg), ns, endpoint)
         procs = []
         try:

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from sidewalk.errors import SidewalkError
+
 __all__ = ["MonitorError", "PortInUseError"]
 
 
-class MonitorError(Exception):
+class MonitorError(SidewalkError):
     """Root of the monitor's errors (the message says what is wrong in one line)."""
 
 

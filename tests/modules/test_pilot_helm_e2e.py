@@ -137,8 +137,12 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
             answered: list[str] = []
             captured: set[float] = set()
 
+            # Registered before the segment is posted, so no driving unit goes by unseen.
+            units = bb.monitor(Spec(type="driving_unit", where=(AttrPredicate(path="status", op="==", value="pending"),)))
+            await units.start()
+
             async def perceive() -> None:
-                async for ev in bb.monitor(Spec(type="driving_unit", where=(AttrPredicate(path="status", op="==", value="pending"),))):
+                async for ev in units:
                     if ev.kind != "new":
                         continue
                     du = ev.token.attrs

@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= runs/latest
 
-.PHONY: run test bench venv clean
+.PHONY: run test bench venv clean chromium
 
 venv: $(STAMP)
 
@@ -19,14 +19,22 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(VENV)/bin/sidewalk run --world campus --mission campus-tour --out $(OUT)
 
-## The test suite (real Zenoh on loopback, real SQLite, real processes).
-test: $(STAMP)
+## The test suite (real Zenoh on loopback, real SQLite, real processes, a real browser).
+test: $(STAMP) chromium
 	$(PY) -m pytest -q
+
+## Debian's chromium, which Playwright drives in the monitor's browser test (Playwright's own download cannot work here).
+chromium:
+	@if [ ! -x /usr/bin/chromium ]; then \
+	  if [ "$$(id -u)" = 0 ]; then apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium; \
+	  else echo "chromium is missing and we are not root: the monitor's browser test will FAIL; install it with: sudo apt-get install chromium"; fi; \
+	fi
 
 ## Benchmarks: each prints one JSON object.
 bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench blackboard --json
 	$(VENV)/bin/sidewalk bench sim --json
+	$(VENV)/bin/sidewalk bench record --json
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache

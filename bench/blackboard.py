@@ -278,7 +278,7 @@ async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, sample
         out["transform_10k_points_p50_us"] = out["transform_10k_points_us"]
 
         st = await bb.stats()
-        out.update({f"node_{k}": v for k, v in st.items()})
+        out.update({f"node_{k}": v for k, v in st.model_dump().items()})
         gc.unfreeze()
     out["samples"] = samples
     out["cpus"] = os.cpu_count()

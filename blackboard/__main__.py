@@ -26,10 +26,14 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--types", action="append", default=[], help="module registering token types (repeatable)")
     ap.add_argument("--dispatch", default="inline", choices=["inline", "loop"], help="where requests are processed (see blackboard.node)")
     ap.add_argument("--history", type=float, default=60.0, help="pose history kept [s]")
+    ap.add_argument("--test-hold-after-journal", metavar="PATH", default=None,
+                    help="durability tests only: after a commit's journal append, while PATH exists, "
+                         "create PATH.held and hold before acknowledging")
     a = ap.parse_args(argv)
     logging.basicConfig(level=os.environ.get("SIDEWALK_LOG", "WARNING").upper())
     net = network_from_args(ap, a, role="peer")
-    serve(net, db=a.db, sync=a.sync, types=tuple(a.types), history=a.history, dispatch=a.dispatch)
+    serve(net, db=a.db, sync=a.sync, types=tuple(a.types), history=a.history, dispatch=a.dispatch,
+          test_hold_after_journal=a.test_hold_after_journal)
     return 0
 
 

@@ -34,8 +34,21 @@ from blackboard.frames import apply_se2
 from blackboard.geometry import Point, Polygon, Polyline, Pose2D
 from wire.keys import BlackboardKeys
 from wire.network import NetworkConfig
+from blackboard.ops import (
+    DeleteOp,
+    LookupRequest,
+    MonitorCancel,
+    MonitorRegister,
+    PoseOp,
+    PostOp,
+    RetrieveRequest,
+    StaticOp,
+    UpdateOp,
+    WriteOp,
+)
 from blackboard.registry import TypeRegistry, default_registry
-from blackboard.spec import Spec
+from blackboard.replies import FrameListing, NodeStats
+from blackboard.spec import Spec, parse_spec
 from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_wire
 
 __all__ = ["BlackboardClient", "MonitorStream"]
@@ -83,10 +96,10 @@ class MonitorStream:
         if not self._started:
             self._started = True
             self._client._monitors[self.mid] = self
-            await self._client._request(
-                self._client.keys.monitor,
-                {"client": self._client.client_id, "mid": self.mid, "spec": self._client._spec_wire(self.spec)},
-            )
+            c = self._client
+            await c._request(c.keys.monitor, MonitorRegister.trusted(
+                {"client": c.client_id, "mid": self.mid, "spec": parse_spec(self.spec), "cancel": False},
+                {"client", "mid", "spec"}).wire())
         return self
 
     async def close(self) -> None:
@@ -98,7 +111,8 @@ class MonitorStream:
         self._client._monitors.pop(self.mid, None)
         if self._started and not self._client._closed:
             try:
-                await self._client._request(self._client.keys.monitor, {"client": self._client.client_id, "mid": self.mid, "cancel": True})
+                c = self._client
+                await c._request(c.keys.monitor, MonitorCancel.trusted({"client": c.client_id, "mid": self.mid, "cancel": True}).wire())
             except BlackboardError:
                 pass
 
@@ -173,11 +187,11 @@ class BlackboardClient:
         self.client_id = (_SAFE.sub("_", source)[:24] or "c") + "-" + uuid.uuid4().hex[:10]
         self._session: ZSession | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
-        self._batch: list[tuple[dict, asyncio.Future, Any]] = []
+        self._batch: list[tuple[WriteOp, asyncio.Future, Any]] = []
         self._batch_scheduled = False
         #: write batches sent and not yet acknowledged: request id → (batch, deadline [loop time, s]),
         #: in sending order (so in deadline order); one timer sweeps the expired ones
-        self._inflight: dict[int, tuple[list[tuple[dict, asyncio.Future, Any]], float]] = {}
+        self._inflight: dict[int, tuple[list[tuple[WriteOp, asyncio.Future, Any]], float]] = {}
         self._sweeper: asyncio.TimerHandle | None = None
         self._rids = itertools.count(1)
         self._wpub: Any = None
@@ -185,6 +199,9 @@ class BlackboardClient:
         self._mids = itertools.count(1)
         self._closed = False
         self._spec_cache: dict[int, tuple[Spec, dict]] = {}
+        #: whether the node's liveliness token is up; `_node_change` is set (and replaced) on each change
+        self._node_alive = False
+        self._node_change = asyncio.Event()
 
     # ------------------------------------------------------------------ lifecycle
     @classmethod
@@ -202,17 +219,9 @@ class BlackboardClient:
         on_message = self._on_message
         s.subscribe_payload(self.keys.to_client(self.client_id), lambda _key, payload: loop.call_soon_threadsafe(on_message, payload))
         self._wpub = s.publisher(self.keys.write(self.client_id))
-        seen = loop.create_future()
-
-        def on_alive(key: str, alive: bool) -> None:
-            if alive:
-                loop.call_soon_threadsafe(lambda: seen.done() or seen.set_result(True))
-            else:
-                loop.call_soon_threadsafe(self._node_gone)
-
-        s.liveliness_subscribe(self.keys.alive, on_alive, history=True)
+        s.liveliness_subscribe(self.keys.alive, lambda _key, alive: loop.call_soon_threadsafe(self._on_node, alive), history=True)
         try:
-            await asyncio.wait_for(seen, self.connect_timeout)
+            await self.wait_node(timeout=self.connect_timeout)
         except (asyncio.TimeoutError, TimeoutError):
             await self.close()
             raise NodeUnavailableError(
@@ -263,7 +272,7 @@ class BlackboardClient:
     async def _request(self, key: str, obj: Any, *, selector: str | None = None) -> Any:
         return await self._query(selector or key, encode(obj))
 
-    def _write(self, op: dict, then: Any = None) -> asyncio.Future:
+    def _write(self, op: WriteOp, then: Any = None) -> asyncio.Future:
         """Queue one write; return a future of its result (`then(result)` if given)."""
         loop = self._loop
         if loop is None:
@@ -294,7 +303,7 @@ class BlackboardClient:
             return
         rid = next(self._rids)
         try:
-            data = _packb((rid, [e[0] for e in batch]))
+            data = _packb((rid, [e[0].wire() for e in batch]))
         except Exception as exc:  # noqa: BLE001 - e.g. an attribute msgpack cannot carry
             _distribute(batch, None, BadRequestError(f"cannot encode write: {type(exc).__name__}: {exc}"[:300]))
             return
@@ -360,6 +369,19 @@ class BlackboardClient:
                 f"no acknowledgement from the blackboard node within {self.timeout} s "
                 f"(namespace {self.net.namespace!r}); the write may or may not have been stored"))
 
+    def _on_node(self, alive: bool) -> None:
+        self._node_alive = alive
+        if not alive:
+            self._node_gone()
+        change, self._node_change = self._node_change, asyncio.Event()
+        change.set()
+
+    async def wait_node(self, alive: bool = True, *, timeout: float | None = None) -> None:
+        """Return once the node's liveliness token is up (`alive`) or gone; TimeoutError after `timeout` [s] wall."""
+        async with asyncio.timeout(timeout):
+            while self._node_alive != alive:
+                await self._node_change.wait()
+
     def _node_gone(self) -> None:
         """Fail every unacknowledged write: the node that would acknowledge them went away."""
         self._fail_inflight(NodeUnavailableError(
@@ -424,7 +446,7 @@ class BlackboardClient:
         try:
             name = type or self.registry.name_of(attrs)
             g = _geom_wire(geometry)
-            op = {
+            op = PostOp.trusted({
                 "op": "post",
                 "type": name,
                 "attrs": attrs.__pydantic_serializer__.to_python(attrs, mode="json"),
@@ -433,7 +455,7 @@ class BlackboardClient:
                 "source": self.source,
                 "geometry": g,
                 "reply": "id",
-            }
+            })
         except Exception as exc:  # noqa: BLE001 - raised when awaited, like any other failure
             return self._failed(exc)
         geom = _geom_from_wire(g) if isinstance(geometry, dict) else geometry
@@ -454,8 +476,8 @@ class BlackboardClient:
             g = _geom_wire(geometry)
         except Exception as exc:  # noqa: BLE001
             return self._failed(exc)
-        return self._write({"op": "post", "type": type, "attrs": attrs, "frame": frame, "stamp": stamp,
-                            "source": self.source, "geometry": g})
+        return self._write(PostOp.trusted({"op": "post", "type": type, "attrs": attrs, "frame": frame, "stamp": stamp,
+                                           "source": self.source, "geometry": g, "reply": None}))
 
     async def update(
         self,
@@ -471,36 +493,32 @@ class BlackboardClient:
 
         Raise VersionConflictError if someone else updated it first, NotFoundError if it is gone.
         """
-        op: dict[str, Any] = {"op": "update", "id": token_id, "expected_version": expected_version}
+        fields: dict[str, Any] = {"op": "update", "id": token_id, "expected_version": expected_version,
+                                  "attrs": None, "frame": frame, "stamp": stamp, "geometry": None}
+        given = {"op", "id", "expected_version"}
         if attrs is not None:
-            op["attrs"] = attrs.model_dump(mode="json")
+            fields["attrs"] = attrs.model_dump(mode="json")
+            given.add("attrs")
         if geometry is not ...:
-            op["geometry"] = _geom_wire(geometry)  # type: ignore[arg-type]
-        if stamp is not None:
-            op["stamp"] = stamp
-        if frame is not None:
-            op["frame"] = frame
-        w = await self._write(op)
+            fields["geometry"] = _geom_wire(geometry)  # type: ignore[arg-type]
+            given.add("geometry")
+        given.update(k for k in ("stamp", "frame") if fields[k] is not None)
+        w = await self._write(UpdateOp.trusted(fields, given))
         return self._token(w, attrs)
 
     async def delete(self, token_id: str, *, expected_version: int | None = None) -> None:
         """Delete a token (optionally only if at `expected_version`)."""
-        op: dict[str, Any] = {"op": "delete", "id": token_id}
-        if expected_version is not None:
-            op["expected_version"] = expected_version
-        await self._write(op)
-
-    def _retrieve_selector(self, frame: str | None, frame_stamp: float | None) -> str:
-        params = []
-        if frame is not None:
-            params.append(f"frame={frame}")
-        if frame_stamp is not None:
-            params.append(f"stamp={frame_stamp!r}")
-        return self.keys.retrieve + ("?" + ";".join(params) if params else "")
+        given = {"op", "id"} | ({"expected_version"} if expected_version is not None else set())
+        await self._write(DeleteOp.trusted({"op": "delete", "id": token_id, "expected_version": expected_version}, given))
 
     async def retrieve_raw(self, spec: Spec | dict, *, frame: str | None = None, frame_stamp: float | None = None) -> list[dict]:
         """Return the matching tokens as wire dicts (attrs not decoded)."""
-        return await self._query(self._retrieve_selector(frame, frame_stamp), encode(self._spec_wire(spec)))  # type: ignore[arg-type]
+        selector = self.keys.retrieve
+        if frame is not None or frame_stamp is not None:
+            req = RetrieveRequest.parse({"spec": spec, "frame": frame, "frame_stamp": frame_stamp})
+            selector += "?" + req.selector_parameters()
+        # the payload is the spec itself (docs/keys.md); the node validates it as RetrieveRequest.spec
+        return await self._query(selector, encode(self._spec_wire(spec)))  # type: ignore[arg-type]
 
     async def retrieve(self, spec: Spec, *, frame: str | None = None, frame_stamp: float | None = None) -> list[Token]:
         """Return the tokens matching `spec`; geometry in `frame` (at `frame_stamp`, default each token's stamp)."""
@@ -539,19 +557,17 @@ class BlackboardClient:
 
         Queued when called, like `post`; await the returned future for the ack.
         """
-        return self._write({"op": "pose", "parent": parent, "child": child, "pose": [pose.x, pose.y, pose.yaw],
-                            "stamp": stamp, "hold": hold})
+        return self._write(PoseOp.trusted({"op": "pose", "parent": parent, "child": child, "pose": (pose.x, pose.y, pose.yaw),
+                                           "stamp": stamp, "hold": hold}))
 
     def set_static_frame(self, *, parent: str, child: str, pose: Pose2D) -> "asyncio.Future[None]":
         """Fix `child` in `parent` for all times (e.g. a sensor on the vehicle); await the ack."""
-        return self._write({"op": "static", "parent": parent, "child": child, "pose": [pose.x, pose.y, pose.yaw]})
+        return self._write(StaticOp.trusted({"op": "static", "parent": parent, "child": child, "pose": (pose.x, pose.y, pose.yaw)}))
 
     async def lookup(self, target: str, target_stamp: float | None, source: str, source_stamp: float | None) -> Pose2D:
         """Return T_{target@target_stamp ← source@source_stamp} (None stamp: newest)."""
-        x, y, yaw = await self._request(
-            self.keys.lookup,
-            {"target": target, "target_stamp": target_stamp, "source": source, "source_stamp": source_stamp},
-        )
+        x, y, yaw = await self._request(self.keys.lookup, LookupRequest.trusted(
+            {"target": target, "target_stamp": target_stamp, "source": source, "source_stamp": source_stamp}).wire())
         return Pose2D.model_construct(x=x, y=y, yaw=yaw)
 
     async def lookup_pose(self, *, parent: str, child: str, stamp: float | None = None) -> Pose2D:
@@ -573,16 +589,16 @@ class BlackboardClient:
         T = await self.lookup(dst_frame, src_stamp if dst_stamp is None else dst_stamp, src_frame, src_stamp)
         return apply_se2((T.x, T.y, T.yaw), points)
 
-    async def frames(self) -> dict:
-        """Return the node's frame tree (edges; newest and oldest stamps of moving ones)."""
-        return await self._request(self.keys.frames, {})
+    async def frames(self) -> FrameListing:
+        """Return the node's frame tree (edges; oldest and newest stamps [s] of moving ones)."""
+        return FrameListing.model_validate(await self._query(self.keys.frames, None))
 
-    async def stats(self) -> dict:
+    async def stats(self) -> NodeStats:
         """Return the node's counters (posts, retrieves, monitors, events, bytes in/out, tokens, …)."""
-        return await self._query(self.keys.stats, None)
+        return NodeStats.model_validate(await self._query(self.keys.stats, None))
 
 
-def _distribute(batch: list[tuple[dict, asyncio.Future, Any]], results: Any, exc: BaseException | None) -> None:
+def _distribute(batch: list[tuple[WriteOp, asyncio.Future, Any]], results: Any, exc: BaseException | None) -> None:
     if exc is None and (not isinstance(results, list) or len(results) != len(batch)):
         exc = NodeUnavailableError(f"malformed batch reply: {str(results)[:200]}")
     if exc is not None:

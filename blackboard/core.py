@@ -1,52 +1,42 @@
 """The blackboard's state machine: validate and apply operations, answer reads, match monitors.
 
-Pure (no network): the node feeds it decoded wire objects and sends back what it returns.
-Wire ops (dicts):
-  {"op": "post", "type", "attrs", "frame", "stamp", "source", "geometry"?, "reply"?}
-      ("reply": "id" answers just the new id instead of the whole token)
-  {"op": "update", "id", "expected_version", "attrs"?, "frame"?, "stamp"?, "geometry"?}
-  {"op": "delete", "id", "expected_version"?}
-  {"op": "pose", "parent", "child", "pose": [x, y, yaw], "stamp", "hold"?}
-  {"op": "static", "parent", "child", "pose": [x, y, yaw]}
-Each result is {"ok": value} or {"error": code, "message": text}.
+Pure (no network): the node feeds it decoded wire objects (or the request models of
+`blackboard.ops`, which validate them) and sends back what it returns. Each write result is
+{"ok": value} or {"error": code, "message": text}.
 """
 
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass, field
 from typing import Any
 
-from blackboard.codec import encode, finite, pack_array_of_packed
-from blackboard.errors import (
-    BadRequestError,
-    BadSpecError,
-    BlackboardError,
-    InvalidTokenError,
-    NotFoundError,
-    VersionConflictError,
-)
+from blackboard.codec import encode, pack_array_of_packed
+from blackboard.errors import BlackboardError, InvalidTokenError, NotFoundError, VersionConflictError
 from blackboard.evaluate import Evaluator
 from blackboard.frames import FrameTree
 from blackboard.geometry import parse_geometry_wire, parse_geometry_wire_fast
+from blackboard.ops import (
+    DeleteOp,
+    LookupRequest,
+    PoseOp,
+    PostOp,
+    RetrieveRequest,
+    StaticOp,
+    UpdateOp,
+    parse_write,
+)
 from blackboard.registry import TypeRegistry
+from blackboard.replies import FrameEdge, FrameListing, NodeStats
 from blackboard.spec import Spec, parse_spec
 from blackboard.store import Record, Store, token_rid
 
 __all__ = ["BlackboardCore", "Stats", "Monitor", "Change"]
 
-_FRAME_RE = re.compile(r"^[A-Za-z0-9_.\-]{1,128}$")
-_POST_KEYS = frozenset({"op", "type", "attrs", "frame", "stamp", "source", "geometry", "reply"})
-_UPDATE_KEYS = frozenset({"op", "id", "expected_version", "attrs", "frame", "stamp", "geometry"})
-_MISSING = object()
-#: frame names already found valid (bounded)
-_FRAMES_SEEN: set[str] = set()
-
 
 @dataclass
 class Stats:
-    """Node counters (all since start)."""
+    """Node counters (all since start); `snapshot` gives the NodeStats reply."""
 
     posts: int = 0
     updates: int = 0
@@ -65,9 +55,9 @@ class Stats:
     #: time spent handling requests [µs]
     busy_us: int = 0
 
-    def as_dict(self) -> dict[str, int]:
-        """Return the counters as a dict."""
-        return dict(self.__dict__)
+    def snapshot(self, *, tokens: int, monitors: int) -> NodeStats:
+        """Return the counters with the tokens [-] and monitors [-] held now."""
+        return NodeStats(**self.__dict__, tokens=tokens, monitors=monitors)
 
 
 @dataclass
@@ -86,28 +76,6 @@ class Monitor:
 
 #: (kind, new record or None, old record or None)
 Change = tuple[str, "Record | None", "Record | None"]
-
-
-def _frame(v: object, what: str) -> str:
-    if type(v) is str and v in _FRAMES_SEEN:
-        return v  # type: ignore[return-value]
-    if not isinstance(v, str) or not _FRAME_RE.match(v):
-        raise InvalidTokenError(f"{what} {v!r} must be 1-128 characters of letters, digits, '_', '-', '.'")
-    if len(_FRAMES_SEEN) < 4096:
-        _FRAMES_SEEN.add(v)
-    return v
-
-
-def _stamp(v: object, what: str = "stamp") -> float:
-    if not finite(v):
-        raise InvalidTokenError(f"{what} {v!r} must be a finite number [s]")
-    return float(v)  # type: ignore[arg-type]
-
-
-def _pose3(v: object) -> tuple[float, float, float]:
-    if not isinstance(v, (list, tuple)) or len(v) != 3 or not all(finite(c) for c in v):
-        raise InvalidTokenError(f"pose {v!r} must be [x [m], y [m], yaw [rad]], all finite")
-    return (float(v[0]), float(v[1]), float(v[2]))
 
 
 class BlackboardCore:
@@ -165,156 +133,122 @@ class BlackboardCore:
         self.frames = fresh
         self.evaluator.frames = fresh
 
-    def _apply(self, op: object, changes: list[Change]) -> Any:
-        if not isinstance(op, dict):
-            raise BadRequestError(f"an operation must be an object, got {type(op).__name__}")
-        kind = op.get("op", "post")
-        if kind == "post":
+    def _apply(self, raw: object, changes: list[Change]) -> Any:
+        try:
+            op = parse_write(raw)
+        except InvalidTokenError:
+            if type(raw) is dict and raw.get("op", "post") == "post" and type(raw.get("type")) is str:
+                self.registry.model(raw["type"])  # an unknown type is the first thing to say
+            raise
+        kind = type(op)
+        if kind is PostOp:
             rec = self._post(op)
             changes.append(("new", rec, None))
             self.stats.posts += 1
-            return rec.id if op.get("reply") == "id" else rec.wire()
-        if kind == "update":
+            return rec.id if op.reply == "id" else rec.wire()
+        if kind is UpdateOp:
             rec, old = self._update(op)
             changes.append(("updated", rec, old))
             self.stats.updates += 1
             return rec.wire()
-        if kind == "delete":
+        if kind is DeleteOp:
             old = self._delete(op)
             changes.append(("deleted", None, old))
             self.stats.deletes += 1
             return {"id": old.id}
-        if kind == "pose":
+        if kind is PoseOp:
             self._pose(op)
             self.stats.poses += 1
             return None
-        if kind == "static":
-            parent, child = _frame(op.get("parent"), "parent frame"), _frame(op.get("child"), "child frame")
-            pose = _pose3(op.get("pose"))
-            self.frames.set_static(parent, child, pose)
-            self.store.set_static(parent, child, pose)
-            self.stats.statics += 1
-            return None
-        raise BadRequestError(f"unknown operation {kind!r} (post, update, delete, pose, static)")
+        assert kind is StaticOp
+        self.frames.set_static(op.parent, op.child, op.pose)
+        self.store.set_static(op.parent, op.child, op.pose)
+        self.stats.statics += 1
+        return None
 
-    def _post(self, op: dict) -> Record:
-        if not _POST_KEYS.issuperset(op):
-            extra = set(op) - _POST_KEYS
-            raise InvalidTokenError(f"unexpected token fields {sorted(map(str, extra))[:5]}")
-        typ = op.get("type")
-        if not isinstance(typ, str):
-            raise InvalidTokenError(f"token type must be a string, got {typ!r}"[:200])
-        attrs = self.registry.validate_raw(typ, op.get("attrs", {}))
-        frame = _frame(op.get("frame", "world"), "frame")
-        stamp = _stamp(op.get("stamp"))
-        source = op.get("source", "")
-        if not isinstance(source, str) or len(source) > 128:
-            raise InvalidTokenError(f"source must be a string of at most 128 characters")
-        g = op.get("geometry")
+    def _post(self, op: PostOp) -> Record:
+        attrs = self.registry.validate_raw(op.type, op.attrs)
+        g = op.geometry
         kind, xy = (None, None) if g is None else parse_geometry_wire_fast(g)
-        return self.store.insert(typ, stamp, source, frame, kind, xy, attrs)
+        return self.store.insert(op.type, op.stamp, op.source, op.frame, kind, xy, attrs)
 
-    def _existing(self, op: dict) -> Record:
-        tid = op.get("id")
+    def _existing(self, tid: str, expected_version: int | None) -> Record:
         rid = token_rid(tid)
         rec = self.store.get(rid) if rid is not None else None
         if rec is None:
             raise NotFoundError(f"no token with id {tid!r}"[:200])
-        ev = op.get("expected_version", _MISSING)
-        if ev is not _MISSING and ev is not None:
-            if not isinstance(ev, int) or isinstance(ev, bool):
-                raise BadRequestError(f"expected_version must be an integer, got {ev!r}"[:200])
-            if ev != rec.version:
-                raise VersionConflictError(f"token {rec.id} is at version {rec.version}, not {ev}")
+        if expected_version is not None and expected_version != rec.version:
+            raise VersionConflictError(f"token {rec.id} is at version {rec.version}, not {expected_version}")
         return rec
 
-    def _update(self, op: dict) -> tuple[Record, Record]:
-        extra = set(op) - _UPDATE_KEYS
-        if extra:
-            raise InvalidTokenError(f"unexpected update fields {sorted(map(str, extra))[:5]}")
-        if "expected_version" not in op:
-            raise BadRequestError("update needs expected_version (compare-and-set)")
-        old = self._existing(op)
-        attrs = self.registry.validate_raw(old.type, op["attrs"]) if "attrs" in op else old.attrs
-        frame = _frame(op["frame"], "frame") if "frame" in op else old.frame
-        stamp = _stamp(op["stamp"]) if "stamp" in op else old.stamp
-        if "geometry" in op:
-            g = op["geometry"]
-            kind, xy = (None, None) if g is None else parse_geometry_wire(g)
+    def _update(self, op: UpdateOp) -> tuple[Record, Record]:
+        old = self._existing(op.id, op.expected_version)
+        given = op.model_fields_set
+        attrs = self.registry.validate_raw(old.type, op.attrs) if "attrs" in given else old.attrs
+        frame = op.frame if op.frame is not None else old.frame
+        stamp = op.stamp if op.stamp is not None else old.stamp
+        if "geometry" in given:
+            kind, xy = (None, None) if op.geometry is None else parse_geometry_wire(op.geometry)
         else:
             kind, xy = old.kind, old.xy
         return self.store.replace(old, stamp, frame, kind, xy, attrs), old
 
-    def _delete(self, op: dict) -> Record:
-        old = self._existing(op)
+    def _delete(self, op: DeleteOp) -> Record:
+        old = self._existing(op.id, op.expected_version)
         self.store.remove(old)
         return old
 
-    def _pose(self, op: dict) -> None:
-        parent, child = _frame(op.get("parent"), "parent frame"), _frame(op.get("child"), "child frame")
-        pose = _pose3(op.get("pose"))
-        stamp = _stamp(op.get("stamp"))
-        hold = op.get("hold", 0.0)
-        if hold is None:
-            hold = math.inf
-        if not (finite(hold) or hold == math.inf) or hold < 0:
-            raise InvalidTokenError(f"hold {hold!r} must be a number ≥ 0 [s] (or null: forever)")
-        self.frames.add_pose(parent, child, pose, stamp, hold=float(hold))
-        self.store.add_pose(parent, child, stamp, pose, float(hold))
+    def _pose(self, op: PoseOp) -> None:
+        hold = math.inf if op.hold is None else op.hold
+        self.frames.add_pose(op.parent, op.child, op.pose, op.stamp, hold=hold)
+        self.store.add_pose(op.parent, op.child, op.stamp, op.pose, hold)
         self._pose_count += 1
         if self._pose_count % 1000 == 0:
-            self.store.prune_poses(child, stamp - self.frames.history)
+            self.store.prune_poses(op.child, op.stamp - self.frames.history)
 
     # ------------------------------------------------------------------ reads
-    def retrieve(self, spec_obj: object, frame: str | None = None, frame_stamp: float | None = None) -> list[dict]:
-        """Answer a spec; geometry expressed in `frame@frame_stamp` if a frame is given."""
-        recs = self.select(spec_obj, frame, frame_stamp)
-        if frame is None:
+    def retrieve(self, req: RetrieveRequest | object) -> list[dict]:
+        """Answer a retrieve request (or a bare spec); geometry expressed in its output frame if given."""
+        req, recs = self.select(req)
+        if req.frame is None:
             return [r.wire() for r in recs]
-        return [self.evaluator.express(r, frame, frame_stamp) for r in recs]
+        return [self.evaluator.express(r, req.frame, req.frame_stamp) for r in recs]
 
-    def retrieve_packed(self, spec_obj: object, frame: str | None = None, frame_stamp: float | None = None) -> bytes:
-        """Answer a spec as a msgpack array of tokens (pre-encoded tokens reused)."""
-        recs = self.select(spec_obj, frame, frame_stamp)
-        if frame is None:
+    def retrieve_packed(self, req: RetrieveRequest | object) -> bytes:
+        """Answer a retrieve request as a msgpack array of tokens (pre-encoded tokens reused)."""
+        req, recs = self.select(req)
+        if req.frame is None:
             return pack_array_of_packed([r.packed() for r in recs])
-        return encode([self.evaluator.express(r, frame, frame_stamp) for r in recs])
+        return encode([self.evaluator.express(r, req.frame, req.frame_stamp) for r in recs])
 
-    def select(self, spec_obj: object, frame: str | None = None, frame_stamp: float | None = None) -> list[Record]:
-        """Validate a spec and the output frame; return the matching records."""
-        spec = parse_spec(spec_obj)
-        if frame is not None:
-            try:
-                _frame(frame, "output frame")
-            except InvalidTokenError as exc:
-                raise BadSpecError(exc.message) from None
-        if frame_stamp is not None and not finite(frame_stamp):
-            raise BadSpecError(f"output frame stamp {frame_stamp!r} must be a finite number [s]")
+    def select(self, req: RetrieveRequest | object) -> tuple[RetrieveRequest, list[Record]]:
+        """Validate a retrieve request (or a bare spec); return it and the matching records."""
+        if not isinstance(req, RetrieveRequest):
+            req = RetrieveRequest.trusted({"spec": parse_spec(req), "frame": None, "frame_stamp": None}, {"spec"})
         self.stats.retrieves += 1
-        return self.evaluator.select(spec)
+        return req, self.evaluator.select(req.spec)
 
-    def lookup(self, req: object) -> list[float]:
-        """Answer T_{target@target_stamp ← source@source_stamp} as [x, y, yaw]."""
-        if not isinstance(req, dict):
-            raise BadRequestError("lookup needs an object {target, target_stamp, source, source_stamp}")
-        target = _frame(req.get("target"), "target frame")
-        source = _frame(req.get("source"), "source frame")
-        ts, ss = req.get("target_stamp"), req.get("source_stamp")
-        ts = None if ts is None else _stamp(ts, "target_stamp")
-        ss = None if ss is None else _stamp(ss, "source_stamp")
+    def lookup(self, req: LookupRequest | object) -> list[float]:
+        """Answer T_{target@target_stamp ← source@source_stamp} as [x [m], y [m], yaw [rad]]."""
+        if not isinstance(req, LookupRequest):
+            req = LookupRequest.parse(req)
         self.stats.lookups += 1
-        return list(self.frames.lookup(target, ts, source, ss))
+        return list(self.frames.lookup(req.target, req.target_stamp, req.source, req.source_stamp))
 
-    def frame_info(self) -> dict:
-        """Return the frame tree: edges (parent, child, static) and newest stamps of moving frames."""
+    def frame_info(self) -> FrameListing:
+        """Return the frame tree: edges (parent, child, static) and oldest/newest stamps of moving frames [s]."""
         edges = []
         for parent, child, static in self.frames.edges():
-            e: dict[str, Any] = {"parent": parent, "child": child, "static": static}
-            if not static:
-                e["newest"] = self.frames._edges[child].ts[-1]
-                e["oldest"] = self.frames._edges[child].ts[0]
-            edges.append(e)
-        return {"edges": edges}
+            if static:
+                edges.append(FrameEdge(parent=parent, child=child, static=True))
+            else:
+                ts = self.frames._edges[child].ts
+                edges.append(FrameEdge(parent=parent, child=child, static=False, oldest=ts[0], newest=ts[-1]))
+        return FrameListing(edges=tuple(edges))
+
+    def stats_snapshot(self) -> NodeStats:
+        """Return the counters with the tokens and monitors held now."""
+        return self.stats.snapshot(tokens=len(self.store), monitors=len(self.monitors))
 
     # ------------------------------------------------------------------ monitors
     def register_monitor(self, client: str, mid: str, spec_obj: object) -> Monitor:

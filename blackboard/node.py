@@ -43,12 +43,13 @@ from typing import Any, Callable, Literal
 
 import msgpack
 
-from wire.session import Query as ZQuery, Session as ZSession, open_session, session_stats
+from wire.session import Query as ZQuery, Session as ZSession, open_session, session_stats, traffic
 from blackboard.codec import MAX_PAYLOAD, decode, encode, pack_array_of_packed
 from blackboard.core import BlackboardCore, Monitor
 from blackboard.errors import BadRequestError, BlackboardError
 from blackboard.frames import FrameTree
-from wire.health import Heartbeat, encode_heartbeat
+from blackboard.ops import FramesRequest, LookupRequest, MonitorCancel, RetrieveRequest, StatsRequest, parse_monitor
+from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import BlackboardKeys
 from wire.network import NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry
@@ -92,6 +93,7 @@ class BlackboardNode:
         frames: FrameTree | None = None,
         heartbeat_period: float = 1.0,
         dispatch: Literal["inline", "loop"] = "inline",
+        test_hold_after_journal: str | None = None,
     ) -> None:
         if dispatch not in ("inline", "loop"):
             raise ValueError(f"dispatch must be 'inline' or 'loop', not {dispatch!r}")
@@ -118,6 +120,8 @@ class BlackboardNode:
         #: declared publishers on `bb/to/<client>`, kept while the client lives
         self._client_pubs: dict[str, Any] = {}
         self._settle_scheduled = False
+        #: test hook (durability tests only): hold after a commit's journal append while this file exists
+        self._hold_path = test_hold_after_journal
         self._stop = asyncio.Event()
         self.ready = asyncio.Event()
 
@@ -178,7 +182,8 @@ class BlackboardNode:
             self._hb_seq += 1
             s.put(self.keys.heartbeat, encode_heartbeat(Heartbeat(
                 module="blackboard", seq=self._hb_seq, wall_time=time.time(), period_s=self.heartbeat_period,
-                pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"])))
+                pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"],
+                usage=process_usage(traffic()))))
             await asyncio.sleep(self.heartbeat_period)
 
     # ------------------------------------------------------------------ dispatch
@@ -292,22 +297,22 @@ class BlackboardNode:
         self._pending.append((_Ack(client, rid), ops, False))
 
     def _on_post(self, q: ZQuery) -> None:
-        op = self._body(q)
-        if isinstance(op, dict):
-            op = {**op, "op": "post"} if op.get("op", "post") == "post" else op
-        self._enqueue(q, [op], True)
+        self._enqueue(q, [self._single_op(q, "post")], True)
 
     def _on_update(self, q: ZQuery) -> None:
-        op = self._body(q)
-        if isinstance(op, dict):
-            op = {**op, "op": "update"}
-        self._enqueue(q, [op], True)
+        self._enqueue(q, [self._single_op(q, "update")], True)
 
     def _on_delete(self, q: ZQuery) -> None:
+        self._enqueue(q, [self._single_op(q, "delete")], True)
+
+    def _single_op(self, q: ZQuery, kind: str) -> Any:
+        """Return the body of a one-operation queryable tagged as `kind` (validated in the commit)."""
         op = self._body(q)
-        if isinstance(op, dict):
-            op = {**op, "op": "delete"}
-        self._enqueue(q, [op], True)
+        if type(op) is not dict:
+            raise BadRequestError(f"{q.key}: payload must be an object (one {kind} operation)")
+        if op.get("op", kind) != kind:
+            raise BadRequestError(f"{q.key}: takes a {kind} operation, not {op.get('op')!r}"[:200])
+        return {**op, "op": kind}
 
     def _on_batch(self, q: ZQuery) -> None:
         ops = self._body(q)
@@ -332,6 +337,8 @@ class BlackboardNode:
                     self._reply_err(q, err)
             self._deliver(acks, {})
             return
+        if self._hold_path is not None:
+            self._hold_after_journal(self._hold_path)
         events: dict[str, dict[str, list[bytes]]] = {}
         if self.core.monitors:
             try:
@@ -359,6 +366,20 @@ class BlackboardNode:
             except Exception:  # noqa: BLE001 - a vanished querier must not stop the others
                 log.debug("reply failed", exc_info=True)
         self._after_commit()
+
+    @staticmethod
+    def _hold_after_journal(path: str) -> None:
+        """Test hook: with the commit journaled and nothing acknowledged, hold while `path` exists.
+
+        Creates `path + ".held"` first, so a test knows the node stands between the journal write
+        and the acknowledgement (and can SIGKILL it there). Active only with --test-hold-after-journal.
+        """
+        if not os.path.exists(path):
+            return
+        with open(path + ".held", "w"):
+            pass
+        while os.path.exists(path):
+            time.sleep(0.005)
 
     def _after_commit(self) -> None:
         """Get the journaled writes into SQLite soon: at once past `_SETTLE_NOW`, else after `_SETTLE_DELAY`.
@@ -421,49 +442,30 @@ class BlackboardNode:
 
     # reads -----------------------------------------------------------------
     def _on_retrieve(self, q: ZQuery) -> None:
-        spec = self._body(q, empty={})
-        params = q.parameters
-        frame = params.get("frame") or None
-        stamp: float | None = None
-        if params.get("stamp"):
-            try:
-                stamp = float(params["stamp"])
-            except ValueError:
-                raise BadRequestError(f"stamp parameter {params['stamp']!r} is not a number") from None
-        if isinstance(spec, dict) and "spec" in spec and set(spec) <= {"spec", "frame", "frame_stamp"}:
-            frame = spec.get("frame", frame)
-            stamp = spec.get("frame_stamp", stamp)
-            spec = spec["spec"]
+        req = RetrieveRequest.from_wire(self._body(q, empty={}), q.parameters)
         if q.is_json:
-            self._reply(q, self.core.retrieve(spec, frame, stamp))
+            self._reply(q, self.core.retrieve(req))
         else:
-            self._reply_bytes(q, self.core.retrieve_packed(spec, frame, stamp))
+            self._reply_bytes(q, self.core.retrieve_packed(req))
 
     def _on_lookup(self, q: ZQuery) -> None:
-        self._reply(q, self.core.lookup(self._body(q)))
+        self._reply(q, self.core.lookup(LookupRequest.parse(self._body(q))))
 
     def _on_frames(self, q: ZQuery) -> None:
-        self._reply(q, self.core.frame_info())
+        FramesRequest.parse(self._body(q, empty={}))
+        self._reply(q, self.core.frame_info().wire())
 
     def _on_stats(self, q: ZQuery) -> None:
-        d = self.core.stats.as_dict()
-        d["tokens"] = len(self.store)
-        d["monitors"] = len(self.core.monitors)
-        self._reply(q, d)
+        StatsRequest.parse(self._body(q, empty={}))
+        self._reply(q, self.core.stats_snapshot().model_dump())
 
     def _on_monitor(self, q: ZQuery) -> None:
-        req = self._body(q)
-        if not isinstance(req, dict):
-            raise BadRequestError("monitor request must be an object {client, mid, spec} or {client, mid, cancel}")
-        client, mid = req.get("client"), req.get("mid")
-        for name, v in (("client", client), ("mid", mid)):
-            if not isinstance(v, str) or not v or len(v) > 64 or not all(c.isalnum() or c in "_-" for c in v):
-                raise BadRequestError(f"monitor {name} {v!r} must be 1-64 letters, digits, '_' or '-'")
-        if req.get("cancel"):
-            self._reply(q, {"cancelled": self.core.cancel_monitor(client, mid)})
+        req = parse_monitor(self._body(q))
+        if type(req) is MonitorCancel:
+            self._reply(q, {"cancelled": self.core.cancel_monitor(req.client, req.mid)})
             return
-        self.core.register_monitor(client, mid, req.get("spec"))
-        self._reply(q, {"registered": mid})
+        self.core.register_monitor(req.client, req.mid, req.spec)
+        self._reply(q, {"registered": req.mid})
 
     def _client_gone(self, key: str) -> None:
         client = key.rsplit("/", 1)[-1]
@@ -485,6 +487,7 @@ def serve(
     history: float = 60.0,
     dispatch: Literal["inline", "loop"] = "inline",
     ready_stream: Any = None,
+    test_hold_after_journal: str | None = None,
 ) -> None:
     """Run a node until SIGINT/SIGTERM; print one line starting with "blackboard ready" when serving."""
     reg = registry if registry is not None else default_registry
@@ -493,7 +496,8 @@ def serve(
     out = ready_stream if ready_stream is not None else sys.stdout
 
     async def main() -> None:
-        node = BlackboardNode(net, db=db, sync=sync, registry=reg, frames=FrameTree(history=history), dispatch=dispatch)
+        node = BlackboardNode(net, db=db, sync=sync, registry=reg, frames=FrameTree(history=history), dispatch=dispatch,
+                              test_hold_after_journal=test_hold_after_journal)
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, node._stop.set)

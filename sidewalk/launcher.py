@@ -1,17 +1,18 @@
 """`sidewalk run`: the router, the blackboard node, the simulator and every module as OS processes on loopback.
 
-The launcher starts each process, waits for its ready line, submits the mission to the CAPTAIN over
-Zenoh (as `sidewalk submit` does), follows the mission status on the blackboard, records truth and
-estimates for the report, and stops everything — also on Ctrl-C.
+The launcher gives the MAP NAVIGATOR the shipped map or one derived with `--map-error`, starts the
+PILOT from the mission's (or else the map's) start plus `--pose-error`, starts each process and
+waits for its ready line, submits the mission to the CAPTAIN over Zenoh (as `sidewalk submit`
+does), follows the mission status on the blackboard, records the run (truth, estimates, events,
+statuses, route plans, heartbeats) into a `RunRecord`, builds the report from it, and stops
+everything — also on Ctrl-C.
 """
 
 from __future__ import annotations
 
-import asyncio
 import math
 import os
 import time
-from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Optional
@@ -19,23 +20,38 @@ from typing import Callable, Optional
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from wire.ports import free_port
-from modules.captain.missionfile import MissionFileError, load_mission
-from modules.vocabulary import Mission, MissionStatus
-from sidewalk.metrics import cross_track_errors, path_length, position_errors
-from sidewalk.system import SystemRun
-from sidewalk.report import BlackboardUsage, ErrorSummary, RunReport, StepReport, plot_trajectory, write_report
-from sidewalk.supervisor import ProcessPlan, ProcessStartError
-from vehicle_sim.mapgen import derive_map, displaced_by_up_to
-from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
+from shapely import LineString, Point
+from sidewalk.observers import RECORDING_NAME, observer_plans  # issue 11: monitor and recording
 
-__all__ = ["RunConfig", "Progress", "preflight", "build_plans", "prepare_out", "run_mission", "mission_path", "MODULES", "LaunchError"]
+from sidewalk.errors import SidewalkError
+
+from modules.captain.missionfile import MissionFileError, load_mission
+from modules.vocabulary import Destination, Mission, MissionStepSpec
+from sidewalk.map_error import MapErrorSummary, measure_map_error
+from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
+from sidewalk.run_record import RecordedPlan, RunRecord, save_record
+from sidewalk.supervisor import ProcessPlan, ProcessStartError
+from sidewalk.system import SystemRun
+from vehicle_sim.mapgen import map_with_error
+from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
+from wire.ports import free_port
+
+__all__ = [
+    "RunConfig", "RunSetup", "Progress", "preflight", "prepare_run", "build_plans", "prepare_out", "run_mission",
+    "mission_path", "MODULES", "LaunchError", "RECORD_FILE", "record_run",
+]
+
+#: The run record's file name in the output directory.
+RECORD_FILE = "run_record.json"
+
+#: How much sim time [s] before the submission and after the vehicle came to rest the record keeps.
+RECORD_LEAD_S = 1.0
 
 #: Every module of the Sidewalk system in start order (the consumers before the producers).
 MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
 
 
-class LaunchError(RuntimeError):
+class LaunchError(SidewalkError, RuntimeError):
     """The run could not be set up (bad world, mission, flag) or a process would not start."""
 
 
@@ -58,6 +74,12 @@ class RunConfig(BaseModel):
     max_wall_time_s: float = Field(default=1800.0, gt=0.0)
     namespace: Optional[str] = None
     watchdog_s: float = Field(default=1.0, gt=0.0)
+    #: how long [s] wall the MAP NAVIGATOR waits for a PILOT that went away before it fails the segment
+    pilot_grace_s: float = Field(default=15.0, gt=0.0)
+    # ---- monitor and recording (issue 11) ----
+    record: bool = True  # write run.mcap beside report.json
+    monitor_port: Optional[int] = Field(default=None, ge=1, le=65535)  # serve the monitor page on this port
+    # ---- end monitor and recording ----
 
 
 @dataclass
@@ -89,14 +111,31 @@ def mission_path(name_or_path: str | Path) -> Path:
     return candidate
 
 
-def _start_pose(world: World, cfg: RunConfig) -> tuple[float, float, float]:
-    """Return the PILOT's belief of the start pose: the truth moved by the requested error [m, rad].
+class RunSetup(BaseModel):
+    """What a run needs before anything starts: world (truth), mission, the map file the robot gets, start poses.
 
-    The error's direction is drawn from the run's seed; its size is exactly what was asked.
+    `start_truth` is where the simulator puts the vehicle (the mission's `start`; None: the world's
+    start); `start_belief` is the PILOT's start: the mission's start or else the map's, moved by the
+    injected pose error (x, y [m], yaw [rad] in `world`). `map_error` is the map measured against the world.
     """
-    if world.start is None:
-        raise LaunchError(f"world {world.name!r} has no start pose")
-    x, y, yaw = world.start.x, world.start.y, math.radians(world.start.yaw_deg)
+
+    model_config = ConfigDict(frozen=True, arbitrary_types_allowed=True)
+
+    world: World
+    mission: Mission
+    mission_file: Path
+    vehicle: str
+    map_file: Path
+    map_error: MapErrorSummary
+    start_truth: Optional[tuple[float, float, float]] = None
+    start_belief: tuple[float, float, float]
+    destinations: tuple[Optional[tuple[float, float]], ...]
+    lane_offsets: tuple[float, ...] = ()
+
+
+def _with_pose_error(pose: tuple[float, float, float], cfg: RunConfig) -> tuple[float, float, float]:
+    """Return `pose` (x, y [m], yaw [rad]) moved by the requested error; its direction is drawn from the run's seed."""
+    x, y, yaw = pose
     if cfg.pose_error_m or cfg.pose_error_deg:
         rng = np.random.default_rng([cfg.seed, 7])
         bearing = rng.uniform(0.0, 2.0 * math.pi)
@@ -107,24 +146,64 @@ def _start_pose(world: World, cfg: RunConfig) -> tuple[float, float, float]:
     return x, y, yaw
 
 
-def _map_file(world: World, cfg: RunConfig, out: Path) -> Path:
-    """Return the map file the MAP NAVIGATOR reads: the shipped map, or one derived with --map-error."""
+def _map(world: World, cfg: RunConfig, out: Path) -> tuple[Path, World]:
+    """Return the map file the MAP NAVIGATOR reads and the map: the shipped one, or one derived with --map-error."""
     if cfg.map_error_m is None:
-        return world_path(cfg.world, kind="map")
-    m = derive_map(world, displaced_by_up_to(cfg.map_error_m), np.random.default_rng([cfg.seed, 11]))
-    return m.save(out / "map.geojson")
-
-
-def _destination_xy(world: World, dest) -> Optional[tuple[float, float]]:
-    if dest.xy is not None:
-        return float(dest.xy[0]), float(dest.xy[1])
-    if dest.place is not None:
+        path = world_path(cfg.world, kind="map")
         try:
-            n = world.place(dest.place)
+            return path, load_world(path, kind="map")
+        except (FileNotFoundError, ValueError) as exc:
+            raise LaunchError(str(exc)) from None
+    m = map_with_error(world, cfg.map_error_m, np.random.default_rng([cfg.seed, 11]))
+    return m.save(out / "map.geojson"), m
+
+
+def _destination_xy(world: World, dest: Destination) -> Optional[tuple[float, float]]:
+    """Return a step's true destination (x, y) [m] in `world`: the place (or node) it names, or its point on the nearest path."""
+    if dest.xy is not None:
+        if not world.edges:
+            return float(dest.xy[0]), float(dest.xy[1])
+        p = Point(dest.xy)
+        on = min((LineString(e.coords) for e in world.edges), key=lambda line: line.distance(p))
+        q = on.interpolate(on.project(p))
+        return float(q.x), float(q.y)
+    assert dest.place is not None
+    try:
+        n = world.place(dest.place)
+    except KeyError:
+        try:
+            n = world.node(dest.place)
         except KeyError:
             return None
-        return n.x, n.y
-    return None
+    return n.x, n.y
+
+
+def _lane_offset(world: World, step: MissionStepSpec) -> float:
+    """Return the signed offset [m] (+ left of travel) of the lane a step keeps to at its destination.
+
+    Keeping right on a path of width w ends w/4 right of its centre, as the MAP NAVIGATOR plans it;
+    the width is the widest path edge meeting the destination (the nearest edge for a point).
+    """
+    keep = step.constraints.keep
+    if keep is None or not world.edges:
+        return 0.0
+    dest = step.destination
+    if dest.xy is not None:
+        p = Point(dest.xy)
+        width = min(world.edges, key=lambda e: LineString(e.coords).distance(p)).width
+    else:
+        node = None
+        for look in (world.place, world.node):
+            try:
+                node = look(dest.place)
+                break
+            except KeyError:
+                continue
+        widths = [e.width for e in world.edges if node is not None and node.id in (e.from_node, e.to_node)]
+        if not widths:
+            return 0.0
+        width = max(widths)
+    return -width / 4.0 if keep == "right" else width / 4.0
 
 
 def _object_outlines(world: World) -> list[tuple[str, np.ndarray]]:
@@ -153,27 +232,54 @@ def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
     return world, mission, mpath
 
 
-def build_plans(cfg: RunConfig, world: World, vehicle: str, out: Path, ns: str, endpoint: str) -> list[ProcessPlan]:
+def prepare_run(cfg: RunConfig) -> RunSetup:
+    """Check the run, clear `cfg.out`, write the map the robot gets (with --map-error) and work out the start poses."""
+    world, mission, mpath = preflight(cfg)
+    out = Path(cfg.out)
+    prepare_out(out)
+    map_file, map_ = _map(world, cfg, out)
+    if mission.start is not None:
+        start_truth = (mission.start.x, mission.start.y, math.radians(mission.start.yaw_deg))
+        told = start_truth
+    elif map_.start is not None:
+        start_truth = None
+        told = (map_.start.x, map_.start.y, math.radians(map_.start.yaw_deg))
+    else:
+        raise LaunchError(f"the map {map_file} has no start pose and mission {mission.name!r} gives none (add start: {{x, y, yaw_deg}})")
+    return RunSetup(
+        world=world, mission=mission, mission_file=mpath, vehicle=cfg.vehicle or mission.vehicle or "terregator",
+        map_file=map_file, map_error=measure_map_error(world, map_, requested_m=cfg.map_error_m),
+        start_truth=start_truth, start_belief=_with_pose_error(told, cfg),
+        destinations=tuple(_destination_xy(world, s.destination) for s in mission.steps),
+        lane_offsets=tuple(_lane_offset(world, s) for s in mission.steps),
+    )
+
+
+def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list[ProcessPlan]:
     """Return the processes of a run in start order: router, node, simulator, then the modules."""
     zflags = ("--ns", ns, "--connect", endpoint)
-    sx, sy, syaw = _start_pose(world, cfg)
-    map_file = _map_file(world, cfg, out)
+    out, vehicle = Path(cfg.out), setup.vehicle
+    sx, sy, syaw = setup.start_belief
+    sim_start = () if setup.start_truth is None else (
+        f"--start={setup.start_truth[0]},{setup.start_truth[1]},{math.degrees(setup.start_truth[2])}",)
     plans = [
         ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint)),
         ProcessPlan("blackboard", ("-m", "sidewalk", "up", "blackboard", *zflags,
                                    "--db", str(out / "blackboard.db"), "--types", "modules.vocabulary")),
-        ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", cfg.world, "--vehicle", vehicle,
+        ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", cfg.world, "--vehicle", vehicle, *sim_start,
                             "--rtf", str(cfg.rtf), "--seed", str(cfg.seed), "--watchdog", str(cfg.watchdog_s), *zflags)),
         ProcessPlan("helm", ("-m", "sidewalk", "up", "helm", "--vehicle", vehicle, *zflags)),
     ]
+    # ---- monitor and recording (issue 11): recorder and monitor start before the simulator ----
+    plans[2:2] = observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port)
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags)))
     plans += [
         ProcessPlan("pilot", ("-m", "sidewalk", "up", "pilot", "--vehicle", vehicle,
                               "--perception", "on" if cfg.perception else "off",
                               f"--start-pose={sx},{sy},{syaw}", "--seed", str(cfg.seed), *zflags)),
-        ProcessPlan("map_navigator", ("-m", "sidewalk", "up", "map_navigator", "--map", str(map_file),
-                                      "--vehicle", vehicle, *zflags)),
+        ProcessPlan("map_navigator", ("-m", "sidewalk", "up", "map_navigator", "--map", str(setup.map_file),
+                                      "--vehicle", vehicle, "--pilot-grace", str(cfg.pilot_grace_s), *zflags)),
         ProcessPlan("captain", ("-m", "sidewalk", "up", "captain", *zflags)),
     ]
     return plans
@@ -182,28 +288,60 @@ def build_plans(cfg: RunConfig, world: World, vehicle: str, out: Path, ns: str, 
 def prepare_out(out: Path) -> None:
     """Create the output directory and remove what an earlier run left there."""
     out.mkdir(parents=True, exist_ok=True)
-    for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson"):
+    for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson",
+                  RECORD_FILE, RECORDING_NAME):
         (out / stale).unlink(missing_ok=True)
     for old_log in (out / "logs").glob("*.log"):
         old_log.unlink()
 
 
+def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: str, exit_codes: dict[str, Optional[int]],
+               *, stop_reason: str = "", gave_up_at: tuple[float, float] | None = None) -> RunRecord:
+    """Return the record of a run observed by `system` (after `finish` and `close`).
+
+    The run ends when the mission's terminal status was received, else when the launcher gave up
+    (`gave_up_at`: wall, sim [s] as `SystemRun.stamps`; `stop_reason` says why), else at the newest status.
+    """
+    rec = system.recorder
+    if rec is None or mission_id not in system.submitted:
+        raise LaunchError("the system stopped before the mission was submitted")
+    submitted_wall, submitted_sim = system.submitted[mission_id]
+    statuses = system.statuses.get(mission_id, [])
+    terminal = next((s for s in statuses if s.status.terminal), None)
+    end = terminal or (statuses[-1] if statuses else None)
+    ended_wall = end.wall_s if end is not None else submitted_wall
+    ended_sim = end.sim_s if end is not None and end.sim_s is not None else submitted_sim
+    if terminal is None and gave_up_at is not None:
+        ended_wall, ended_sim = gave_up_at
+    # what happened while the system started, or after the vehicle came to rest, is no part of the mission
+    rest = system.rest.get(mission_id)
+    kept_from, kept_to = submitted_sim - RECORD_LEAD_S, (math.inf if rest is None else max(rest, ended_sim) + RECORD_LEAD_S)
+    return RunRecord(
+        architecture="codger", mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
+        perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
+        rtf_requested=cfg.rtf, destinations=setup.destinations, lane_offsets=setup.lane_offsets,
+        submitted_wall_s=round(submitted_wall, 6), submitted_sim_s=submitted_sim,
+        ended_wall_s=round(ended_wall, 6), ended_sim_s=ended_sim, rest_sim_s=rest,
+        stop_reason=stop_reason,
+        truth=tuple(r for r in rec.truth.rows if kept_from <= r[0] <= kept_to),
+        estimate=tuple(r for r in rec.estimate.rows if kept_from <= r[0] <= kept_to),
+        events=tuple(e for e in rec.events if kept_from <= e.stamp <= kept_to),
+        statuses=tuple(statuses), plans=tuple(system.routes.get(mission_id, ())), processes=rec.process_costs(),
+        blackboard=system.bb_stats, exit_codes=exit_codes,
+    )
+
+
 async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | None = None) -> RunReport:
-    """Run one mission end to end and return its report (also written to `cfg.out`)."""
-    world, mission, mpath = preflight(cfg)
+    """Run one mission end to end; write `run_record.json`, `report.json` and `trajectory.png` to `cfg.out`; return the report."""
+    setup = prepare_run(cfg)
     out = Path(cfg.out)
-    prepare_out(out)
-    vehicle = cfg.vehicle or mission.vehicle or "terregator"
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    system = SystemRun(build_plans(cfg, world, vehicle, out, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs")
-    progress = Progress(step_count=len(mission.steps), namespace=ns, endpoint=endpoint)
-    status: MissionStatus | None = None
-    reason = ""
-    wall_mission0 = time.monotonic()
-    sim0: float | None = None
-    routes: list[tuple[int, int, np.ndarray]] = []
-    stats: dict = {}
+    system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs")
+    progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)
+    stop_reason = ""
+    gave_up_at: tuple[float, float] | None = None
+    mission_id: str | None = None
     try:
         def starting(name: str) -> None:
             progress.step = f"starting {name}"
@@ -214,118 +352,59 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             await system.start(on_starting=starting)
         except ProcessStartError as exc:
             raise LaunchError(str(exc)) from None
-        mission_id = await system.submit(mpath.read_text())
-        wall_mission0 = time.monotonic()
-        deadline = wall_mission0 + cfg.max_wall_time_s
+        mission_id = await system.submit(setup.mission_file.read_text())
+        submitted_wall, submitted_sim = system.submitted[mission_id]
+        deadline = time.monotonic() + cfg.max_wall_time_s
         while True:
-            if system.recorder.clock is not None and sim0 is None:
-                sim0 = system.recorder.clock.stamp
             st = await system.next_status(mission_id, timeout=0.5)
-            if st is not None:
-                status = st
+            now_wall, now_sim = system.stamps()
             for dead in system.crashed():
                 progress.state = f"{dead} exited"
-            progress.sim_time_s = system.recorder.sim_time - (sim0 or 0.0)
-            progress.distance_m = system.recorder.distance_m()
-            progress.rtf = progress.sim_time_s / max(1e-6, time.monotonic() - wall_mission0)
-            if status is not None:
-                progress.state = status.state
-                if status.current_step is not None:
-                    progress.step_index = status.current_step
-                    progress.step = status.steps[status.current_step].name if status.steps else ""
-                if status.terminal:
-                    reason = status.reason
+            progress.sim_time_s = now_sim - submitted_sim
+            progress.distance_m = system.recorder.distance_m() if system.recorder else 0.0
+            progress.rtf = progress.sim_time_s / max(1e-6, now_wall - submitted_wall)
+            if st is not None:
+                progress.state = st.state
+                if st.current_step is not None:
+                    progress.step_index = st.current_step
+                    progress.step = st.steps[st.current_step].name if st.steps else ""
+                if st.terminal:
                     break
             if on_progress:
                 on_progress(progress)
             if progress.sim_time_s > cfg.max_sim_time_s:
-                reason = f"sim-time budget of {cfg.max_sim_time_s:.0f} s used up"
+                stop_reason = f"sim-time budget of {cfg.max_sim_time_s:.0f} s used up"
+            elif time.monotonic() > deadline:
+                stop_reason = f"wall-time budget of {cfg.max_wall_time_s:.0f} s used up"
+            if stop_reason:
+                gave_up_at = (now_wall, now_sim)
                 break
-            if time.monotonic() > deadline:
-                reason = f"wall-time budget of {cfg.max_wall_time_s:.0f} s used up"
-                break
-        routes = await system.route_plans(mission_id)
-        stats = await system.blackboard_stats()
+        await system.finish(mission_id)
     finally:
-        cpu, exit_codes = await system.close()
-    wall = time.monotonic() - wall_mission0
-    recorder = system.recorder
-    truth = recorder.truth.array() if recorder else np.zeros((0, 4))
-    est = recorder.estimate.array() if recorder else np.zeros((0, 4))
-    # the newest revision of each step's route
-    newest: dict[int, tuple[int, np.ndarray]] = {}
-    for step_index, revision, poly in routes:
-        if step_index not in newest or revision > newest[step_index][0]:
-            newest[step_index] = (revision, poly)
-    route = np.concatenate([newest[k][1] for k in sorted(newest)]) if newest else None
-    sim_time = float(truth[-1, 0] - truth[0, 0]) if len(truth) >= 2 else 0.0
-    # distance to the nearest of every route the mission had (replans included)
-    cte = (np.min([cross_track_errors(truth[:, 1:3], poly) for _, _, poly in routes if len(poly) >= 2], axis=0)
-           if routes and len(truth) else np.zeros(0))
-    pe = position_errors(est[:, 0], est[:, 1:3], truth[:, 0], truth[:, 1:3]) if len(est) else np.zeros(0)
-    goal = _destination_xy(world, mission.steps[-1].destination)
-    goal_error = float(math.hypot(truth[-1, 1] - goal[0], truth[-1, 2] - goal[1])) if goal and len(truth) else None
-    steps = []
-    if status is not None:
-        for s in status.steps:
-            steps.append(StepReport(name=s.name, success=s.state == "succeeded", sim_time_s=s.finished_at, reason=s.reason))
-    success = bool(status is not None and status.state == "succeeded")
-    report = RunReport(
-        success=success,
-        reason=reason if not success else "",
-        mission=mission.name,
-        world=world.name,
-        vehicle=vehicle,
-        seed=cfg.seed,
-        perception=cfg.perception,
-        pose_error=(cfg.pose_error_m, cfg.pose_error_deg),
-        map_error_m=cfg.map_error_m or 0.0,
-        sim_time_s=round(sim_time, 3),
-        wall_time_s=round(wall, 3),
-        rtf_requested=cfg.rtf,
-        rtf_achieved=round(sim_time / wall, 3) if wall > 0 else 0.0,
-        distance_m=round(path_length(truth[:, 1:3]), 3),
-        steps=steps,
-        cross_track_error_m=ErrorSummary(**_stats(cte)),
-        position_error_m=ErrorSummary(**_stats(pe)),
-        goal_error_m=None if goal_error is None else round(goal_error, 3),
-        collisions=recorder.collisions() if recorder else 0,
-        off_path_s=round(recorder.off_path_s(truth[-1, 0]) if recorder and len(truth) else 0.0, 3),
-        sim_events=dict(Counter(e.kind for e in recorder.events)) if recorder else {},
-        blackboard=BlackboardUsage(**_bb_usage(stats)),
-        modules={k: round(v, 3) for k, v in cpu.items()},
-        exit_codes=exit_codes,
-    )
+        exit_codes = await system.close()
+    record = record_run(system, cfg, setup, mission_id or "", exit_codes, stop_reason=stop_reason, gave_up_at=gave_up_at)
+    save_record(record, out / RECORD_FILE)
+    report = build_report(record)
     write_report(report, out)
-    plot_trajectory(
-        out / "trajectory.png",
-        objects=_object_outlines(world),
-        route=route,
-        truth=truth[:, 1:3] if len(truth) else None,
-        estimate=est[:, 1:3] if len(est) else None,
-        title=f"{mission.name} on {world.name} ({vehicle}, seed {cfg.seed}) — {'success' if success else 'FAILED'}",
-    )
+    _plot(out / "trajectory.png", record, setup, report)
     return report
 
 
-def _stats(e: np.ndarray) -> dict:
-    if e.size == 0:
-        return {}
-    return {"rms": round(float(np.sqrt(np.mean(e**2))), 4), "max": round(float(e.max()), 4), "final": round(float(e[-1]), 4)}
-
-
-def _bb_usage(stats: dict) -> dict:
-    """Map the node's counters onto the report's blackboard fields (the rest kept as extras)."""
-    if not stats:
-        return {}
-    d = {str(k): v for k, v in stats.items()}
-    usage = {
-        "posts": int(d.get("posts", 0)),
-        "retrieves": int(d.get("retrieves", 0)),
-        "monitors": int(d.get("monitors_registered", d.get("monitors", 0))),
-        "bytes": int(d.get("bytes_in", 0)) + int(d.get("bytes_out", 0)),
-    }
-    for k, v in d.items():
-        if k not in usage and isinstance(v, (int, float)):
-            usage[k] = v
-    return usage
+def _plot(path: Path, record: RunRecord, setup: RunSetup, report: RunReport) -> None:
+    """Draw the run: the world, each step's newest route, the true and the estimated track."""
+    newest: dict[int, RecordedPlan] = {}
+    for p in record.plans:
+        if p.step_index not in newest or p.revision > newest[p.step_index].revision:
+            newest[p.step_index] = p
+    route = np.concatenate([np.asarray(newest[k].polyline) for k in sorted(newest)]) if newest else None
+    truth = np.asarray(record.truth, dtype=float).reshape(-1, 4)
+    est = np.asarray(record.estimate, dtype=float).reshape(-1, 4)
+    verdict = "success" if report.success else "FAILED" + (" (claimed success)" if report.claimed_success else "")
+    plot_trajectory(
+        path,
+        objects=_object_outlines(setup.world),
+        route=route,
+        truth=truth[:, 1:3] if len(truth) else None,
+        estimate=est[:, 1:3] if len(est) else None,
+        title=f"{setup.mission.name} on {setup.world.name} ({setup.vehicle}, seed {record.seed}) — {verdict}",
+    )

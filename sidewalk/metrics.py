@@ -6,29 +6,11 @@ import numpy as np
 from shapely import LineString, points as shp_points
 
 __all__ = [
-    "ErrorStats",
     "path_length",
     "cross_track_errors",
     "position_errors",
     "interpolate_track",
 ]
-
-
-class ErrorStats(dict):
-    """RMS, max and final of an error series [m]; a dict so it serialises as is."""
-
-    @classmethod
-    def of(cls, errors: np.ndarray) -> "ErrorStats":
-        """Summarise errors (N,) [m]; an empty series gives NaN-free zeros with n=0."""
-        e = np.asarray(errors, dtype=float)
-        if e.size == 0:
-            return cls(rms=None, max=None, final=None, n=0)
-        return cls(
-            rms=float(np.sqrt(np.mean(e**2))),
-            max=float(np.max(e)),
-            final=float(e[-1]),
-            n=int(e.size),
-        )
 
 
 def path_length(xy: np.ndarray) -> float:

@@ -1,4 +1,4 @@
-"""Record a run for its report: ground truth, simulator events, sim clock and estimated poses."""
+"""Record a run for its report: ground truth, simulator events, sim clock, estimated poses and every process's heartbeat."""
 
 from __future__ import annotations
 
@@ -11,8 +11,10 @@ import numpy as np
 
 from blackboard import BlackboardClient, BlackboardError
 from modules.runtime import Link
-from wire.keys import SimKeys
+from sidewalk.run_record import ProcessCost
 from wire.drive import SimClock, SimEvent, TruthPose, WireError, decode
+from wire.health import HeartbeatError, decode_heartbeat
+from wire.keys import ModuleKeys, SimKeys
 
 __all__ = ["Recorder", "Track"]
 
@@ -31,19 +33,23 @@ class Track:
 
 
 class Recorder:
-    """Subscribe to the simulator's truth, events and clock; sample the estimated pose from the blackboard.
+    """Subscribe to the simulator's truth, events and clock and to every heartbeat; sample the estimated pose from the blackboard.
 
-    Ground truth is read here for evaluation only; no module reads it.
+    Ground truth is read here for evaluation only; no module reads it. Of the heartbeats it keeps
+    the newest usage of each process incarnation (name, pid).
     """
 
     def __init__(self, link: Link, bb: BlackboardClient, ns: str, *, estimate_period_s: float = 0.5) -> None:
         self.link = link
         self.bb = bb
         self.keys = SimKeys(ns)
+        self.module_keys = ModuleKeys(ns)
         self.truth = Track()
         self.estimate = Track()
         self.events: list[SimEvent] = []
         self.clock: SimClock | None = None
+        self.costs: dict[tuple[str, int], ProcessCost] = {}
+        self._new_truth = asyncio.Event()
         self.estimate_period_s = estimate_period_s
         self.bad_samples = 0
         self._last_estimate_t = -1e9
@@ -55,6 +61,7 @@ class Recorder:
         self.link.subscribe(self.keys.truth, self._on_truth)
         self.link.subscribe(self.keys.events, self._on_event)
         self.link.subscribe(self.keys.clock, self._on_clock)
+        self.link.subscribe(self.module_keys.heartbeat_all, self._on_heartbeat)
 
     @property
     def sim_time(self) -> float:
@@ -92,6 +99,7 @@ class Recorder:
             self.bad_samples += 1
             return
         self.truth.rows.append((t.stamp, t.x, t.y, t.yaw))
+        self._new_truth.set()
         if t.stamp - self._last_estimate_t >= self.estimate_period_s and not self._estimating:
             self._last_estimate_t = t.stamp
             self._estimating = True
@@ -115,6 +123,53 @@ class Recorder:
             self.events.append(decode(SimEvent, payload))
         except WireError:
             self.bad_samples += 1
+
+    def rest_since(self, still_s: float, tol_m: float = 0.01, tol_rad: float = 0.005) -> float | None:
+        """Return when [s] sim the true vehicle stopped, if it has not moved (tol_m [m], tol_rad [rad]) for `still_s` [s]; else None."""
+        rows = self.truth.rows
+        if not rows:
+            return None
+        t, x, y, yaw = rows[-1]
+        since = t
+        for r in reversed(rows):
+            if abs(r[1] - x) > tol_m or abs(r[2] - y) > tol_m or abs(r[3] - yaw) > tol_rad:
+                break
+            since = r[0]
+        else:
+            return None  # still since the first sample: not yet known to have stopped for long enough
+        return since if t - since >= still_s else None
+
+    async def wait_rest(self, *, still_s: float = 1.0, max_sim_s: float = 30.0, max_wall_s: float = 20.0) -> float | None:
+        """Wait until the true vehicle has stood still for `still_s` [s] sim; return when it stopped [s] sim.
+
+        Gives up (None) after `max_sim_s` [s] sim or `max_wall_s` [s] wall.
+        """
+        loop = asyncio.get_running_loop()
+        wall_end = loop.time() + max_wall_s
+        sim_end = self.sim_time + max_sim_s
+        while (left := wall_end - loop.time()) > 0 and self.sim_time <= sim_end:
+            if (since := self.rest_since(still_s)) is not None:
+                return since
+            self._new_truth.clear()
+            try:
+                await asyncio.wait_for(self._new_truth.wait(), left)
+            except (asyncio.TimeoutError, TimeoutError):
+                break
+        return None
+
+    def process_costs(self) -> tuple[ProcessCost, ...]:
+        """Return the newest usage heard from each process incarnation, by name then pid."""
+        return tuple(self.costs[k] for k in sorted(self.costs))
+
+    def _on_heartbeat(self, key: str, payload: bytes) -> None:
+        try:
+            hb = decode_heartbeat(payload)
+        except HeartbeatError:
+            self.bad_samples += 1
+            return
+        if hb.usage is not None:
+            name = key.rsplit("/", 1)[-1]
+            self.costs[(name, hb.pid)] = ProcessCost(name=name, pid=hb.pid, usage=hb.usage)
 
     def _on_clock(self, _key: str, payload: bytes) -> None:
         with contextlib.suppress(WireError):

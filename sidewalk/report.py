@@ -1,44 +1,88 @@
-"""The run report: `report.json` (schema below) and `trajectory.png`."""
+"""The run report: `report.json`, built by `build_report` from a recorded run alone, and `trajectory.png`.
+
+`success` is judged from truth: every step's destination truly reached within its tolerance when
+the step ended, and no collision. The robot's own verdict is `claimed_success`; when the two
+disagree, `reason` says how. Times are spans from the mission's submission [s]; cross-track error
+is measured against each step's first route plan (the route centreline, so a keep-right offset
+counts), replans separately: their number, and the error against the plan in force at each moment.
+"""
 
 from __future__ import annotations
 
 import json
+import math
+from collections import Counter
 from pathlib import Path
 from typing import Optional, Sequence
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
+from modules.vocabulary import MissionStatus, StepOutcome
+from sidewalk.map_error import MapErrorSummary
+from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
+from sidewalk.run_record import RunRecord
+from wire.drive import SimEvent
+
 __all__ = [
     "StepReport",
     "ErrorSummary",
     "BlackboardUsage",
+    "ModuleCost",
     "RunReport",
+    "build_report",
     "write_report",
     "plot_trajectory",
     "KIND_COLOURS",
 ]
 
 
-class StepReport(BaseModel):
-    """One mission step: its name, outcome, reason and when it ended [s sim time]."""
-
-    model_config = ConfigDict(frozen=True)
-
-    name: str
-    success: bool
-    sim_time_s: Optional[float] = None
-    reason: str = ""
-
-
 class ErrorSummary(BaseModel):
-    """An error series summarised [m]."""
+    """An error series summarised [m]: root mean square, largest, last; n samples."""
 
     model_config = ConfigDict(frozen=True)
 
     rms: Optional[float] = None
     max: Optional[float] = None
     final: Optional[float] = None
+    n: int = 0
+
+    @classmethod
+    def of(cls, e: np.ndarray) -> "ErrorSummary":
+        """Summarise errors (N,) [m]; an empty series gives None figures and n = 0."""
+        e = np.asarray(e, dtype=float)
+        if e.size == 0:
+            return cls()
+        return cls(rms=round(float(np.sqrt(np.mean(e**2))), 4), max=round(float(e.max()), 4),
+                   final=round(float(e[-1]), 4), n=int(e.size))
+
+
+class StepReport(BaseModel):
+    """One mission step: truth's verdict and the robot's, when it started and ended [s] from submission (sim).
+
+    `distance_m` is the true distance [m] from the vehicle to the step's destination as judged: for
+    an intermediate step the closest the vehicle came between the step's start and the next step's
+    end, for the last step where the vehicle came to rest; `success` is `distance_m <= tolerance_m`.
+    `distance_at_claim_m` is the true distance when the robot said the step was done.
+    Cross-track error is against the step's first plan; `..._newest_m` against the newest plan in
+    force at each moment (the first until a replan was posted).
+    """
+
+    model_config = ConfigDict(frozen=True)
+
+    name: str
+    success: bool
+    claimed_success: bool
+    state: str
+    reason: str = ""
+    tolerance_m: float
+    distance_m: Optional[float] = None
+    distance_at_claim_m: Optional[float] = None
+    started_s: Optional[float] = None
+    finished_s: Optional[float] = None
+    replans: int = 0
+    cross_track_error_m: ErrorSummary = ErrorSummary()
+    cross_track_error_newest_m: ErrorSummary = ErrorSummary()
 
 
 class BlackboardUsage(BaseModel):
@@ -52,12 +96,32 @@ class BlackboardUsage(BaseModel):
     bytes: int = 0
 
 
-class RunReport(BaseModel):
-    """Everything `sidewalk run` measured; written as `report.json`."""
+class ModuleCost(BaseModel):
+    """What one process cost, from its last heartbeat: CPU [s], resident memory [MB], Zenoh traffic.
+
+    A process started more than once (`incarnations` > 1) sums CPU and traffic over its lives and
+    gives the largest resident memory.
+    """
 
     model_config = ConfigDict(frozen=True)
 
+    cpu_s: float
+    rss_mb: float
+    msgs_out: int
+    bytes_out: int
+    msgs_in: int
+    bytes_in: int
+    incarnations: int = 1
+
+
+class RunReport(BaseModel):
+    """Everything a run measured; written as `report.json`. Times [s] count from submission (see `build_report`)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    architecture: str
     success: bool
+    claimed_success: bool
     reason: str = ""
     mission: str
     world: str
@@ -65,22 +129,228 @@ class RunReport(BaseModel):
     seed: int
     perception: bool
     pose_error: tuple[float, float] = (0.0, 0.0)
-    map_error_m: float = 0.0
+    map_error: Optional[MapErrorSummary] = None
     sim_time_s: float
     wall_time_s: float
     rtf_requested: float
     rtf_achieved: float
     distance_m: float
     steps: list[StepReport]
-    cross_track_error_m: ErrorSummary
-    position_error_m: ErrorSummary
     goal_error_m: Optional[float] = None
+    cross_track_error_m: ErrorSummary
+    cross_track_error_newest_m: ErrorSummary
+    replans: int
+    position_error_m: ErrorSummary
     collisions: int
     off_path_s: float
     sim_events: dict[str, int] = {}
-    blackboard: BlackboardUsage
-    modules: dict[str, float]
+    blackboard: Optional[BlackboardUsage] = None
+    modules: dict[str, ModuleCost] = {}
     exit_codes: dict[str, Optional[int]] = {}
+
+
+def _final_status(rec: RunRecord) -> MissionStatus | None:
+    return rec.statuses[-1].status if rec.statuses else None
+
+
+def _window(track: np.ndarray, t0: float, t1: float) -> np.ndarray:
+    """Return the rows of a track (N,4) stamped in [t0, t1] [s]."""
+    return track[(track[:, 0] >= t0) & (track[:, 0] <= t1)] if len(track) else track
+
+
+def _true_pose_at(truth: np.ndarray, t: float) -> np.ndarray:
+    """Return the true track row (1,4: t, x, y, yaw) at sim time t [s], interpolated (yaw unwrapped)."""
+    ts = truth[:, 0]
+    yaw = np.unwrap(truth[:, 3])
+    return np.array([[t, np.interp(t, ts, truth[:, 1]), np.interp(t, ts, truth[:, 2]), np.interp(t, ts, yaw)]])
+
+
+def _off_path_s(events: Sequence[SimEvent], t0: float, t1: float) -> float:
+    """Return the sim time [s] spent off the path objects between t0 and t1 [s]."""
+    total, since = 0.0, None
+    for e in sorted(events, key=lambda e: e.stamp):
+        if e.kind == "off-path" and since is None:
+            since = e.stamp
+        elif e.kind == "on-path" and since is not None:
+            total += max(0.0, min(e.stamp, t1) - max(since, t0))
+            since = None
+    if since is not None:
+        total += max(0.0, t1 - max(since, t0))
+    return total
+
+
+def _module_costs(rec: RunRecord) -> dict[str, ModuleCost]:
+    out: dict[str, ModuleCost] = {}
+    for name in sorted({p.name for p in rec.processes}):
+        lives = [p.usage for p in rec.processes if p.name == name]
+        out[name] = ModuleCost(
+            cpu_s=round(sum(u.cpu_s for u in lives), 3), rss_mb=round(max(u.rss_bytes for u in lives) / 1e6, 1),
+            msgs_out=sum(u.msgs_out for u in lives), bytes_out=sum(u.bytes_out for u in lives),
+            msgs_in=sum(u.msgs_in for u in lives), bytes_in=sum(u.bytes_in for u in lives), incarnations=len(lives),
+        )
+    return out
+
+
+def _bb_usage(stats: dict[str, int | float] | None) -> BlackboardUsage | None:
+    """Map the node's counters onto the report's blackboard fields (the rest kept as extras)."""
+    if stats is None:
+        return None
+    d = dict(stats)
+    usage = {
+        "posts": int(d.get("posts", 0)),
+        "retrieves": int(d.get("retrieves", 0)),
+        "monitors": int(d.get("monitors_registered", d.get("monitors", 0))),
+        "bytes": int(d.get("bytes_in", 0)) + int(d.get("bytes_out", 0)),
+    }
+    for k, v in d.items():
+        if k not in usage:
+            usage[k] = v
+    return BlackboardUsage(**usage)
+
+
+def _distance_to(truth: np.ndarray, dest: tuple[float, float], lane_offset: float = 0.0) -> np.ndarray:
+    """Return the distance [m] of each track row (N,4: t, x, y, yaw) from `dest` (x, y) [m] in its lane.
+
+    A step that keeps to a side ends in that lane: the point judged is `dest` moved `lane_offset` [m]
+    to the left of the vehicle's heading at that row (negative: to the right).
+    """
+    yaw = truth[:, 3]
+    lx = dest[0] - lane_offset * np.sin(yaw)
+    ly = dest[1] + lane_offset * np.cos(yaw)
+    return np.hypot(truth[:, 1] - lx, truth[:, 2] - ly)
+
+
+def _step_report(rec: RunRecord, i: int, outcomes: dict[int, StepOutcome], origin: float, truth: np.ndarray,
+                 settled: float) -> tuple[StepReport, np.ndarray, np.ndarray]:
+    """Judge step i; return its report and its cross-track errors against the first and the newest plan [m].
+
+    An intermediate step counts as reached when the true track came within its tolerance between the
+    step's start and the next step's end (the robot declares arrival at an exit gate short of the
+    destination and drives on through it); the last step when the vehicle came to rest within it.
+    """
+    spec = rec.mission.steps[i]
+    outcome = outcomes.get(i)
+    state = outcome.state if outcome is not None else "pending"
+    started = outcome.started_at if outcome is not None else None
+    finished = outcome.finished_at if outcome is not None else None
+    last = i == len(rec.mission.steps) - 1
+    nxt = outcomes.get(i + 1)
+    judged_until = settled if last else (nxt.finished_at if nxt is not None and nxt.finished_at is not None else settled)
+    dest = rec.destinations[i]
+    lane = rec.lane_offsets[i] if i < len(rec.lane_offsets) else 0.0
+    distance = at_claim = None
+    if started is not None and dest is not None and len(truth):
+        if last:
+            rest = _window(truth, started, settled)
+            distance = float(_distance_to(rest[-1:], dest, lane)[0]) if len(rest) else None
+        else:
+            seen = _window(truth, started, judged_until)
+            distance = float(_distance_to(seen, dest, lane).min()) if len(seen) else None
+        if finished is not None and len(truth):
+            at_claim = round(float(_distance_to(_true_pose_at(truth, finished), dest, lane)[0]), 3)
+    plans = sorted((p for p in rec.plans if p.step_index == i), key=lambda p: p.revision)
+    cte_first = cte_newest = np.zeros(0)
+    if plans and started is not None:
+        rows = _window(truth, started, finished if finished is not None else rec.ended_sim_s)
+        per_plan = np.array([cross_track_errors(rows[:, 1:3], np.asarray(p.polyline)) for p in plans]).reshape(len(plans), -1)
+        cte_first = per_plan[0]
+        # the plan in force at each sample: the newest one posted by then (the first before any was posted)
+        in_force = np.maximum(np.searchsorted(np.array([p.stamp for p in plans]), rows[:, 0], side="right") - 1, 0)
+        cte_newest = per_plan[in_force, np.arange(len(rows))]
+    report = StepReport(
+        name=spec.name, success=distance is not None and distance <= spec.tolerance, claimed_success=state == "succeeded",
+        state=state, reason=outcome.reason if outcome is not None else "", tolerance_m=spec.tolerance,
+        distance_m=None if distance is None else round(distance, 3), distance_at_claim_m=at_claim,
+        started_s=None if started is None else round(started - origin, 3),
+        finished_s=None if finished is None else round(finished - origin, 3),
+        replans=max(0, len(plans) - 1), cross_track_error_m=ErrorSummary.of(cte_first),
+        cross_track_error_newest_m=ErrorSummary.of(cte_newest),
+    )
+    return report, cte_first, cte_newest
+
+
+def _disagreement(claimed: bool, claimed_reason: str, steps: list[StepReport], collisions: int) -> str:
+    """Name why truth and claim differ (or the claimed reason when both say failure)."""
+    misses = [f"step {i + 1} {s.name!r} " + ("was never reached" if s.distance_m is None else
+                                             f"ended {s.distance_m:.2f} m from its destination (tolerance {s.tolerance_m:.2f} m)")
+              for i, s in enumerate(steps) if not s.success]
+    truth = misses + ([f"{collisions} collision(s)"] if collisions else [])
+    if claimed and truth:
+        return "the robot claimed success, but by truth " + "; ".join(truth)
+    if not claimed and not truth:
+        return f"the robot claimed failure ({claimed_reason or 'no reason given'}), but by truth every destination was reached without collision"
+    return claimed_reason
+
+
+def build_report(rec: RunRecord) -> RunReport:
+    """Return the report of a recorded run (a pure function of the record).
+
+    Times span submission to the mission's end: `sim_time_s` by the CAPTAIN's clock (as the steps'
+    times), `wall_time_s` and `rtf_achieved` (sim over wall) over the same interval as the launcher
+    saw it. What the vehicle did (distance, collisions, off-path time, position error, goal error)
+    spans submission until it came to rest after the end.
+    """
+    truth_all = np.asarray(rec.truth, dtype=float).reshape(-1, 4)
+    est_all = np.asarray(rec.estimate, dtype=float).reshape(-1, 4)
+    t0, t1 = rec.submitted_sim_s, rec.ended_sim_s
+    settled = max(t1, rec.rest_sim_s) if rec.rest_sim_s is not None else t1
+    truth = _window(truth_all, t0, settled)
+    est = _window(est_all, t0, settled)
+    final = _final_status(rec)
+    origin = final.submitted_at if final is not None and final.submitted_at is not None else t0
+    outcomes = {o.step_index: o for o in final.steps} if final is not None else {}
+    steps, ctes, ctes_newest = [], [], []
+    for i in range(len(rec.mission.steps)):
+        sr, c, cn = _step_report(rec, i, outcomes, origin, truth_all, settled)
+        steps.append(sr)
+        ctes.append(c)
+        ctes_newest.append(cn)
+    events = [e for e in rec.events if t0 <= e.stamp <= settled]
+    collisions = sum(1 for e in events if e.kind == "collision")
+    claimed = final is not None and final.state == "succeeded"
+    success = all(s.success for s in steps) and collisions == 0
+    claimed_reason = rec.stop_reason or (final.reason if final is not None else "no mission status was ever seen")
+    goal = rec.destinations[-1]
+    goal_error = None
+    if goal is not None and len(truth):
+        goal_error = round(float(_distance_to(truth[-1:], goal, rec.lane_offsets[-1] if rec.lane_offsets else 0.0)[0]), 3)
+    # the mission's span by the CAPTAIN's clock, which also stamps the steps; RTF over what the launcher saw
+    if final is not None and final.submitted_at is not None and final.finished_at is not None:
+        sim_span = final.finished_at - final.submitted_at
+    else:
+        sim_span = t1 - t0
+    wall_span = rec.ended_wall_s - rec.submitted_wall_s
+    pe = position_errors(est[:, 0], est[:, 1:3], truth_all[:, 0], truth_all[:, 1:3]) if len(est) else np.zeros(0)
+    return RunReport(
+        architecture=rec.architecture,
+        success=success,
+        claimed_success=claimed,
+        reason="" if success and claimed else _disagreement(claimed, claimed_reason, steps, collisions),
+        mission=rec.mission.name,
+        world=rec.world,
+        vehicle=rec.vehicle,
+        seed=rec.seed,
+        perception=rec.perception,
+        pose_error=rec.pose_error,
+        map_error=rec.map_error,
+        sim_time_s=round(sim_span, 3),
+        wall_time_s=round(wall_span, 3),
+        rtf_requested=rec.rtf_requested,
+        rtf_achieved=round((t1 - t0) / wall_span, 3) if wall_span > 0 else 0.0,
+        distance_m=round(path_length(truth[:, 1:3]), 3),
+        steps=steps,
+        goal_error_m=goal_error,
+        cross_track_error_m=ErrorSummary.of(np.concatenate(ctes)),
+        cross_track_error_newest_m=ErrorSummary.of(np.concatenate(ctes_newest)),
+        replans=sum(s.replans for s in steps),
+        position_error_m=ErrorSummary.of(pe),
+        collisions=collisions,
+        off_path_s=round(_off_path_s(rec.events, t0, settled), 3),
+        sim_events=dict(Counter(e.kind for e in events)),
+        blackboard=_bb_usage(rec.blackboard),
+        modules=_module_costs(rec),
+        exit_codes=dict(rec.exit_codes),
+    )
 
 
 #: Fill colours for world object kinds on the trajectory plot.

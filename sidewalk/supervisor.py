@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import psutil
+from sidewalk.errors import SidewalkError
 
 __all__ = ["ProcessPlan", "ManagedProcess", "Supervisor", "ProcessStartError", "READY_RE"]
 
@@ -19,7 +20,7 @@ __all__ = ["ProcessPlan", "ManagedProcess", "Supervisor", "ProcessStartError", "
 READY_RE = re.compile(r"\bready\b", re.IGNORECASE)
 
 
-class ProcessStartError(RuntimeError):
+class ProcessStartError(SidewalkError, RuntimeError):
     """A process exited or stayed silent before printing its ready line."""
 
 

@@ -3,19 +3,21 @@
 from __future__ import annotations
 
 import asyncio
-import json
+import time
 from pathlib import Path
 from typing import Callable, Optional
 
-import msgpack
-import numpy as np
+from pydantic import ValidationError
 
-from blackboard import BlackboardClient, MonitorStream, NetworkConfig, Spec
+from blackboard import BlackboardClient, BlackboardError, MonitorStream, NetworkConfig, Spec
+from blackboard.codec import decode
+from blackboard.replies import NodeStats
 from modules.captain.client import CaptainUnavailableError, MissionClient
 from modules.runtime import ModuleKeys, Link
 from wire.keys import BlackboardKeys
 from modules.vocabulary import MissionStatus, RoutePlan
 from sidewalk.recorder import Recorder
+from sidewalk.run_record import RecordedPlan, StampedStatus
 from sidewalk.supervisor import ProcessPlan, Supervisor
 
 __all__ = ["SystemRun"]
@@ -25,8 +27,12 @@ class SystemRun:
     """Start the planned processes in order, then watch the system from outside like an operator.
 
     `start()` waits for every process's ready line, then opens a Zenoh session and a blackboard
-    client, starts the recorder (truth, events, clock, estimates) and monitors mission status tokens.
-    `close()` stops everything in reverse order and returns CPU seconds and exit codes per process.
+    client, starts the recorder (truth, events, clock, estimates, heartbeats) and monitors mission
+    status tokens. It keeps what a run record needs: when each mission was accepted and every status
+    received, stamped with wall [s] since construction and the sim clock [s] then; `snapshot()`
+    waits for the vehicle to come to rest and fetches the route plans and the node's counters before `close()`.
+    `close()` stops everything in reverse order (still listening, so the processes' last heartbeats
+    reach the recorder) and returns the exit code of each process.
     """
 
     def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path) -> None:
@@ -39,6 +45,16 @@ class SystemRun:
         self.recorder: Recorder | None = None
         self._status: MonitorStream | None = None
         self._crashed_seen: list[str] = []
+        self.t0 = time.monotonic()
+        #: mission id → (wall [s] since construction, sim [s]) when the CAPTAIN accepted it
+        self.submitted: dict[str, tuple[float, float]] = {}
+        #: mission id → every status received, in order
+        self.statuses: dict[str, list[StampedStatus]] = {}
+        #: mission id → its route plans, and the blackboard's counters, as fetched by `finish()`
+        self.routes: dict[str, list[RecordedPlan]] = {}
+        #: mission id → when [s] sim the vehicle came to rest after it ended (None: it did not), by `finish()`
+        self.rest: dict[str, float | None] = {}
+        self.bb_stats: dict | None = None
 
     async def start(self, *, on_starting: Callable[[str], None] | None = None, ready_timeout: float = 60.0) -> None:
         """Start every process, then connect the observer side."""
@@ -64,11 +80,16 @@ class SystemRun:
             left = end - loop.time()
             try:
                 accepted = await MissionClient(self.link, ModuleKeys(self.ns), timeout=max(left, 0.5)).submit(text)
+                self.submitted[accepted.mission_id] = self.stamps()
                 return accepted.mission_id
             except CaptainUnavailableError:
                 if loop.time() + 0.2 >= end:
                     raise
                 await asyncio.sleep(0.2)
+
+    def stamps(self) -> tuple[float, float]:
+        """Return (wall [s] since construction, newest sim time heard [s])."""
+        return time.monotonic() - self.t0, self.recorder.sim_time if self.recorder is not None else 0.0
 
     async def next_status(self, mission_id: str, timeout: float) -> Optional[MissionStatus]:
         """Return the next status of `mission_id` posted within `timeout` wall [s], else None."""
@@ -81,8 +102,11 @@ class SystemRun:
             except (asyncio.TimeoutError, TimeoutError):
                 return None
             st = ev.token.attrs
-            if isinstance(st, MissionStatus) and st.mission_id == mission_id:
-                return st
+            if isinstance(st, MissionStatus):
+                wall, sim = self.stamps()
+                self.statuses.setdefault(st.mission_id, []).append(StampedStatus(wall_s=wall, sim_s=sim, status=st))
+                if st.mission_id == mission_id:
+                    return st
         return None
 
     async def wait_status(self, mission_id: str, predicate: Callable[[MissionStatus], bool], timeout: float) -> MissionStatus:
@@ -115,37 +139,49 @@ class SystemRun:
         """Start a process again with its original plan and wait for its ready line."""
         await self.sup.start(self.plans[name], ready_timeout=ready_timeout)
 
-    async def route_plans(self, mission_id: str) -> list[tuple[int, int, np.ndarray]]:
-        """Return (step index, revision, polyline (N,2) `world` [m]) of every route plan of the mission."""
+    async def route_plans(self, mission_id: str) -> list[RecordedPlan]:
+        """Return every route plan of the mission (each revision of each step), polylines in `world` [m]."""
         assert self.bb is not None
         out = []
         for tok in await self.bb.retrieve(Spec(type="route_plan")):
             rp = tok.attrs
             if isinstance(rp, RoutePlan) and rp.mission_id == mission_id:
-                out.append((rp.step_index, rp.revision, np.asarray(rp.polyline, dtype=float)))
-        return out
+                out.append(RecordedPlan(step_index=rp.step_index, revision=rp.revision, stamp=tok.stamp, polyline=rp.polyline))
+        return sorted(out, key=lambda p: (p.step_index, p.revision))
 
-    async def blackboard_stats(self) -> dict:
-        """Return the blackboard node's counters (empty if it does not answer)."""
+    async def finish(self, mission_id: str) -> None:
+        """Wait until the vehicle has come to rest, then fetch the mission's route plans and the blackboard's counters.
+
+        Call it once the mission ended (or was given up), before `close()`.
+        """
+        assert self.recorder is not None
+        self.rest[mission_id] = await self.recorder.wait_rest()
+        self.routes[mission_id] = await self.route_plans(mission_id)
+        stats = await self.blackboard_stats()
+        self.bb_stats = stats.model_dump() if stats is not None else None
+
+    async def blackboard_stats(self) -> NodeStats | None:
+        """Return the blackboard node's counters (None if it does not answer)."""
         assert self.link is not None
         replies = await self.link.get(BlackboardKeys(self.ns).stats, timeout=5.0)
         if not replies or not replies[0].ok:
-            return {}
+            return None
         try:
-            return dict(msgpack.unpackb(replies[0].payload))
-        except (ValueError, msgpack.ExtraData, msgpack.FormatError, msgpack.StackError, TypeError):
-            return dict(json.loads(replies[0].payload))
+            return NodeStats.model_validate(decode(replies[0].payload, as_json=replies[0].is_json))
+        except (BlackboardError, ValidationError):
+            return None
 
-    async def close(self) -> tuple[dict[str, float], dict[str, Optional[int]]]:
-        """Stop observing, stop every process; return (CPU seconds, exit codes) by process name."""
+    async def close(self) -> dict[str, Optional[int]]:
+        """Stop observing the blackboard, stop every process, then close the session; return exit codes by process name."""
         if self._status is not None:
             await self._status.close()
         if self.recorder is not None:
             await self.recorder.close()
-        cpu = self.sup.sample_cpu()
         if self.bb is not None:
             await self.bb.close()
-        if self.link is not None:
-            self.link.close()
-        codes = await self.sup.stop_all()
-        return cpu, codes
+        try:
+            codes = await self.sup.stop_all()
+        finally:
+            if self.link is not None:
+                self.link.close()
+        return codes

@@ -22,7 +22,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from wire.keys import SimKeys
 from wire.network import NetworkConfig
-from wire.session import Query, Session, open_session
+from wire.health import process_usage
+from wire.session import Query, Session, open_session, traffic
 from wire.drive import DriveCommand, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
 from vehicle_sim.mapgen import map_for
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, OdometryModel
@@ -48,6 +49,8 @@ class NodeConfig(BaseModel):
     map_error: float = Field(default=1.0, ge=0.0)
     odometry: OdometryModel = DEFAULT_ODOMETRY
     capture_workers: int = Field(default=1, ge=1, le=8)
+    #: where the vehicle starts: x, y [m] in `world`, yaw [rad]; None = the world file's start
+    start: tuple[float, float, float] | None = None
 
 
 class SimNode:
@@ -64,6 +67,7 @@ class SimNode:
             world,
             SimConfig(vehicle=config.vehicle, physics_hz=config.physics_hz, watchdog_timeout=config.watchdog_timeout,
                       odometry=config.odometry, seed=config.seed),
+            start=config.start,
         )
         self._publish_every = max(1, int(round(config.physics_hz / config.publish_hz)))
         self._cmds: deque[bytes] = deque()
@@ -84,6 +88,7 @@ class SimNode:
         self.step_time_total = 0.0
         self._error: BaseException | None = None
         self._hb_seq = 0
+        self.captures_served = 0
 
     # ---- lifecycle ---------------------------------------------------------------------------
 
@@ -113,6 +118,7 @@ class SimNode:
             self._pub_truth = z.publisher(k.truth, droppable=True)
             self._pub_events = z.publisher(k.events)
             self._pub_hb = z.publisher(k.heartbeat, droppable=True)
+            self._pub_preview = z.publisher(k.preview, droppable=True)  # monitor/recorder only: may drop, never blocks
             z.subscribe_payload(k.cmd, self._on_cmd)
             z.queryable(k.capture, self._on_capture)
             z.queryable(k.info, self._on_info)
@@ -190,6 +196,7 @@ class SimNode:
             if item is None:
                 return
             q, t, state = item
+            res = None
             try:
                 if self._stop.is_set():
                     q.reply_err(json.dumps({"error": "simulator is shutting down"}).encode(), as_json=True)
@@ -204,6 +211,19 @@ class SimNode:
                 q.reply_err(json.dumps({"error": "capture failed", "detail": f"{type(exc).__name__}: {exc}"}).encode(), as_json=True)
             finally:
                 q.finish()
+            if res is not None:  # after the reply is finished: the asker never waits for the preview
+                self._publish_preview(res)
+
+    def _publish_preview(self, res) -> None:
+        """Publish a small camera / colored-range preview of a capture served (droppable; no pose, no truth)."""
+        from vehicle_sim.preview import make_preview
+        from wire.preview import encode_preview
+
+        self.captures_served += 1
+        try:
+            self._pub_preview.put(encode_preview(make_preview(res, self.captures_served)))
+        except Exception:  # noqa: BLE001 - a preview must never disturb the simulator
+            log.exception("preview failed")
 
     # ---- physics loop -------------------------------------------------------------------------
 
@@ -278,7 +298,8 @@ class SimNode:
             if now >= hb_next:
                 self._hb_seq += 1
                 self._pub_hb.put(encode(SimHeartbeat(seq=self._hb_seq, sim_time=sim.t, wall_time=time.time(), period_s=1.0,
-                                                     pid=os.getpid(), host=socket.gethostname())))
+                                                     pid=os.getpid(), host=socket.gethostname(),
+                                                     usage=process_usage(traffic()))))
                 hb_next = now + 1.0
             next_wall = wall0 + (sim.t + dt - sim0) / rtf
             delay = max(next_wall - perf(), 0.0)

@@ -60,6 +60,8 @@ class DriveCommand(BaseModel):
     (sim time) and then the next queued one starts (the vehicle stops when the queue runs out).
     `turn_rate` [rad/s] overrides the curvature for skid-steer vehicles (the Terregator turns in
     place with `speed=0`); Ackermann vehicles reject it. `seq` is the sender's sequence number.
+    `sensed_at` [s sim] is the capture stamp of the newest sensor data the command derives from (None:
+    none, e.g. dead reckoning): sense-to-act latency is the command's arrival minus it.
     """
 
     model_config = _FROZEN
@@ -70,6 +72,7 @@ class DriveCommand(BaseModel):
     duration: float | None = Field(default=None, gt=0.0, le=MAX_COMMAND_DURATION, allow_inf_nan=False)
     turn_rate: float | None = Field(default=None, allow_inf_nan=False)
     seq: int = 0
+    sensed_at: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
 
     @model_validator(mode="after")
     def _queued_needs_duration(self) -> "DriveCommand":

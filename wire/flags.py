@@ -19,6 +19,7 @@ from typing import Annotated, Any, Callable, Literal, Optional
 from pydantic import ValidationError
 
 from wire.network import NetworkConfig
+from wire.errors import WireError
 
 __all__ = ["FLAGS", "Flag", "Role", "network_config", "with_network", "add_network_args", "network_from_args"]
 
@@ -47,7 +48,7 @@ FLAGS: tuple[Flag, ...] = (
 )
 
 
-class FlagError(ValueError):
+class FlagError(WireError, ValueError):
     """A bad value for one of the shared flags (the message names the flag)."""
 
 

@@ -8,6 +8,8 @@ stopped is wedged. Wire form: msgpack of the model (JSON accepted on input).
 from __future__ import annotations
 
 import json
+import os
+import resource
 from typing import Literal
 
 import msgpack
@@ -15,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from wire.errors import PayloadError
 
-__all__ = ["Heartbeat", "ProcessState", "encode_heartbeat", "decode_heartbeat", "HeartbeatError"]
+__all__ = ["Heartbeat", "ProcessState", "ProcessUsage", "process_usage", "encode_heartbeat", "decode_heartbeat", "HeartbeatError"]
 
 #: Lifecycle state a process reports in its heartbeat.
 ProcessState = Literal["starting", "ready", "stopping"]
@@ -23,6 +25,41 @@ ProcessState = Literal["starting", "ready", "stopping"]
 
 class HeartbeatError(PayloadError, ValueError):
     """A heartbeat payload that does not decode; says what is wrong."""
+
+
+class ProcessUsage(BaseModel):
+    """What a process has cost since it started: CPU [s], resident memory [bytes], and its Zenoh traffic.
+
+    Traffic counts what this process's session sent (puts, queries, replies) and received (samples,
+    queries, replies), payload bytes only; it is cumulative, so a rate is a difference of two beats.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="ignore")
+
+    cpu_s: float = Field(ge=0.0)
+    rss_bytes: int = Field(ge=0)
+    msgs_out: int = Field(default=0, ge=0)
+    bytes_out: int = Field(default=0, ge=0)
+    msgs_in: int = Field(default=0, ge=0)
+    bytes_in: int = Field(default=0, ge=0)
+
+
+_PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
+
+
+def _rss_bytes() -> int:
+    try:
+        with open("/proc/self/statm", "rb") as f:
+            return int(f.read().split()[1]) * _PAGE
+    except (OSError, ValueError, IndexError):
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # peak, where /proc is missing
+
+
+def process_usage(traffic: tuple[int, int, int, int] = (0, 0, 0, 0)) -> ProcessUsage:
+    """Return this process's usage now, with `traffic` = (msgs_out, bytes_out, msgs_in, bytes_in)."""
+    ru = resource.getrusage(resource.RUSAGE_SELF)
+    mo, bo, mi, bi = traffic
+    return ProcessUsage(cpu_s=ru.ru_utime + ru.ru_stime, rss_bytes=_rss_bytes(), msgs_out=mo, bytes_out=bo, msgs_in=mi, bytes_in=bi)
 
 
 class Heartbeat(BaseModel):
@@ -42,6 +79,8 @@ class Heartbeat(BaseModel):
     zenoh_sessions: int | None = Field(default=None, ge=0)
     #: tokens held (the blackboard node only)
     tokens: int | None = Field(default=None, ge=0)
+    #: CPU, memory and Zenoh traffic of the process so far
+    usage: ProcessUsage | None = None
 
 
 def encode_heartbeat(hb: BaseModel) -> bytes:

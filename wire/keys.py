@@ -93,6 +93,8 @@ class SimKeys:
         self.map = f"{base}/map"
         #: queryable: → the world GeoJSON (JSON) — evaluation and monitor only
         self.world = f"{base}/world"
+        #: published (droppable) on every capture served: `SimPreview` (small JPEGs, no pose, no truth)
+        self.preview = f"{base}/preview"
         #: liveliness token while the node runs
         self.alive = f"{r}/alive/sim"
         #: heartbeat every wall second

@@ -28,6 +28,7 @@ from typing import Annotated, Any, Callable, Iterable, Literal, Union
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from wire.errors import WireError
 
 __all__ = [
     "KINDS",
@@ -178,7 +179,7 @@ class Problem(BaseModel):
         return f"{head}{fld} {self.message}"
 
 
-class WorldFileError(ValueError):
+class WorldFileError(WireError, ValueError):
     """A world or map file that cannot be used; names the file, each bad feature and what is wrong."""
 
     def __init__(self, source: str, problems: Iterable[Problem]):
@@ -888,7 +889,7 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
                                 weather=weather)
 
 
-class _FeatureProblems(Exception):
+class _FeatureProblems(WireError):
     def __init__(self, problems: list[Problem]):
         self.problems = problems
 

@@ -14,10 +14,10 @@ import threading
 import time
 from typing import TextIO
 
-from wire.health import Heartbeat, encode_heartbeat
+from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import ModuleKeys
 from wire.network import NetworkConfig
-from wire.session import open_session
+from wire.session import open_session, traffic
 
 __all__ = ["serve_router", "ROUTER_READY"]
 
@@ -45,7 +45,8 @@ def serve_router(net: NetworkConfig, stop: threading.Event, *, out: TextIO | Non
         while not stop.is_set():
             seq += 1
             s.put(keys.heartbeat("router"), encode_heartbeat(Heartbeat(
-                module="router", seq=seq, wall_time=time.time(), period_s=heartbeat_period, pid=pid, host=host, zenoh_sessions=1)))
+                module="router", seq=seq, wall_time=time.time(), period_s=heartbeat_period, pid=pid, host=host, zenoh_sessions=1,
+                usage=process_usage(traffic()))))
             stop.wait(heartbeat_period)
     finally:
         s.close()

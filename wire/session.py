@@ -28,7 +28,7 @@ from wire.errors import ConnectError, SessionClosedError
 from wire.network import NetworkConfig
 
 __all__ = [
-    "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "session_stats", "is_json_payload",
+    "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "session_stats", "traffic", "is_json_payload",
 ]
 
 _JSON = zenoh.Encoding.APPLICATION_JSON
@@ -57,6 +57,36 @@ def is_json_payload(encoding: str, payload: bytes) -> bool:
     return True
 
 
+class _Traffic:
+    """Messages and payload bytes this process sent and received through Zenoh (all sessions)."""
+
+    __slots__ = ("lock", "msgs_out", "bytes_out", "msgs_in", "bytes_in")
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.msgs_out = self.bytes_out = self.msgs_in = self.bytes_in = 0
+
+    def out(self, n: int) -> None:
+        with self.lock:
+            self.msgs_out += 1
+            self.bytes_out += n
+
+    def into(self, n: int) -> None:
+        with self.lock:
+            self.msgs_in += 1
+            self.bytes_in += n
+
+
+_traffic = _Traffic()
+
+
+def traffic() -> tuple[int, int, int, int]:
+    """Return (messages out, bytes out, messages in, bytes in) of this process's Zenoh traffic so far."""
+    t = _traffic
+    with t.lock:
+        return t.msgs_out, t.bytes_out, t.msgs_in, t.bytes_in
+
+
 def _enc(e: Any) -> str:
     return "" if e is None else str(e)
 
@@ -71,6 +101,7 @@ class Query:
         self.key: str = str(q.key_expr)
         p = q.payload
         self.payload: bytes = p.to_bytes() if p is not None else b""
+        _traffic.into(len(self.payload))
         enc = _enc(q.encoding)
         # a query with neither payload nor encoding comes from a person's tool: answer it in JSON
         self.is_json: bool = is_json_payload(enc, self.payload) if self.payload else (enc.startswith(_JSON_PREFIXES) or enc in _UNSET)
@@ -93,10 +124,12 @@ class Query:
 
     def reply(self, payload: bytes, *, as_json: bool = False, key: str | None = None) -> None:
         """Send a successful reply (on the query's key unless `key` is given)."""
+        _traffic.out(len(payload))
         self._q.reply(key or self._q.key_expr, payload, encoding=_JSON if as_json else _MSGPACK)
 
     def reply_err(self, payload: bytes, *, as_json: bool = False) -> None:
         """Send an error reply."""
+        _traffic.out(len(payload))
         self._q.reply_err(payload, encoding=_JSON if as_json else _MSGPACK)
 
     def finish(self) -> None:
@@ -119,6 +152,7 @@ class Reply:
             self.key = str(s.key_expr)
         self.payload: bytes = s.payload.to_bytes()
         self.is_json: bool = _enc(s.encoding).startswith(_JSON_PREFIXES)
+        _traffic.into(len(self.payload))
 
 
 class Sample:
@@ -130,6 +164,7 @@ class Sample:
         self.key: str = str(s.key_expr)
         self.payload: bytes = s.payload.to_bytes()
         self.deleted: bool = s.kind == zenoh.SampleKind.DELETE
+        _traffic.into(len(self.payload))
         self._enc = _enc(s.encoding)
 
     @property
@@ -148,6 +183,7 @@ class Publisher:
 
     def put(self, payload: bytes) -> None:
         """Publish one sample."""
+        _traffic.out(len(payload))
         self._p.put(payload)
 
     def undeclare(self) -> None:
@@ -281,9 +317,12 @@ class Session:
     def subscribe_payload(self, key: str, on_payload: Callable[[str, bytes], None]) -> Any:
         """Subscribe to `key` where only puts are published; `on_payload(key, bytes)` on a Zenoh thread (hot path)."""
         self._check()
-        sub = self._z.declare_subscriber(
-            key, zenoh.handlers.Callback(lambda s: on_payload(str(s.key_expr), s.payload.to_bytes()), indirect=False)
-        )
+        def cb(s: "zenoh.Sample") -> None:
+            data = s.payload.to_bytes()
+            _traffic.into(len(data))
+            on_payload(str(s.key_expr), data)
+
+        sub = self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False))
         self._keep.append(sub)
         return sub
 
@@ -305,6 +344,7 @@ class Session:
         """Publish one sample (msgpack unless `as_json`)."""
         if self._closed:
             return
+        _traffic.out(len(payload))
         self._z.put(
             key, payload, encoding=_JSON if as_json else _MSGPACK,
             congestion_control=zenoh.CongestionControl.DROP if droppable else zenoh.CongestionControl.BLOCK,
@@ -323,6 +363,7 @@ class Session:
     ) -> None:
         """Send a query; `on_reply(Reply)` per reply and `on_done()` at the end run on Zenoh threads (timeout wall [s])."""
         self._check()
+        _traffic.out(len(payload or b""))
         self._z.get(
             selector,
             zenoh.handlers.Callback(lambda r: on_reply(Reply(r)), on_done, indirect=False),
@@ -338,6 +379,7 @@ class Session:
     def get_blocking(self, selector: str, payload: bytes | None = None, *, as_json: bool = False, timeout: float = 5.0) -> list[Reply]:
         """Send a query and wait for every reply (blocking: never call it in a callback or on a loop)."""
         self._check()
+        _traffic.out(len(payload or b""))
         replies = self._z.get(
             selector, payload=payload, encoding=_JSON if as_json else _MSGPACK, timeout=timeout,
             target=zenoh.QueryTarget.BEST_MATCHING, consolidation=zenoh.ConsolidationMode.NONE,

@@ -5,11 +5,12 @@ from __future__ import annotations
 from modules.captain.wire import Rejection, SubmitAccepted
 from modules.runtime import ModuleKeys, Link
 from modules.vocabulary import MissionStatus
+from modules.captain.errors import CaptainError
 
 __all__ = ["MissionClient", "MissionRejected", "CaptainUnavailableError"]
 
 
-class MissionRejected(Exception):
+class MissionRejected(CaptainError):
     """The CAPTAIN refused the request; `rejection` says why (and, for a bad mission, where)."""
 
     def __init__(self, rejection: Rejection) -> None:
@@ -17,7 +18,7 @@ class MissionRejected(Exception):
         self.rejection = rejection
 
 
-class CaptainUnavailableError(Exception):
+class CaptainUnavailableError(CaptainError):
     """No CAPTAIN answered in time."""
 
 

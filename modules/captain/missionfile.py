@@ -6,11 +6,13 @@ Schema (worlds/MISSIONS.md)::
     description: free text          # optional
     world: campus                   # optional: the world the mission is written for
     vehicle: terregator             # optional: terregator | navlab
+    start: {x: 0, y: -28, yaw_deg: 90}   # optional: where the vehicle stands (world frame [m], [deg])
     steps:                          # required, at least one
       - name: to the quad           # optional (default "step N")
         destination: quad           # a place name, {place: NAME} or {x: X, y: Y} (world frame [m])
         constraints: [keep_right, avoid_stairs, {speed_limit: 1.0}]   # or a mapping
         trigger: {action: wait, seconds: 5}                            # or stop | continue | "wait 5"
+        tolerance: 1.5              # optional: how close [m] the vehicle must truly get (default 1.5)
 """
 
 from __future__ import annotations
@@ -24,14 +26,15 @@ from typing import Any, Iterable
 import yaml
 from pydantic import ValidationError
 
-from modules.vocabulary import Destination, Mission, MissionStepSpec, StepConstraints, Trigger
+from modules.vocabulary import DEFAULT_TOLERANCE_M, Destination, Mission, MissionStart, MissionStepSpec, StepConstraints, Trigger
+from modules.captain.errors import CaptainError
 
 __all__ = ["MissionProblem", "MissionFileError", "parse_mission", "load_mission", "CONSTRAINT_NAMES"]
 
 #: Constraint names a mission may use.
 CONSTRAINT_NAMES: tuple[str, ...] = ("keep_right", "keep_left", "avoid_stairs", "avoid_slope", "speed_limit")
-_TOP_FIELDS = ("mission", "name", "description", "world", "vehicle", "steps")
-_STEP_FIELDS = ("name", "destination", "constraints", "trigger")
+_TOP_FIELDS = ("mission", "name", "description", "world", "vehicle", "start", "steps")
+_STEP_FIELDS = ("name", "destination", "constraints", "trigger", "tolerance")
 _VEHICLES = ("terregator", "navlab")
 _ACTIONS = ("stop", "wait", "continue")
 
@@ -55,7 +58,7 @@ class MissionProblem:
         return f"{where}: {self.field or '(top level)'}: {self.message}"
 
 
-class MissionFileError(ValueError):
+class MissionFileError(CaptainError, ValueError):
     """A mission that cannot be used; names the source and, per problem, the line and field."""
 
     def __init__(self, source: str, problems: Iterable[MissionProblem]) -> None:
@@ -269,6 +272,21 @@ def _trigger(node: yaml.Node, field: str, c: _Collector) -> Trigger | None:
     return Trigger(action=action)  # type: ignore[arg-type]
 
 
+def _start(node: yaml.Node, c: _Collector) -> MissionStart | None:
+    m = _mapping(node, "start", c, ("x", "y", "yaw_deg"))
+    if m is None:
+        return None
+    vals = {}
+    for k in ("x", "y", "yaw_deg"):
+        if k not in m:
+            c.add(node, f"start.{k}", "required field is missing (start needs x, y [m] and yaw_deg [deg])")
+            continue
+        vals[k] = _number(m[k][1], f"start.{k}", c)
+    if len(vals) < 3 or any(v is None for v in vals.values()):
+        return None
+    return MissionStart(**vals)
+
+
 def _step(node: yaml.Node, index: int, c: _Collector) -> MissionStepSpec | None:
     field = f"steps[{index}]"
     m = _mapping(node, field, c, _STEP_FIELDS)
@@ -283,9 +301,10 @@ def _step(node: yaml.Node, index: int, c: _Collector) -> MissionStepSpec | None:
         dest = _destination(m["destination"][1], f"{field}.destination", c)
     cons = _constraints(m["constraints"][1], f"{field}.constraints", c) if "constraints" in m else StepConstraints()
     trig = _trigger(m["trigger"][1], f"{field}.trigger", c) if "trigger" in m else Trigger()
-    if len(c.problems) > n_before or name is None or dest is None or cons is None or trig is None:
+    tol = _number(m["tolerance"][1], f"{field}.tolerance", c, positive=True) if "tolerance" in m else DEFAULT_TOLERANCE_M
+    if len(c.problems) > n_before or name is None or dest is None or cons is None or trig is None or tol is None:
         return None
-    return MissionStepSpec(name=name, destination=dest, constraints=cons, trigger=trig)
+    return MissionStepSpec(name=name, destination=dest, constraints=cons, trigger=trig, tolerance=tol)
 
 
 def parse_mission(text: str | bytes, *, source: str = "<mission>", mission_id: str = "") -> Mission:
@@ -332,6 +351,7 @@ def parse_mission(text: str | bytes, *, source: str = "<mission>", mission_id: s
         if vehicle is not None and vehicle not in _VEHICLES:
             c.add(m["vehicle"][1], "vehicle", f"must be one of {', '.join(_VEHICLES)}, got {vehicle!r}")
             vehicle = None
+    start = _start(m["start"][1], c) if "start" in m else None
     steps: list[MissionStepSpec | None] = []
     if "steps" not in m:
         c.add(root, "steps", "required field is missing (a list of at least one step)")
@@ -347,7 +367,7 @@ def parse_mission(text: str | bytes, *, source: str = "<mission>", mission_id: s
         raise MissionFileError(source, c.problems)
     try:
         return Mission(mission_id=mission_id, name=name or "", description=desc or "", world=world, vehicle=vehicle,
-                       steps=tuple(s for s in steps if s is not None))
+                       start=start, steps=tuple(s for s in steps if s is not None))
     except ValidationError as exc:  # defensive: every field was checked above
         raise MissionFileError(source, [MissionProblem(None, None, ".".join(map(str, e["loc"])), e["msg"]) for e in exc.errors()]) from None
 

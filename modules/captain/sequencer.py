@@ -6,11 +6,12 @@ from dataclasses import dataclass
 from typing import Literal
 
 from modules.vocabulary import Mission, MissionStatus, MissionStep, StepOutcome, StepResult
+from modules.captain.errors import CaptainError
 
 __all__ = ["Next", "MissionRun", "SequenceError"]
 
 
-class SequenceError(RuntimeError):
+class SequenceError(CaptainError, RuntimeError):
     """A result or command that does not fit the mission's current state."""
 
 

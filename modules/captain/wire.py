@@ -7,6 +7,7 @@ import json
 from pydantic import BaseModel, ConfigDict, ValidationError
 
 from modules.captain.missionfile import MissionFileError
+from modules.captain.errors import CaptainError
 
 __all__ = ["SubmitAccepted", "Rejection", "ProblemWire", "CancelRequest", "rejection_from", "parse_cancel", "WireError"]
 
@@ -15,7 +16,7 @@ class _Frozen(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
 
-class WireError(ValueError):
+class WireError(CaptainError, ValueError):
     """A request payload that cannot be understood."""
 
 

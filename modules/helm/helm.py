@@ -89,6 +89,7 @@ class Helm:
         self.plans_taken = 0
         self.bad_payloads = 0
         self.plan_seq: int | None = None
+        self.plan_sensed_at: float | None = None
         self.last_command: DriveCommand | None = None
 
     def _on_odom(self, _key: str, payload: bytes) -> None:
@@ -116,6 +117,7 @@ class Helm:
             return False
         self.plans_taken += 1
         self.plan_seq = plan.seq
+        self.plan_sensed_at = plan.sensed_at
         return True
 
     def command_duration(self, horizon: float, moving: bool) -> float:
@@ -136,7 +138,7 @@ class Helm:
         self._seq += 1
         moving = speed != 0.0 or (turn_rate is not None and turn_rate != 0.0)
         cmd = DriveCommand(speed=speed, curvature=curvature, mode="immediate", turn_rate=turn_rate, seq=self._seq,
-                           duration=self.command_duration(horizon, moving))
+                           duration=self.command_duration(horizon, moving), sensed_at=self.plan_sensed_at)
         self.last_command = cmd
         self.rt.link.put(self.cmd_key, encode(cmd))
 

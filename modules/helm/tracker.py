@@ -12,11 +12,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
+from modules.helm.errors import HelmError
 
 __all__ = ["TrackerConfig", "TrackCommand", "PathTracker", "TrackerError"]
 
 
-class TrackerError(ValueError):
+class TrackerError(HelmError, ValueError):
     """A plan is unusable (fewer than 2 poses, mismatched speeds, non-finite values)."""
 
 

@@ -44,14 +44,22 @@ def lateral_offset(keep: str | None, width: float) -> float:
     return 0.0
 
 
-def exit_condition(coords: tuple[tuple[float, float], ...], width: float) -> ExitCondition:
-    """Return the exit condition at the end of a centreline: a gate across the path, the end point."""
+#: How close [m] the vehicle must believe it is to a step's destination to call it reached.
+ARRIVAL_RADIUS_M = 1.0
+
+
+def exit_condition(coords: tuple[tuple[float, float], ...], width: float, *, arrival: bool = False) -> ExitCondition:
+    """Return the exit condition at the end of a centreline: a gate across the path, the end point.
+
+    A segment that ends a step (`arrival`) must come within ARRIVAL_RADIUS_M of its end point; one
+    that hands over to the next segment of the route may end anywhere within half the path's width.
+    """
     end = coords[-1]
     h = _direction(coords, at_end=True)
     half = width / 2.0 + 0.5
     nx, ny = -math.sin(h), math.cos(h)
     gate = ((end[0] - nx * half, end[1] - ny * half), (end[0] + nx * half, end[1] + ny * half))
-    return ExitCondition(point=end, gate=gate, heading=h, radius_m=max(1.0, width / 2.0))
+    return ExitCondition(point=end, gate=gate, heading=h, radius_m=ARRIVAL_RADIUS_M if arrival else max(1.0, width / 2.0))
 
 
 def describe_segment(seg: SegmentPlan, m: MapData, *, segment_id: str, plan_id: str, index: int,
@@ -76,7 +84,7 @@ def describe_segment(seg: SegmentPlan, m: MapData, *, segment_id: str, plan_id: 
     return RouteSegmentDescription(
         segment_id=segment_id, plan_id=plan_id, segment_index=index, mode=seg.mode,  # type: ignore[arg-type]
         path_object_ids=seg.path_objects, centreline=seg.coords, width_m=seg.width, length_m=seg.length,
-        exit=exit_condition(seg.coords, seg.width),
+        exit=exit_condition(seg.coords, seg.width, arrival=last),
         constraints=DrivingConstraints(keep=keep, lateral_offset_m=lateral_offset(keep, seg.width),
                                        speed_limit=speed_limit, stop_at_exit=last),
         objects=tuple(objects),

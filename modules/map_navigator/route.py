@@ -19,6 +19,7 @@ from wire.mapfile import PathEdge
 
 from modules.map_navigator.mapdata import MapData
 from modules.vocabulary import Destination, StepConstraints
+from modules.map_navigator.errors import MapNavigatorError
 
 __all__ = [
     "RouteError", "UnknownPlaceError", "NoRouteError", "Leg", "Route", "RouteOptions", "edge_cost",
@@ -28,7 +29,7 @@ __all__ = [
 Vehicle = Literal["terregator", "navlab"]
 
 
-class RouteError(ValueError):
+class RouteError(MapNavigatorError, ValueError):
     """No route can be given for the step; the message is the reason reported to the CAPTAIN."""
 
 

@@ -1,11 +1,16 @@
 """The PILOT (seed: Sidewalk §2.3.3): driving monitor, driving unit finder, position estimator,
 driving unit navigator and local path planner, pipelined as in the paper's Figure 6.
 
-Pure cores (no network): `driving_units`, `kalman`, `navigator`, `planner`, `speed_profile`,
-`segment`. The process: `modules.pilot.pilot.Pilot`, run with `python -m modules.pilot`.
+Pure cores (no network, no blackboard; EDDIE reuses them as libraries): `driving_units`, `kalman`,
+`navigator`, `planner`, `speed_profile`, `segment`, exported here. The PILOT's five parts on the
+blackboard, one file each: `driving_monitor.DrivingMonitor`, `driving_unit_finder.DrivingUnitFinder`,
+`position_estimator.PositionEstimator`, `driving_unit_navigator.DrivingUnitNavigator`,
+`local_path_planner.LocalPathPlanning`; the process that wires them: `modules.pilot.pilot.Pilot`,
+run with `python -m modules.pilot`.
 """
 
 from modules.pilot.config import PilotConfig, pilot_config_for
+from modules.pilot.errors import PilotError
 from modules.pilot.driving_units import DrivingUnitConfig, DrivingUnitSpan, ExpectedObject, split_segment
 from modules.pilot.kalman import EstimatorError, LineFix, OdometryNoise, PointFix, PoseFilter
 from modules.pilot.navigator import ConstraintError, LocalConstraints, NavigatorConfig, local_constraints
@@ -15,7 +20,7 @@ from modules.pilot.segment import SegmentDriver, SegmentGeometry, map_region
 from modules.pilot.speed_profile import SpeedConfig, speed_profile
 
 __all__ = [
-    "PilotConfig", "pilot_config_for",
+    "PilotConfig", "pilot_config_for", "PilotError",
     "DrivingUnitConfig", "DrivingUnitSpan", "ExpectedObject", "split_segment",
     "EstimatorError", "LineFix", "OdometryNoise", "PointFix", "PoseFilter",
     "ConstraintError", "LocalConstraints", "NavigatorConfig", "local_constraints",

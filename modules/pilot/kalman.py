@@ -19,11 +19,12 @@ from filterpy.kalman import ExtendedKalmanFilter
 from pydantic import BaseModel, ConfigDict, Field
 
 from wire.se2 import between, compose, inverse, wrap_angle
+from modules.pilot.errors import PilotError
 
 __all__ = ["OdometryNoise", "PointFix", "LineFix", "PoseFilter", "EstimatorError"]
 
 
-class EstimatorError(ValueError):
+class EstimatorError(PilotError, ValueError):
     """A fix or increment is unusable (non-finite, not positive definite, degenerate line)."""
 
 

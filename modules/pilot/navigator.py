@@ -19,13 +19,14 @@ from pydantic import BaseModel, ConfigDict, Field
 from shapely.geometry.base import BaseGeometry
 
 from modules.pilot.polyline import PathLine
+from modules.pilot.errors import PilotError
 
 __all__ = ["NavigatorConfig", "LocalConstraints", "ConstraintError", "local_constraints"]
 
 KeepSide = Literal["right", "left", "none"]
 
 
-class ConstraintError(ValueError):
+class ConstraintError(PilotError, ValueError):
     """The driving units leave no room to drive (the region vanishes under the margin)."""
 
 

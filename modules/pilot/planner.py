@@ -29,6 +29,7 @@ from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
 from wire.se2 import wrap_angle
+from modules.pilot.errors import PilotError
 
 __all__ = ["PlannerConfig", "PlannedPath", "PlanningError", "LocalPathPlanner", "seed_ompl", "path_curvature"]
 
@@ -45,7 +46,7 @@ def seed_ompl(seed: int) -> bool:
     return True
 
 
-class PlanningError(RuntimeError):
+class PlanningError(PilotError, RuntimeError):
     """No valid path: start or goal outside the region, or the search budget ran out."""
 
 

@@ -6,11 +6,12 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from modules.pilot.errors import PilotError
 
 __all__ = ["PathLine", "PolylineError"]
 
 
-class PolylineError(ValueError):
+class PolylineError(PilotError, ValueError):
     """A polyline is unusable (fewer than 2 distinct vertices, non-finite values)."""
 
 

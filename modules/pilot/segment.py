@@ -47,6 +47,8 @@ class UnitState:
     region: BaseGeometry | None = None
     perceived: bool = False
     how: str = ""
+    #: capture stamp [s sim] of PERCEPTION's result that resolved the unit (None: not perceived)
+    sensed_at: float | None = None
 
 
 def map_region(centreline: np.ndarray, width: float, path_polygons: list[BaseGeometry], obstacles: list[BaseGeometry] = ()) -> BaseGeometry:
@@ -140,13 +142,19 @@ class SegmentDriver:
                 break  # one unit at a time in flight to PERCEPTION (Figure 6)
         return out
 
-    def resolve(self, idx: int, region: BaseGeometry | None, perceived: bool, how: str) -> None:
-        """Mark unit `idx` resolved with PERCEPTION's region (world) or, if None, the map's."""
+    def resolve(self, idx: int, region: BaseGeometry | None, perceived: bool, how: str, sensed_at: float | None = None) -> None:
+        """Mark unit `idx` resolved with PERCEPTION's region (world) or, if None, the map's; `sensed_at` [s sim]: its capture."""
         u = self.units[idx]
         u.phase = "resolved"
         u.perceived = perceived and region is not None and not region.is_empty
         u.region = region if u.perceived else u.span.region
         u.how = how
+        u.sensed_at = sensed_at if u.perceived else None
+
+    def sensed_at(self, indices: list[int]) -> float | None:
+        """Return the newest capture stamp [s sim] among the perceived units `indices` (None: none perceived)."""
+        stamps = [self.units[i].sensed_at for i in indices if self.units[i].sensed_at is not None]
+        return max(stamps) if stamps else None
 
     def overdue(self, now: float) -> list[int]:
         """Return posted units PERCEPTION has not answered within the timeout [s] of sim time."""

@@ -8,6 +8,7 @@ import itertools
 import logging
 import math
 from typing import Awaitable, TypeVar
+from modules.runtime.errors import ModuleRuntimeError
 
 __all__ = ["SimClock", "ClockNotRunningError"]
 
@@ -15,7 +16,7 @@ log = logging.getLogger(__name__)
 T = TypeVar("T")
 
 
-class ClockNotRunningError(RuntimeError):
+class ClockNotRunningError(ModuleRuntimeError, RuntimeError):
     """No sim clock tick has been received yet, so there is no sim time."""
 
 

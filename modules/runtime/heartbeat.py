@@ -12,11 +12,12 @@ from pydantic import ValidationError
 from modules.vocabulary import Heartbeat
 from wire.health import HeartbeatError, encode_heartbeat
 from wire.health import decode_heartbeat as _decode_wire_heartbeat
+from modules.runtime.errors import ModuleRuntimeError
 
 __all__ = ["encode_heartbeat", "decode_heartbeat", "HeartbeatError", "HeartbeatTracker", "decode_clock", "ClockPayloadError"]
 
 
-class ClockPayloadError(ValueError):
+class ClockPayloadError(ModuleRuntimeError, ValueError):
     """A sim clock payload that does not decode to a sim time."""
 
 

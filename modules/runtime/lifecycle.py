@@ -13,7 +13,8 @@ from typing import Any, Awaitable, Callable, TextIO
 
 from wire.network import NetworkConfig
 from wire.aio import Link
-from wire.session import session_stats
+from wire.health import process_usage
+from wire.session import session_stats, traffic
 from modules.runtime.clock import SimClock
 from modules.runtime.heartbeat import ClockPayloadError, decode_clock, encode_heartbeat
 from wire.keys import ModuleKeys
@@ -91,6 +92,7 @@ class ModuleRuntime:
             module=self.name, seq=self._seq, sim_time=self.clock.now() if self.clock.running else None,
             wall_time=time.time(), period_s=self.heartbeat_period, pid=os.getpid(), host=self._host,
             state=state or ("ready" if self._ready else "starting"), zenoh_sessions=session_stats()["open"],
+            usage=process_usage(traffic()),
         )
         self._seq += 1
         self.link.put(self.keys.heartbeat(self.name), encode_heartbeat(hb))

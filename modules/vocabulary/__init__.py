@@ -32,8 +32,8 @@ from modules.vocabulary.mapdata import (
     TreeShape,
 )
 from modules.vocabulary.mission import (
-    TERMINAL_STATES, Destination, KeepSide, Mission, MissionState, MissionStatus, MissionStep,
-    MissionStepSpec, StepConstraints, StepOutcome, StepResult, Trigger, TriggerAction,
+    DEFAULT_TOLERANCE_M, TERMINAL_STATES, Destination, KeepSide, Mission, MissionStart, MissionState, MissionStatus,
+    MissionStep, MissionStepSpec, StepConstraints, StepOutcome, StepResult, Trigger, TriggerAction,
 )
 from modules.vocabulary.perception import (
     DetectedObject, LineFix, PerceptionResult, PointFix, PositionFix, ResultFrame, SensorMode, SurfaceType,
@@ -67,8 +67,8 @@ __all__ = [
     "Heartbeat", "ModuleState",
     "ColourType", "MapColour", "FlatShape", "MapObject", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
     "StairsShape", "TreeShape",
-    "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionState", "MissionStatus", "MissionStep",
-    "MissionStepSpec", "StepConstraints", "StepOutcome", "StepResult", "Trigger", "TriggerAction",
+    "DEFAULT_TOLERANCE_M", "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionStart", "MissionState",
+    "MissionStatus", "MissionStep", "MissionStepSpec", "StepConstraints", "StepOutcome", "StepResult", "Trigger", "TriggerAction",
     "DetectedObject", "LineFix", "PerceptionResult", "PointFix", "PositionFix", "ResultFrame", "SensorMode",
     "SurfaceType",
     "NAVIGATION_MODES", "DrivingConstraints", "ExitCondition", "NavigationMode", "RoutePlan",

@@ -96,7 +96,9 @@ class LocalPathPlan(Frozen):
 
     Runs from the vehicle's pose at planning time through all driving units in `unit_ids` to the far
     edge of the newest. `stop_at_end`: the HELM stops at the last pose; otherwise it slows to a stop
-    there only if no newer plan has arrived.
+    there only if no newer plan has arrived. `sensed_at` [s sim] is the newest capture stamp among
+    the perceived driving units the plan was built on (None: planned on the map alone); the HELM
+    copies it into its drive commands, so sense-to-act latency can be measured.
     """
 
     seq: Annotated[int, Field(ge=0)]
@@ -105,3 +107,4 @@ class LocalPathPlan(Frozen):
     frame: Literal["world", "local"] = "local"
     poses: Annotated[tuple[PlanPose, ...], Field(min_length=2)]
     stop_at_end: bool = False
+    sensed_at: Annotated[float, Field(ge=0.0)] | None = None

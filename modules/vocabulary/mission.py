@@ -12,10 +12,11 @@ from typing import Annotated, Literal
 from pydantic import Field, model_validator
 
 from blackboard.registry import token_type
-from modules.vocabulary._base import XY, Frozen, NonNeg
+from modules.vocabulary._base import XY, Frozen, NonNeg, finite
 
 __all__ = [
-    "KeepSide", "TriggerAction", "MissionState", "Destination", "StepConstraints", "Trigger",
+    "KeepSide", "TriggerAction", "MissionState", "Destination", "StepConstraints", "Trigger", "MissionStart",
+    "DEFAULT_TOLERANCE_M",
     "MissionStepSpec", "Mission", "MissionStep", "StepResult", "StepOutcome", "MissionStatus",
     "TERMINAL_STATES",
 ]
@@ -80,13 +81,30 @@ class Trigger(Frozen):
         return self
 
 
+#: How close [m] the vehicle must truly come to a step's destination when the mission does not say.
+DEFAULT_TOLERANCE_M = 1.5
+
+
 class MissionStepSpec(Frozen):
-    """One step of a mission as written by the person: name, destination, constraints, trigger."""
+    """One step of a mission as written by the person: name, destination, constraints, trigger.
+
+    `tolerance` [m] is how close to the destination the vehicle must truly be when the step ends
+    for evaluation to count it reached.
+    """
 
     name: str
     destination: Destination
     constraints: StepConstraints = StepConstraints()
     trigger: Trigger = Trigger()
+    tolerance: Annotated[finite, Field(gt=0.0)] = DEFAULT_TOLERANCE_M
+
+
+class MissionStart(Frozen):
+    """Where the vehicle stands when the mission begins: x, y [m] in `world`, heading [deg] CCW from +x."""
+
+    x: finite
+    y: finite
+    yaw_deg: finite
 
 
 @token_type("mission")
@@ -98,6 +116,7 @@ class Mission(Frozen):
     description: str = ""
     world: str | None = None
     vehicle: Literal["terregator", "navlab"] | None = None
+    start: MissionStart | None = None
     steps: Annotated[tuple[MissionStepSpec, ...], Field(min_length=1)]
 
 

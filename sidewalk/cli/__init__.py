@@ -30,6 +30,7 @@ _SUBAPPS = [
 ]
 _COMMANDS = [
     ("sidewalk.cli._run", "register"),
+    ("sidewalk.cli._monitor", "register"),
 ]
 
 

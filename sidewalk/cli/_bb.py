@@ -121,7 +121,7 @@ def stats_cmd(net: NetworkConfig, timeout: Annotated[float, typer.Option(help="G
     """Print the node's counters as one JSON line."""
 
     async def body(bb: BlackboardClient) -> None:
-        _line(await bb.stats())
+        _line((await bb.stats()).model_dump())
 
     _run(net, timeout, body)
 
@@ -132,6 +132,6 @@ def frames_cmd(net: NetworkConfig, timeout: Annotated[float, typer.Option(help="
     """Print the node's frame tree as one JSON line."""
 
     async def body(bb: BlackboardClient) -> None:
-        _line(await bb.frames())
+        _line((await bb.frames()).wire())
 
     _run(net, timeout, body)

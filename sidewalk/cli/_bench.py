@@ -46,3 +46,17 @@ def bench_sim(
     """Simulator render time, step time and the real-time factor reached."""
     mod = importlib.import_module("bench.sim")
     _emit(mod.run(world=world, frames=frames), as_json)
+
+
+@bench_app.command("record")
+def bench_record(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    mission: Annotated[str, typer.Option(help="Mission name or file (default: the tests' short mission)")] = "",
+    rtf: Annotated[float, typer.Option(help="Real-time factor of the runs")] = 20.0,
+    without: Annotated[bool, typer.Option("--without/--no-without", help="Also run the mission without the recorder")] = True,
+) -> None:
+    """The recorder's CPU and the MCAP size per minute of sim: a short mission with and without the recorder."""
+    mod = importlib.import_module("bench.record")
+    if rtf <= 0:
+        raise typer.BadParameter(f"--rtf must be > 0, got {rtf}")
+    _emit(mod.run(mission=mission or mod.DEFAULT_MISSION, rtf=rtf, without=without), as_json)

@@ -37,6 +37,27 @@ def _parse_pose_error(text: str) -> tuple[float, float]:
     return m, deg
 
 
+# ---- monitor and recording (issue 11) ----
+#: Progress steps shown before the monitor process has said it is ready.
+_BEFORE_MONITOR = ("starting", "starting router", "starting blackboard", "starting recorder", "starting monitor")
+
+
+def _monitor_preflight(cfg, console) -> Optional[str]:  # noqa: ANN001 - RunConfig, rich Console
+    """Return the monitor page's URL (None without --monitor); exit 2 with one line if its port is taken."""
+    if cfg.monitor_port is None:
+        return None
+    from sidewalk.monitor import PortInUseError, check_port
+    from sidewalk.observers import monitor_url
+
+    try:
+        check_port("127.0.0.1", cfg.monitor_port)
+    except PortInUseError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from None
+    return monitor_url(cfg.monitor_port)
+# ---- end monitor and recording ----
+
+
 def run(
     world: Annotated[str, typer.Option(help="World name (worlds/<name>.world.geojson) or file")] = "campus",
     mission: Annotated[str, typer.Option(help="Mission name (worlds/<name>.yaml) or file")] = "campus-tour",
@@ -45,30 +66,47 @@ def run(
     seed: Annotated[int, typer.Option(help="Seed: the run is reproducible from it")] = 0,
     out: Annotated[Path, typer.Option(help="Directory for report.json, trajectory.png, logs/")] = Path("runs/latest"),
     no_perception: Annotated[bool, typer.Option("--no-perception", help="Run without PERCEPTION: the PILOT dead-reckons on the map")] = False,
-    pose_error: Annotated[str, typer.Option(help="Initial pose error M,DEG given to the PILOT")] = "0,0",
-    map_error: Annotated[Optional[float], typer.Option(help="Map objects displaced by up to M metres (default: the shipped map)")] = None,
+    pose_error: Annotated[str, typer.Option(help="Pose error M,DEG added to the start the PILOT is told (the mission's start, else the map's)")] = "0,0",
+    map_error: Annotated[Optional[float], typer.Option(help="Give the robot a map derived with error M [m]: offset, rotation, scattered vertices, missing objects; M is the largest vertex displacement (default: the shipped map)")] = None,
     max_sim_time: Annotated[float, typer.Option(help="Give up after this much sim time [s]")] = 3600.0,
     max_wall_time: Annotated[float, typer.Option(help="Give up after this much wall time [s]")] = 1800.0,
     ns: Annotated[Optional[str], typer.Option("--ns", help="Namespace (default: a fresh one per run)")] = None,
+    # ---- monitor and recording (issue 11) ----
+    monitor: Annotated[bool, typer.Option("--monitor", help="Serve the NAVIGATION MONITOR page for the run (prints its URL)")] = False,
+    monitor_port: Annotated[int, typer.Option("--monitor-port", help="HTTP port of the monitor page")] = 8080,
+    no_record: Annotated[bool, typer.Option("--no-record", help="Do not write run.mcap")] = False,
+    # ---- end monitor and recording ----
 ) -> None:
-    """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh."""
+    """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh; writes run.mcap."""
     from rich.console import Console
     from rich.progress import BarColumn, Progress as RichProgress, TextColumn, TimeElapsedColumn
+
+    from pydantic import ValidationError
 
     from sidewalk.launcher import LaunchError, Progress, RunConfig, preflight, run_mission
 
     if vehicle is not None and vehicle not in ("terregator", "navlab"):
         raise typer.BadParameter(f"{vehicle!r} is not terregator or navlab", param_hint="--vehicle")
+    if not 0 < monitor_port < 65536:  # issue 11
+        raise typer.BadParameter(f"must be 1-65535, got {monitor_port}", param_hint="--monitor-port")
     pe_m, pe_deg = _parse_pose_error(pose_error)
-    cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
-                    perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
-                    max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns)
+    if map_error is not None and not (math.isfinite(map_error) and map_error >= 0):
+        raise typer.BadParameter(f"{map_error!r} is not a distance >= 0 [m]", param_hint="--map-error")
+    try:
+        cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
+                        perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
+                        max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns,
+                        record=not no_record, monitor_port=monitor_port if monitor else None)  # issue 11
+    except ValidationError as exc:
+        e = exc.errors()[0]
+        raise typer.BadParameter(f"{e['loc'][0]}: {e['msg']}") from None
     console = Console(stderr=True)
     try:
         preflight(cfg)
     except LaunchError as exc:
         console.print(f"[red]error:[/red] {exc}")
         raise typer.Exit(2) from None
+    url = _monitor_preflight(cfg, console)  # issue 11: the monitor's port, checked before anything starts
     with RichProgress(
         TextColumn("[bold]{task.fields[step]}"),
         BarColumn(),
@@ -84,8 +122,12 @@ def run(
         task = bar.add_task("run", total=1, step="starting", dist=0.0, sim=0.0, rtf=0.0, state="starting")
 
         announced = []
+        url_shown: list[bool] = []
 
         def show(p: Progress) -> None:
+            if url and not url_shown and p.step not in _BEFORE_MONITOR:  # issue 11: the page is up now
+                url_shown.append(True)
+                bar.console.print(f"monitor: [bold]{url}[/bold]")
             if not announced:
                 announced.append(True)
                 bar.console.print(f"namespace [bold]{p.namespace}[/bold], endpoint [bold]{p.endpoint}[/bold] — inspect with "
@@ -102,12 +144,16 @@ def run(
             console.print("[yellow]interrupted: every process was stopped[/yellow]")
             raise typer.Exit(130) from None
         bar.update(task, completed=len([s for s in report.steps if s.success]))
-    verdict = "[green]success[/green]" if report.success else f"[red]failed[/red] {report.reason}"
+    verdict = "[green]success[/green]" if report.success else "[red]failed[/red]"
+    claim = "claimed success" if report.claimed_success else "claimed failure"
+    goal = "-" if report.goal_error_m is None else f"{report.goal_error_m:.2f} m"
     console.print(
-        f"{report.mission}: {verdict} — {report.distance_m:.1f} m in {report.sim_time_s:.1f} s sim "
-        f"({report.wall_time_s:.1f} s wall, RTF {report.rtf_achieved:.1f}); collisions {report.collisions}; "
-        f"position error final {report.position_error_m.final}; report: {out / 'report.json'}"
+        f"{report.mission}: {verdict} by truth ({claim}) — goal error {goal}; {report.distance_m:.1f} m in "
+        f"{report.sim_time_s:.1f} s sim ({report.wall_time_s:.1f} s wall, RTF {report.rtf_achieved:.1f}); "
+        f"collisions {report.collisions}; position error final {report.position_error_m.final}; report: {out / 'report.json'}"
     )
+    if report.reason:
+        console.print(f"  {report.reason}")
     raise typer.Exit(0 if report.success else 1)
 
 

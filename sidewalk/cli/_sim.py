@@ -33,6 +33,7 @@ def serve(
     physics_hz: Annotated[float, typer.Option("--physics-hz", help="Physics steps per sim second")] = 100.0,
     publish_hz: Annotated[float, typer.Option("--publish-hz", help="Clock/odometry/truth messages per sim second")] = 20.0,
     watchdog: Annotated[float, typer.Option("--watchdog", help="Stop the vehicle after this many sim seconds without commands")] = 0.5,
+    start: Annotated[str, typer.Option("--start", help="Start pose X,Y,YAW: world frame [m, m, deg CCW from +x] (default: the world's start)")] = "",
 ) -> None:
     """Serve the simulator over Zenoh until SIGINT/SIGTERM; prints a "ready" line once serving."""
     from pydantic import ValidationError
@@ -42,9 +43,10 @@ def serve(
 
     if vehicle not in _VEHICLES:
         raise typer.BadParameter(f"--vehicle must be one of {', '.join(_VEHICLES)}, got {vehicle!r}")
+    start_pose = _parse_pose(start, "--start") if start else None
     try:
         cfg = NodeConfig(vehicle=vehicle, rtf=rtf, seed=seed, physics_hz=physics_hz, publish_hz=publish_hz,  # type: ignore[arg-type]
-                         watchdog_timeout=watchdog, map_error=map_error)
+                         watchdog_timeout=watchdog, map_error=map_error, start=start_pose)
     except ValidationError as exc:
         msgs = "; ".join(f"--{str(e['loc'][0]).replace('_', '-')}: {e['msg']}" for e in exc.errors())
         raise typer.BadParameter(msgs) from None
@@ -86,19 +88,19 @@ def serve(
         raise typer.Exit(1)
 
 
-def _parse_pose(text: str) -> tuple[float, float, float]:
+def _parse_pose(text: str, flag: str = "--pose") -> tuple[float, float, float]:
     """Parse "X,Y,YAW" (x, y [m], yaw [deg] CCW from +x) into (x, y, yaw [rad])."""
     import math
 
     parts = [p.strip() for p in text.split(",")]
     if len(parts) != 3:
-        raise typer.BadParameter(f"--pose must be X,Y,YAW (metres, metres, degrees), got {text!r}")
+        raise typer.BadParameter(f"{flag} must be X,Y,YAW (metres, metres, degrees), got {text!r}")
     try:
         x, y, yaw = (float(p) for p in parts)
     except ValueError:
-        raise typer.BadParameter(f"--pose must be three numbers X,Y,YAW, got {text!r}") from None
+        raise typer.BadParameter(f"{flag} must be three numbers X,Y,YAW, got {text!r}") from None
     if not all(math.isfinite(v) for v in (x, y, yaw)):
-        raise typer.BadParameter(f"--pose values must be finite, got {text!r}")
+        raise typer.BadParameter(f"{flag} values must be finite, got {text!r}")
     return x, y, math.radians(yaw)
 
 

@@ -84,7 +84,7 @@ async def test_typed_errors_come_back_as_exceptions(bb):
 async def test_wait_is_satisfied_by_a_later_post(bb, node):
     spec = Spec(type="bbt_obstacle", where=[AttrPredicate(path="confidence", op="==", value=0.25)])
     waiter = asyncio.create_task(bb.wait(spec, timeout=20))
-    before = (await bb.stats())["monitors_registered"]
+    before = (await bb.stats()).monitors_registered
     await until(lambda: _stat_above(bb, "monitors_registered", before - 1))
     assert not waiter.done()
     async with BlackboardClient(node.client_net(), source="poster") as poster:
@@ -99,7 +99,7 @@ async def test_wait_is_satisfied_by_a_later_post(bb, node):
 
 
 async def _stat_above(bb, name, value):
-    return (await bb.stats())[name] > value
+    return getattr(await bb.stats(), name) > value
 
 
 async def test_monitor_sees_new_updated_deleted_in_order(bb, node):
@@ -171,15 +171,15 @@ async def test_stats_count_operations(bb):
     await bb.post(Segment(index=900), stamp=0.0)
     await bb.retrieve(Spec(type="bbt_segment"))
     s1 = await bb.stats()
-    assert s1["posts"] == s0["posts"] + 1 and s1["retrieves"] == s0["retrieves"] + 1
-    assert s1["bytes_in"] > s0["bytes_in"] and s1["bytes_out"] > s0["bytes_out"] and s1["tokens"] >= 1
+    assert s1.posts == s0.posts + 1 and s1.retrieves == s0.retrieves + 1
+    assert s1.bytes_in > s0.bytes_in and s1.bytes_out > s0.bytes_out and s1.tokens >= 1
 
 
 async def test_monitors_of_a_vanished_client_are_dropped(bb, node):
     c = BlackboardClient(node.client_net(), source="short-lived")
     await c.open()
     await c.monitor(Spec(type="bbt_segment")).start()
-    assert (await bb.stats())["monitors"] >= 1
+    assert (await bb.stats()).monitors >= 1
     # close the session without cancelling: the node must notice via liveliness
     c._monitors.clear()
     await c.close()
@@ -187,7 +187,7 @@ async def test_monitors_of_a_vanished_client_are_dropped(bb, node):
 
 
 async def _stat_equals(bb, name, value):
-    return (await bb.stats())[name] == value
+    return getattr(await bb.stats(), name) == value
 
 
 async def test_client_without_node_fails_with_node_unavailable():

@@ -18,11 +18,12 @@ from blackboard import (
     Spec,
     Within,
 )
+from blackboard.ops import RetrieveRequest
 from tests.blackboard.conftest import op, post, pt, square
 
 
 def ids(core, spec, **kw):
-    return [t["id"] for t in core.retrieve(spec.model_dump(mode="json"), **kw)]
+    return [t["id"] for t in core.retrieve(RetrieveRequest(spec=spec, **kw))]
 
 
 @pytest.fixture
@@ -121,12 +122,12 @@ def test_predicates_stated_in_other_frames(core, filled):
     # in world: local (-95, 3) → world (5, 3)
     near = Spec(type="bbt_obstacle", geometry=Near(Point(x=5, y=3), 0.01))
     assert ids(core, near) == [seen["id"]]
-    out = core.retrieve(near.model_dump(mode="json"), frame="world")
+    out = core.retrieve(RetrieveRequest(spec=near, frame="world"))
     assert out[0]["frame"] == "world"
     assert out[0]["geometry"]["x"] == pytest.approx(5.0) and out[0]["geometry"]["y"] == pytest.approx(3.0)
     # relative to the vehicle at t=10 (local (-90, 0), heading +y): 3 m ahead, 5 m to the left
     rel = Spec(type="bbt_obstacle", geometry=Near(Point(x=3, y=5), 0.01, frame="vehicle", stamp=10.0))
-    got = core.retrieve(rel.model_dump(mode="json"), frame="vehicle", frame_stamp=10.0)
+    got = core.retrieve(RetrieveRequest(spec=rel, frame="vehicle", frame_stamp=10.0))
     assert [t["id"] for t in got] == [seen["id"]]
     assert got[0]["geometry"]["x"] == pytest.approx(3.0) and got[0]["geometry"]["y"] == pytest.approx(5.0)
 

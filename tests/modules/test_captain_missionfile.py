@@ -7,18 +7,20 @@ from pathlib import Path
 import pytest
 
 from modules.captain import MissionFileError, load_mission, parse_mission
-from modules.vocabulary import Destination, StepConstraints, Trigger
+from modules.vocabulary import DEFAULT_TOLERANCE_M, Destination, MissionStart, StepConstraints, Trigger
 
 GOOD = """\
 mission: demo
 description: a demo
 world: campus
 vehicle: navlab
+start: {x: 1.5, y: -20, yaw_deg: 90}
 steps:
   - name: first
     destination: quad
     constraints: [keep_right, avoid_stairs, {speed_limit: 1.5}]
     trigger: wait 5
+    tolerance: 0.75
   - destination: {x: 10, y: -2.5}
     constraints: {keep_left: true, avoid_slope: true}
     trigger: {action: stop}
@@ -37,6 +39,9 @@ def test_good_mission_parses_every_form() -> None:
     assert s1.constraints == StepConstraints(keep="left", avoid_slope=True)
     assert s1.trigger == Trigger(action="stop")
     assert s2.destination == Destination(place="library") and s2.trigger == Trigger(action="continue")
+    assert m.start == MissionStart(x=1.5, y=-20.0, yaw_deg=90.0)
+    assert (s0.tolerance, s1.tolerance, s2.tolerance) == (0.75, DEFAULT_TOLERANCE_M, 1.5)
+    assert parse_mission("mission: x\nsteps:\n  - destination: quad\n").start is None
 
 
 def test_json_is_accepted() -> None:
@@ -69,6 +74,12 @@ def _problems(text: str) -> list[tuple[int | None, str, str]]:
     ("mission: x\nvehicle: car\nsteps:\n  - destination: quad\n", 2, "vehicle", "terregator"),
     ("mission: x\nsteps:\n  - destination: quad\n  - 42\n", 4, "steps[1]", "mapping"),
     ("mission: x\nsteps:\n  - destination: [1, 2]\n", 3, "steps[0].destination", "mapping"),
+    ("mission: x\nsteps:\n  - destination: quad\n    tolerance: 0\n", 4, "steps[0].tolerance", "> 0"),
+    ("mission: x\nsteps:\n  - destination: quad\n    tolerance: near\n", 4, "steps[0].tolerance", "finite number"),
+    ("mission: x\nstart: {x: 1, y: 2}\nsteps:\n  - destination: quad\n", 2, "start.yaw_deg", "required"),
+    ("mission: x\nstart: {x: 1, y: 2, yaw_deg: east}\nsteps:\n  - destination: quad\n", 2, "start.yaw_deg", "finite number"),
+    ("mission: x\nstart: {x: 1, y: 2, yaw_deg: 0, z: 3}\nsteps:\n  - destination: quad\n", 2, "start.z", "unknown field"),
+    ("mission: x\nstart: dorm\nsteps:\n  - destination: quad\n", 2, "start", "mapping"),
 ])
 def test_bad_missions_name_line_and_field(text: str, line: int, field: str, needle: str) -> None:
     problems = _problems(text)

@@ -23,7 +23,7 @@ from modules.runtime import Link
 from modules.vocabulary import (
     DrivingConstraints, ExitCondition, MapObject, PerceptionResult, PointFix, Pose, RouteSegmentDescription,
 )
-from wire.drive import TruthPose, decode
+from wire.drive import DriveCommand, TruthPose, decode
 from tests.modules._procs import ROOT, spawn, stop
 
 pytestmark = pytest.mark.e2e
@@ -93,8 +93,9 @@ async def test_pilot_and_helm_drive_a_segment_by_dead_reckoning():
             lags = []
             for _ in range(10):
                 info = await bb.frames()
-                edge = next(e for e in info["edges"] if e["parent"] == "local" and e["child"] == "vehicle")
-                lags.append(truth[-1].stamp - edge["newest"])
+                edge = info.edge("local", "vehicle")
+                assert edge is not None and edge.newest is not None
+                lags.append(truth[-1].stamp - edge.newest)
             assert min(lags) <= 0.2, lags
             t_end = truth[-1].stamp
             p1 = await bb.lookup_pose(parent="local", child="vehicle", stamp=t_end - 1.0)
@@ -130,11 +131,18 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
         truth: list[TruthPose] = []
         link = Link.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
         link.subscribe(f"sidewalk/{ns}/sim/truth", lambda _k, b: truth.append(decode(TruthPose, b)))
+        commands: list[DriveCommand] = []
+        link.subscribe(f"sidewalk/{ns}/sim/cmd", lambda _k, b: commands.append(decode(DriveCommand, b)))
         async with BlackboardClient(node.client_net(), source="test-perception") as bb:
             answered: list[str] = []
+            captured: set[float] = set()
+
+            # Registered before the segment is posted, so no driving unit goes by unseen.
+            units = bb.monitor(Spec(type="driving_unit", where=(AttrPredicate(path="status", op="==", value="pending"),)))
+            await units.start()
 
             async def perceive() -> None:
-                async for ev in bb.monitor(Spec(type="driving_unit", where=(AttrPredicate(path="status", op="==", value="pending"),))):
+                async for ev in units:
                     if ev.kind != "new":
                         continue
                     du = ev.token.attrs
@@ -145,6 +153,8 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
                         fix=PointFix(pose=Pose(x=tp.x, y=tp.y, yaw=tp.yaw),
                                      covariance=(0.05**2, 0, 0, 0, 0.05**2, 0, 0, 0, 0.01**2)),
                     )
+                    # PERCEPTION's answer is a perception_result token (the PILOT reads nothing else); the unit gets only its status.
+                    captured.add(tp.stamp)
                     await bb.post(res, frame="world", stamp=tp.stamp)
                     await bb.update(ev.token.id, du.model_copy(update={"status": "perceived"}), expected_version=ev.token.version)
                     answered.append(du.unit_id)
@@ -167,6 +177,12 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
             assert math.dist((est.pose.x, est.pose.y), (t.x, t.y)) < 0.3
             fixes = await bb.retrieve(Spec(type="position_estimate", where=(AttrPredicate(path="source", op="==", value="perception"),)))
             assert fixes
+            # sense → act: plans and the HELM's drive commands carry the capture stamp they derive from
+            plans = [t.attrs for t in await bb.retrieve(Spec(type="local_path_plan"))]
+            assert any(p.sensed_at is not None for p in plans)
+            assert {p.sensed_at for p in plans if p.sensed_at is not None} <= captured
+            sensed = {c.sensed_at for c in commands if c.sensed_at is not None}
+            assert sensed and sensed <= captured
     finally:
         if link is not None:
             link.close()

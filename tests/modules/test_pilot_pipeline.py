@@ -134,3 +134,15 @@ def test_a_segment_ends_at_the_last_goal_when_the_region_stops_short_of_the_exit
     assert not drv.at_final_goal() and not drv.exited(np.array([16.0, 0.0]))
     drv.update_progress(np.array([16.7, 0.1]))
     assert drv.at_final_goal() and not drv.exited(np.array([16.7, 0.1]))
+
+
+def test_a_plan_carries_the_newest_capture_of_the_perceived_units_it_is_built_on():
+    geom = _segment([(0, 0), (60, 0)])
+    drv = SegmentDriver(geom, DrivingUnitConfig(unit_length=6.0), lookahead_m=30.0, use_perception=True)
+    drv.units_to_post(0.0)
+    drv.resolve(0, drv.units[0].span.region.buffer(-0.5), True, "perceived", sensed_at=3.25)
+    drv.units_to_post(0.1)
+    drv.resolve(1, None, False, "perception timeout", sensed_at=4.0)  # not perceived: its capture is not used
+    drv.units_to_post(0.2)
+    drv.resolve(2, drv.units[2].span.region.buffer(-0.5), True, "perceived", sensed_at=5.5)
+    assert drv.sensed_at([0, 1]) == 3.25 and drv.sensed_at([0, 1, 2]) == 5.5 and drv.sensed_at([1]) is None

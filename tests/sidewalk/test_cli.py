@@ -56,3 +56,13 @@ def test_mission_path_resolves_names_and_files(tmp_path):
     f = tmp_path / "m.yaml"
     f.write_text("x")
     assert mission_path(str(f)) == f
+
+
+def test_bad_map_error_is_named():
+    r = runner.invoke(app, ["run", "--map-error", "-1"])
+    assert r.exit_code == 2 and "--map-error" in r.output and "distance >= 0" in r.output
+
+
+def test_bad_sim_start_is_named():
+    r = runner.invoke(app, ["sim", "serve", "--start", "1,2"])
+    assert r.exit_code == 2 and "--start must be X,Y,YAW" in r.output

@@ -13,10 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from sidewalk.launcher import RunConfig, build_plans
+from sidewalk.launcher import RunConfig, build_plans, prepare_run
 from tests.modules._procs import spawn, stop
 from tests.sidewalk.netns import Hosts, available
-from vehicle_sim.worldfile import load_world
 
 pytestmark = [pytest.mark.e2e, pytest.mark.skipif(available() is not None, reason=available() or "")]
 
@@ -34,8 +33,8 @@ def test_every_host_sees_every_module(tmp_path) -> None:
     with Hosts(3) as hosts:
         endpoint = f"tcp/{hosts.addr(0)}:7447"
         ns = "multihost"
-        cfg = RunConfig(world="campus", mission=str(MISSION), out=tmp_path, namespace=ns)
-        plans = build_plans(cfg, load_world("campus"), "terregator", tmp_path, ns, endpoint)
+        cfg = RunConfig(world="campus", mission=str(MISSION), out=tmp_path, namespace=ns, record=False)
+        plans = build_plans(cfg, prepare_run(cfg), ns, endpoint)
         procs = []
         try:
             for plan in plans:

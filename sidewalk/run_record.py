@@ -1,0 +1,133 @@
+"""A recorded run: everything its report is built from, and nothing of the architecture that ran it.
+
+The launcher fills a `RunRecord` while the run goes (truth, estimates, events, mission statuses,
+route plans, heartbeats) and writes it next to the report as `run_record.json`; `build_report`
+turns it into the report without any running part. Tracks are rows (stamp [s] sim, x [m], y [m],
+yaw [rad]) in `world`. Wall stamps [s] count from the moment the launcher started the run.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+from pathlib import Path
+from typing import Literal, Optional
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from modules.vocabulary import Mission, MissionStatus
+from sidewalk.errors import SidewalkError
+from sidewalk.map_error import MapErrorSummary
+from wire.drive import SimEvent
+from wire.health import ProcessUsage
+
+__all__ = ["RunRecord", "StampedStatus", "RecordedPlan", "ProcessCost", "Architecture", "RunRecordError",
+           "save_record", "load_record"]
+
+#: The architectures a run can be recorded under.
+Architecture = Literal["codger", "eddie"]
+
+_FROZEN = ConfigDict(frozen=True, extra="forbid")
+
+
+class RunRecordError(SidewalkError, ValueError):
+    """A run record file that cannot be read; names the file and what is wrong."""
+
+
+class StampedStatus(BaseModel):
+    """A mission status as the launcher received it: wall [s] since the run started, sim [s] clock then."""
+
+    model_config = _FROZEN
+
+    wall_s: float
+    sim_s: Optional[float] = None
+    status: MissionStatus
+
+
+class RecordedPlan(BaseModel):
+    """One route plan of a step (`revision` 0 = first plan): its polyline (N,2) [m] in `world`, posted at `stamp` [s] sim."""
+
+    model_config = _FROZEN
+
+    step_index: int
+    revision: int
+    stamp: float
+    polyline: tuple[tuple[float, float], ...]
+
+
+class ProcessCost(BaseModel):
+    """The last heartbeat's usage of one process incarnation (`name`, `pid`)."""
+
+    model_config = _FROZEN
+
+    name: str
+    pid: int
+    usage: ProcessUsage
+
+
+class RunRecord(BaseModel):
+    """Everything measured during one run, for `build_report`.
+
+    `destinations` are the steps' true destinations (x, y) [m] in `world`, resolved from the world
+    file (None: a place the world lacks); `lane_offsets` move each to the lane its step keeps to. `submitted_*` is when the CAPTAIN accepted the mission and
+    `ended_*` when the launcher saw it end (or gave up); `*_wall_s` [s] since the run started, `*_sim_s`
+    the sim clock [s] then; `rest_sim_s` [s] when the vehicle was seen standing still after the end
+    (None: not seen); the truth goes on until then. `stop_reason` says why the launcher gave up
+    before the mission ended.
+    """
+
+    model_config = _FROZEN
+
+    architecture: Architecture
+    mission: Mission
+    world: str
+    vehicle: str
+    seed: int
+    perception: bool
+    pose_error: tuple[float, float] = (0.0, 0.0)
+    map_error: Optional[MapErrorSummary] = None
+    rtf_requested: float
+    destinations: tuple[Optional[tuple[float, float]], ...]
+    #: per step, the lane the mission asked for: the signed offset [m] from the path centre at the
+    #: destination, + left of travel (keep right on a 6 m road: −1.5); empty: every step on the centre
+    lane_offsets: tuple[float, ...] = ()
+    submitted_wall_s: float
+    submitted_sim_s: float
+    ended_wall_s: float
+    ended_sim_s: float
+    rest_sim_s: Optional[float] = None
+    stop_reason: str = ""
+    truth: tuple[tuple[float, float, float, float], ...] = ()
+    estimate: tuple[tuple[float, float, float, float], ...] = ()
+    events: tuple[SimEvent, ...] = ()
+    statuses: tuple[StampedStatus, ...] = ()
+    plans: tuple[RecordedPlan, ...] = ()
+    processes: tuple[ProcessCost, ...] = ()
+    blackboard: Optional[dict[str, int | float]] = None
+    exit_codes: dict[str, Optional[int]] = {}
+
+
+def save_record(record: RunRecord, path: Path) -> Path:
+    """Write the record as JSON (gzip-compressed when `path` ends in .gz) and return the path."""
+    text = record.model_dump_json()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if path.suffix == ".gz":
+        path.write_bytes(gzip.compress(text.encode(), mtime=0))
+    else:
+        path.write_text(text + "\n")
+    return path
+
+
+def load_record(path: Path) -> RunRecord:
+    """Read a record written by `save_record`; raise RunRecordError naming the file and the problem."""
+    try:
+        raw = path.read_bytes()
+        text = gzip.decompress(raw).decode() if path.suffix == ".gz" else raw.decode()
+        return RunRecord.model_validate(json.loads(text))
+    except (OSError, UnicodeDecodeError, gzip.BadGzipFile, EOFError) as exc:
+        raise RunRecordError(f"{path}: cannot read the run record: {exc}") from None
+    except json.JSONDecodeError as exc:
+        raise RunRecordError(f"{path}: not JSON (line {exc.lineno}, column {exc.colno}): {exc.msg}") from None
+    except ValidationError as exc:
+        e = exc.errors()[0]
+        raise RunRecordError(f"{path}: not a run record: {'.'.join(map(str, e['loc']))}: {e['msg']}") from None

@@ -7,10 +7,11 @@ POSITION CALIBRATOR (`calibrator`); `pipeline` runs one cycle, `module` is the p
 
 from modules.perception.calibrator import CalibrationError, CalibrationResult, EdgeObservation, PointObservation, calibrate
 from modules.perception.patch_maker import (
-    ColourClass, ColourModel, Patch, PatchSet, RangeSegParams, Segmentation, SegmentationParams, Segmented, SurfaceType,
+    ColourClass, ColourModel, ColourModelError, Patch, PatchSet, RangeSegParams, Segmentation, SegmentationParams, Segmented, SurfaceType,
     ColourPrior, make_patches, make_segmentation, overlap_labels, segment_range,
 )
-from modules.perception.image import ColoredRangeImage
+from modules.perception.errors import PerceptionError
+from modules.perception.image import ColoredRangeImage, ImageError
 from modules.perception.monitor import (
     InputPosition, ResolutionTable, SensorGeometry, ViewPlan, image_input_position, segmentation_params, select_segmentation,
 )
@@ -20,7 +21,7 @@ from modules.perception.sensor_frame import SensorFrame, SensorFrameError, color
 
 __all__ = [
     "CalibrationError", "CalibrationResult", "EdgeObservation", "PointObservation", "calibrate",
-    "ColourClass", "ColourModel", "ColourPrior", "ColoredRangeImage",
+    "ColourClass", "ColourModel", "ColourModelError", "ColourPrior", "ColoredRangeImage", "ImageError", "PerceptionError",
     "InputPosition", "ResolutionTable", "SensorGeometry", "ViewPlan", "image_input_position", "segmentation_params",
     "select_segmentation", "FoundObject", "find_objects", "overlap_labels",
     "Segmentation", "SegmentationParams", "Segmented", "make_segmentation", "Patch", "PatchSet", "make_patches",

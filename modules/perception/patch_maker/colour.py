@@ -18,10 +18,12 @@ from typing import Sequence
 
 import numpy as np
 
+from modules.perception.errors import PerceptionError
+
 __all__ = ["ColourClass", "ColourModel", "ColourModelError", "ColourPrior"]
 
 
-class ColourModelError(ValueError):
+class ColourModelError(PerceptionError, ValueError):
     """A colour class with a bad mean or covariance, or a colour without a type."""
 
 

@@ -275,21 +275,28 @@ class Scene:
         w = self.weather
         assert w is not None
         wet, leaf = self.covers_at(stamp)
-        sel = np.nonzero(np.take(self._mat_cover, np.maximum(hits.material, 0)) & (hits.material >= 0))
-        if len(sel[0]) == 0:
+        mat = hits.material.reshape(-1)
+        sel = np.flatnonzero(np.take(self._mat_cover, np.maximum(mat, 0)) & (mat >= 0))
+        if sel.size == 0:
             return
-        m = hits.material[sel]
+        m = mat[sel]
         off = self._field_offset[m]
-        idx = (((hits.tex[..., 1][sel] + off[:, 1]) & (_TILE - 1)) * _TILE + ((hits.tex[..., 0][sel] + off[:, 0]) & (_TILE - 1)))
-        c = col[sel]
+        tex = hits.tex.reshape(-1, 2)[sel]
+        idx = (((tex[:, 1] + off[:, 1]) & (_TILE - 1)) * _TILE + ((tex[:, 0] + off[:, 0]) & (_TILE - 1)))
+        flat = col.reshape(-1, 3)
+        # only the pixels a patch or a leaf actually touches are changed (a few per cent of the covers)
         if wet > 0.0:
             a = np.clip((np.take(self._wet_field, idx) - np.float32(ndtri(1.0 - wet))) * np.float32(4.0), 0.0, 1.0)
-            c *= (1.0 - a * np.float32(1.0 - w.wet_brightness))[:, None]
+            k = np.flatnonzero(a > 0.0)
+            flat[sel[k]] *= (1.0 - a[k] * np.float32(1.0 - w.wet_brightness))[:, None]
         if leaf > 0.0:
-            b = np.clip((np.take(self._leaf_field, idx) - np.float32(ndtri(1.0 - leaf))) * np.float32(6.0), 0.0, 1.0)[:, None]
-            lc = np.asarray(w.leaves.mean, np.float32) + np.asarray(w.leaves.std, np.float32) * noise[sel]
-            c += b * (lc - c)
-        col[sel] = c
+            b = np.clip((np.take(self._leaf_field, idx) - np.float32(ndtri(1.0 - leaf))) * np.float32(6.0), 0.0, 1.0)
+            k = np.flatnonzero(b > 0.0)
+            at = sel[k]
+            lc = np.asarray(w.leaves.mean, np.float32) + np.asarray(w.leaves.std, np.float32) * noise.reshape(-1, 3)[at]
+            c = flat[at]
+            c += b[k][:, None] * (lc - c)
+            flat[at] = c
 
     # ---------------------------------------------------------------- ground queries
 

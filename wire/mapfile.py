@@ -245,26 +245,12 @@ class ColourStats(BaseModel):
         return _rgb_range(v, 128.0)
 
 
-class Appearance(BaseModel):
+class Appearance(ColourStats):
     """How the renderer draws a world object (world files only, never a map): colour statistics under full
     sun [0–255] (this object's own, weathering included), laser reflectance [0–1], a tree's crown colour."""
 
-    model_config = _FROZEN
-
-    mean: tuple[float, float, float]
-    std: tuple[float, float, float]
     reflectance: float = Field(default=0.5, ge=0.0, le=1.0)
     crown: ColourStats | None = None
-
-    @field_validator("mean")
-    @classmethod
-    def _mean_range(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
-        return _rgb_range(v)
-
-    @field_validator("std")
-    @classmethod
-    def _std_range(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
-        return _rgb_range(v, 128.0)
 
 
 class Weather(BaseModel):

@@ -47,7 +47,7 @@ def run(*, mission: str = DEFAULT_MISSION, rtf: float = 20.0, seed: int = 3, wit
         channels = rec.channels()
         span_min = max(1e-9, (t1 - t0) / 60.0)
         messages = sum(c.count or 0 for c in channels.values())
-        cpu = rep.modules.get("recorder", 0.0)
+        cpu = rep.modules["recorder"].cpu_s if "recorder" in rep.modules else 0.0
         result = {
             "mission": Path(mission).stem,
             "rtf_requested": rtf,
@@ -60,14 +60,14 @@ def run(*, mission: str = DEFAULT_MISSION, rtf: float = 20.0, seed: int = 3, wit
             "messages": messages,
             "messages_per_sim_min": round(messages / span_min),
             "channels": len(channels),
-            "others_cpu_s_with": round(sum(v for k, v in rep.modules.items() if k != "recorder"), 3),
+            "others_cpu_s_with": round(sum(v.cpu_s for k, v in rep.modules.items() if k != "recorder"), 3),
             "rtf_with": rep.rtf_achieved,
             "success_with": rep.success,
         }
         if without:
             rep0 = _mission(Path(d) / "without", mission, rtf, seed, False)
             result.update({
-                "others_cpu_s_without": round(sum(rep0.modules.values()), 3),
+                "others_cpu_s_without": round(sum(v.cpu_s for v in rep0.modules.values()), 3),
                 "rtf_without": rep0.rtf_achieved,
                 "success_without": rep0.success,
             })

@@ -5,6 +5,8 @@ captures them from the simulator), so this file knows nothing of `vehicle_sim`.
 Segmentation IoU scores what a segmentation can separate, not a recogniser: every patch is given the
 ground-truth class that covers most of it, then per-class IoU = TP / (TP + FP + FN) is accumulated over
 all frames on the pixels that have ground truth and data (the same pixels for all three methods).
+Each frame starts from fresh colour classes (the map's nominal colours) fitted to that frame alone,
+as on PERCEPTION's first frame at a place: the figures do not depend on the order of the frames.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from modules.perception.image import ColoredRangeImage
-from modules.perception.patch_maker import Segmentation, make_segmentation
+from modules.perception.patch_maker import Segmentation
 from modules.perception.pipeline import PerceptionPipeline, PipelineOutput
 from modules.perception.results import build_result
 from modules.perception.sensor_frame import SensorFrame, colored_range_image
@@ -227,11 +229,10 @@ def evaluate(frames: Iterable[EvalFrame], pipeline: PerceptionPipeline, *, focus
         is_focus = len(present) == len(FOCUS_CLASSES) and min(fracs) >= focus_min_fraction
         n += 1
         nf += int(is_focus)
-        params = pipeline.params_for(fr.objects)
         for m in Segmentation:
             model = pipeline.colour_model_for(fr.objects) if m is not Segmentation.RANGE else None
             t0 = time.perf_counter()
-            seg = make_segmentation(m, img, params, model, adapt=False)
+            seg = pipeline.segment(img, fr.objects, fr.prior_pose, m, error_allowance=error_allowance, model=model)
             seg_ms[m.value].append(1000 * (time.perf_counter() - t0))
             pred = oracle_labels(seg.patches.ids, fr.labels, scored, k)
             accs[m.value].add(pred, fr.labels, scored)

@@ -168,7 +168,7 @@ def map_image(scene: Scene, result: CaptureResult | None = None, *, px_per_m: fl
             cv2.fillPoly(img, [to_px(o.vertices).reshape(-1, 1, 2)], colour, cv2.LINE_AA, shift=4)
             cv2.polylines(img, [to_px(o.vertices).reshape(-1, 1, 2)], True, (30, 30, 30), 1, cv2.LINE_AA, shift=4)
         elif isinstance(o.shape, TreeShape):
-            crown = o.shape.crown_colour.mean if o.shape.crown_colour is not None else (46.0, 92.0, 38.0)
+            crown = o.appearance.crown.mean if o.appearance is not None and o.appearance.crown is not None else (46.0, 92.0, 38.0)
             colour = tuple(int(v * 0.8) for v in crown)
             c = to_px(np.array([o.center]))[0]
             overlay = img.copy()

@@ -12,6 +12,11 @@ vertical half-plane, so the ground is found by marching the column's height prof
 first sample whose elevation angle reaches the ray's, a "voxel-space" renderer) and the solids are
 intersected analytically per column. Frames: everything here is in the `world` frame (x east,
 y north, z up) [m]; azimuths are math angles CCW from +x [rad].
+
+Surfaces take their colour from each object's `appearance` (the world file's; an object without one
+is drawn in its map colour). With the world's `weather`, ground covers also carry wet patches and
+fallen leaves whose extent swings over the run (`Scene.albedo` at a sim time), seeded and
+reproducible: fixed noise fields thresholded at a cover that depends on the time.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 from scipy.ndimage import gaussian_filter
+from scipy.special import ndtri
 
 from vehicle_sim.worldfile import (
     KINDS,
@@ -53,7 +59,11 @@ MATERIAL_SKY: int = -1
 _TILE = 512  # texture noise tile size [cells]
 _TEX_RES = 0.06  # texture sampling pitch on solids [m]
 _NONE_COLOUR = ((118.0, 104.0, 84.0), (10.0, 10.0, 9.0))  # bare earth where the world has nothing
-_CROWN_COLOUR = ((46.0, 92.0, 38.0), (16.0, 20.0, 14.0))  # foliage when a tree gives no crown_colour
+_CROWN_COLOUR = ((46.0, 92.0, 38.0), (16.0, 20.0, 14.0))  # foliage when a tree's appearance gives no crown
+_PLAIN_STD = (8.0, 8.0, 8.0)  # texture of an object drawn in its map colour (no appearance) [DN]
+_PLAIN_REFLECTANCE = 0.5  # laser reflectance of an object without appearance
+_WET_PATCH_M = 1.2  # wet patches: correlation length of the wetness field [m]
+_LEAF_M = 0.12  # fallen leaves: correlation length of the leaf field [m]
 
 
 def ground_samples(s_min: float = 0.3, s_max: float = 45.0) -> np.ndarray:
@@ -132,15 +142,17 @@ class Scene:
         self.mat_mean[0], self.mat_std[0] = _NONE_COLOUR
         self.mat_refl[0], self.mat_label[0] = 0.35, LABEL_NONE
         for i, o in enumerate(world.objects):
-            self.mat_mean[i + 1] = o.colour.mean
-            self.mat_std[i + 1] = o.colour.std
-            self.mat_refl[i + 1] = o.reflectance
+            a = o.appearance
+            self.mat_mean[i + 1] = a.mean if a is not None else o.colour.nominal
+            self.mat_std[i + 1] = a.std if a is not None else _PLAIN_STD
+            self.mat_refl[i + 1] = a.reflectance if a is not None else _PLAIN_REFLECTANCE
             self.mat_label[i + 1] = o.kind_index
         crown_mat = {}
         for j, i in enumerate(trunks):
             k = n + 1 + j
             crown_mat[i] = k
-            cc = getattr(world.objects[i].shape, "crown_colour", None)
+            a = world.objects[i].appearance
+            cc = a.crown if a is not None else None
             if cc is not None:
                 self.mat_mean[k], self.mat_std[k] = cc.mean, cc.std
             else:
@@ -225,6 +237,66 @@ class Scene:
         self.tile = tile
         self._tile_flat = np.ascontiguousarray(np.moveaxis(tile, 0, -1).reshape(-1, 3))
         self._samples = ground_samples(0.3, self.max_range)
+        self._weather_setup(rng)
+
+    # ---------------------------------------------------------------- weather
+
+    def _weather_setup(self, rng: np.random.Generator) -> None:
+        """Draw the wetness and leaf fields (unit-std noise tiles), per-object tile offsets and the phases."""
+        self.weather = self.world.weather
+        covers = np.zeros(len(self.mat_mean), bool)
+        for i, o in enumerate(self.world.objects):
+            covers[i + 1] = isinstance(o.shape, (FlatShape, SlopeShape, StairsShape))
+        self._mat_cover = covers
+        if self.weather is None or (self.weather.wet_cover <= 0.0 and self.weather.leaf_cover <= 0.0):
+            self.weather = None
+            return
+        fields = []
+        for length in (_WET_PATCH_M, _LEAF_M):
+            f = gaussian_filter(rng.standard_normal((_TILE, _TILE)).astype(np.float32), length / self.res, mode="wrap")
+            fields.append((f / f.std()).ravel())
+        self._wet_field, self._leaf_field = fields
+        # each object reads the fields at its own offset, so neighbouring objects do not repeat each other
+        self._field_offset = rng.integers(0, _TILE, size=(len(self.mat_mean), 2)).astype(np.int32)
+        self._phases = rng.uniform(0.0, 2.0 * math.pi, size=2)
+
+    def covers_at(self, stamp: float) -> tuple[float, float]:
+        """Return the (wet, leaf) share of the ground covers [0–1] at sim time `stamp` [s]."""
+        w = self.weather
+        if w is None:
+            return 0.0, 0.0
+        t = 2.0 * math.pi * stamp / w.period_s
+        wet = w.wet_cover * (1.0 + w.swing * math.sin(t + self._phases[0]))
+        leaf = w.leaf_cover * (1.0 + w.swing * math.sin(t + self._phases[1]))
+        return float(np.clip(wet, 0.0, 1.0)), float(np.clip(leaf, 0.0, 1.0))
+
+    def _apply_weather(self, col: np.ndarray, hits: "Hits", noise: np.ndarray, stamp: float) -> None:
+        """Darken wet patches and lay leaves on the ground covers of `col` (H, W, 3) in place, at sim time `stamp` [s]."""
+        w = self.weather
+        assert w is not None
+        wet, leaf = self.covers_at(stamp)
+        mat = hits.material.reshape(-1)
+        sel = np.flatnonzero(np.take(self._mat_cover, np.maximum(mat, 0)) & (mat >= 0))
+        if sel.size == 0:
+            return
+        m = mat[sel]
+        off = self._field_offset[m]
+        tex = hits.tex.reshape(-1, 2)[sel]
+        idx = (((tex[:, 1] + off[:, 1]) & (_TILE - 1)) * _TILE + ((tex[:, 0] + off[:, 0]) & (_TILE - 1)))
+        flat = col.reshape(-1, 3)
+        # only the pixels a patch or a leaf actually touches are changed (a few per cent of the covers)
+        if wet > 0.0:
+            a = np.clip((np.take(self._wet_field, idx) - np.float32(ndtri(1.0 - wet))) * np.float32(4.0), 0.0, 1.0)
+            k = np.flatnonzero(a > 0.0)
+            flat[sel[k]] *= (1.0 - a[k] * np.float32(1.0 - w.wet_brightness))[:, None]
+        if leaf > 0.0:
+            b = np.clip((np.take(self._leaf_field, idx) - np.float32(ndtri(1.0 - leaf))) * np.float32(6.0), 0.0, 1.0)
+            k = np.flatnonzero(b > 0.0)
+            at = sel[k]
+            lc = np.asarray(w.leaves.mean, np.float32) + np.asarray(w.leaves.std, np.float32) * noise.reshape(-1, 3)[at]
+            c = flat[at]
+            c += b[k][:, None] * (lc - c)
+            flat[at] = c
 
     # ---------------------------------------------------------------- ground queries
 
@@ -635,13 +707,18 @@ class Scene:
 
     # ---------------------------------------------------------------- appearance
 
-    def albedo(self, hits: Hits) -> np.ndarray:
-        """Return the full-sun colour of every hit, (H, W, 3) float32 sRGB [0–255] (sky: 0)."""
+    def albedo(self, hits: Hits, stamp: float = 0.0) -> np.ndarray:
+        """Return the full-sun colour of every hit at sim time `stamp` [s], (H, W, 3) float32 sRGB [0–255] (sky: 0).
+
+        Each surface's appearance with its texture; with weather, wet patches and leaves on the ground covers.
+        """
         m = np.maximum(hits.material, 0)
         idx = (hits.tex[..., 1] & (_TILE - 1)) * _TILE + (hits.tex[..., 0] & (_TILE - 1))
         noise = np.take(self._tile_flat, idx, axis=0)  # (H, W, 3)
         col = np.take(self.mat_mean, m, axis=0)
         col += np.take(self.mat_std, m, axis=0) * noise
+        if self.weather is not None:
+            self._apply_weather(col, hits, noise, stamp)
         col[hits.material == MATERIAL_SKY] = 0.0
         return col
 

@@ -17,14 +17,16 @@ from typing import Any, Iterable, Literal
 import numpy as np
 
 from wire.mapfile import (
-    EDGE_END_TOLERANCE, EDGE_MODES, KIND_PRIORITY, KINDS, NODE_KINDS, OBJECT_KINDS, ROLES, SHAPES_BY_KIND, WORLDS_DIR,
-    Colour, FlatShape, MapFile, PathEdge, PathNode, PostShape, PrismShape, Problem, Shape, SlopeShape, StairsShape,
-    StartPose, Sun, TreeShape, WorldFileError, WorldObject, load_map_file, parse_map_file, world_path,
+    COLOUR_TYPES, EDGE_END_TOLERANCE, EDGE_MODES, KIND_PRIORITY, KINDS, NODE_KINDS, OBJECT_KINDS, ROLES, SHAPES_BY_KIND,
+    WORLDS_DIR, Appearance, ColourStats, ColourType, FlatShape, MapColour, MapFile, PathEdge, PathNode, PostShape,
+    PrismShape, Problem, Shape, SlopeShape, StairsShape, StartPose, Sun, TreeShape, Weather, WorldFileError, WorldObject,
+    load_map_file, parse_map_file, world_path,
 )
 
 __all__ = [
     "KINDS", "OBJECT_KINDS", "KIND_PRIORITY", "ROLES", "EDGE_MODES", "NODE_KINDS", "SHAPES_BY_KIND",
-    "EDGE_END_TOLERANCE", "WorldFileError", "Problem", "Colour", "FlatShape", "SlopeShape", "StairsShape",
+    "EDGE_END_TOLERANCE", "WorldFileError", "Problem", "COLOUR_TYPES", "ColourType", "MapColour", "ColourStats",
+    "Appearance", "Weather", "FlatShape", "SlopeShape", "StairsShape",
     "PrismShape", "TreeShape", "PostShape", "Shape", "Sun", "StartPose", "WorldObject", "PathNode", "PathEdge",
     "World", "load_world", "parse_world", "world_path", "WORLDS_DIR",
 ]
@@ -43,9 +45,11 @@ class World(MapFile):
         sun: Sun | None = None,
         start: StartPose | None = None,
         source: str = "<memory>",
+        weather: Weather | None = None,
         raster_res: float = 0.1,
     ) -> None:
-        super().__init__(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source)
+        super().__init__(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source,
+                         weather=weather)
         self.raster_res = float(raster_res)
         self._raster: np.ndarray | None = None
         self._origin = np.zeros(2)

@@ -2,11 +2,16 @@
 
 Run `python -m vehicle_sim.worldgen` to regenerate worlds/*.world.geojson and the derived
 worlds/*.map.geojson (default map error, fixed seed). Output is byte-identical run to run.
+
+Every surface is a `Material`: what a map says of it (colour type and a catalogue nominal colour)
+and how it looks in this world (colour statistics). Each object weathers on its own (a seeded
+brightness and tint of its own, from its id), and each world has weather (wet patches, leaves).
 """
 
 from __future__ import annotations
 
 import math
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -14,8 +19,10 @@ import numpy as np
 
 from vehicle_sim.worldfile import (
     WORLDS_DIR,
-    Colour,
+    Appearance,
+    ColourStats,
     FlatShape,
+    MapColour,
     PathEdge,
     PathNode,
     PostShape,
@@ -25,32 +32,61 @@ from vehicle_sim.worldfile import (
     StartPose,
     Sun,
     TreeShape,
+    Weather,
     World,
     WorldObject,
 )
 
-__all__ = ["ROADSIDE_CLEARANCE", "build_campus", "build_north_hills", "WORLD_BUILDERS", "write_worlds", "main"]
+__all__ = ["Material", "WEATHERING", "ROADSIDE_CLEARANCE", "build_campus", "build_north_hills", "WORLD_BUILDERS",
+           "write_worlds", "main"]
 
-# ---- palette (sRGB under full sun) ------------------------------------------------------
-CONCRETE = Colour(mean=(156.0, 154.0, 148.0), std=(9.0, 9.0, 9.0))
-GRASS = Colour(mean=(74.0, 122.0, 52.0), std=(14.0, 18.0, 12.0))
-ASPHALT = Colour(mean=(88.0, 88.0, 92.0), std=(8.0, 8.0, 8.0))
-BRICK = Colour(mean=(152.0, 86.0, 66.0), std=(12.0, 10.0, 10.0))
-BUFF = Colour(mean=(196.0, 176.0, 134.0), std=(10.0, 10.0, 9.0))
-SIDING = (Colour(mean=(214.0, 210.0, 196.0), std=(6.0, 6.0, 6.0)), Colour(mean=(170.0, 184.0, 196.0), std=(6.0, 6.0, 6.0)),
-          Colour(mean=(200.0, 170.0, 120.0), std=(6.0, 6.0, 6.0)))
-TRUNK = Colour(mean=(92.0, 72.0, 54.0), std=(10.0, 8.0, 8.0))
-CROWN = Colour(mean=(44.0, 92.0, 38.0), std=(16.0, 20.0, 14.0))
-METAL = Colour(mean=(60.0, 62.0, 66.0), std=(6.0, 6.0, 6.0))
-MAILBOX = Colour(mean=(40.0, 48.0, 120.0), std=(6.0, 6.0, 8.0))
-WOOD = Colour(mean=(130.0, 98.0, 64.0), std=(10.0, 8.0, 8.0))
-HEDGE = Colour(mean=(36.0, 80.0, 34.0), std=(10.0, 14.0, 10.0))
-GRAVEL = Colour(mean=(168.0, 156.0, 134.0), std=(18.0, 18.0, 18.0))
-RED = Colour(mean=(170.0, 40.0, 36.0), std=(8.0, 6.0, 6.0))
-STONE = Colour(mean=(128.0, 124.0, 116.0), std=(10.0, 10.0, 10.0))
+
+@dataclass(frozen=True)
+class Material:
+    """A surface: what a map says (colour type, catalogue nominal sRGB) and how it looks (mean, std under full sun) [0–255]."""
+
+    type: str
+    nominal: tuple[float, float, float]
+    mean: tuple[float, float, float]
+    std: tuple[float, float, float]
+
+    def map_colour(self) -> MapColour:
+        """Return the colour a map states for this material."""
+        return MapColour(type=self.type, nominal=self.nominal)  # type: ignore[arg-type]
+
+
+# ---- palette: the map's word for each material, and how it looks in these worlds -----------
+CONCRETE = Material("GRAY", (175.0, 175.0, 170.0), (156.0, 154.0, 148.0), (9.0, 9.0, 9.0))
+GRASS = Material("GREEN", (85.0, 135.0, 60.0), (74.0, 122.0, 52.0), (14.0, 18.0, 12.0))
+ASPHALT = Material("GRAY", (80.0, 80.0, 80.0), (88.0, 88.0, 92.0), (8.0, 8.0, 8.0))
+BRICK = Material("BROWN", (160.0, 80.0, 60.0), (152.0, 86.0, 66.0), (12.0, 10.0, 10.0))
+BUFF = Material("YELLOW", (200.0, 180.0, 130.0), (196.0, 176.0, 134.0), (10.0, 10.0, 9.0))
+SIDING = (Material("WHITE", (230.0, 230.0, 220.0), (214.0, 210.0, 196.0), (6.0, 6.0, 6.0)),
+          Material("GRAY", (170.0, 180.0, 190.0), (170.0, 184.0, 196.0), (6.0, 6.0, 6.0)),
+          Material("YELLOW", (210.0, 180.0, 120.0), (200.0, 170.0, 120.0), (6.0, 6.0, 6.0)))
+TRUNK = Material("BROWN", (90.0, 70.0, 50.0), (92.0, 72.0, 54.0), (10.0, 8.0, 8.0))
+CROWN = ColourStats(mean=(44.0, 92.0, 38.0), std=(16.0, 20.0, 14.0))
+METAL = Material("GRAY", (70.0, 70.0, 70.0), (60.0, 62.0, 66.0), (6.0, 6.0, 6.0))
+MAILBOX = Material("BLUE", (40.0, 50.0, 130.0), (40.0, 48.0, 120.0), (6.0, 6.0, 8.0))
+WOOD = Material("BROWN", (130.0, 100.0, 60.0), (130.0, 98.0, 64.0), (10.0, 8.0, 8.0))
+HEDGE = Material("GREEN", (40.0, 85.0, 35.0), (36.0, 80.0, 34.0), (10.0, 14.0, 10.0))
+GRAVEL = Material("BROWN", (170.0, 155.0, 130.0), (168.0, 156.0, 134.0), (18.0, 18.0, 18.0))
+RED = Material("RED", (180.0, 40.0, 35.0), (170.0, 40.0, 36.0), (8.0, 6.0, 6.0))
+STONE = Material("GRAY", (130.0, 125.0, 115.0), (128.0, 124.0, 116.0), (10.0, 10.0, 10.0))
+PAVERS = Material("BROWN", (120.0, 85.0, 70.0), (120.0, 84.0, 70.0), (10.0, 8.0, 8.0))
 #: Least distance [m] from a road or intersection area to the footprint of each roadside kind (north_hills).
 ROADSIDE_CLEARANCE = {"tree": 2.5, "mailbox": 0.5, "building": 8.0, "hedge": 0.5, "sign": 1.0, "hydrant": 1.0}
-DRIVEWAYS = (CONCRETE, ASPHALT, GRAVEL, Colour(mean=(120.0, 84.0, 70.0), std=(10.0, 8.0, 8.0)))
+DRIVEWAYS = (CONCRETE, ASPHALT, GRAVEL, PAVERS)
+#: How much objects of one material differ: relative brightness spread (std) and tint spread per channel [DN].
+WEATHERING = (0.07, 3.0)
+
+
+def _weathered(world: str, oid: str, stats: Material | ColourStats, salt: str = "") -> tuple[float, float, float]:
+    """Return the mean colour of one object of a material after its own weathering, seeded by its id [0–255]."""
+    rng = np.random.default_rng(zlib.crc32(f"{world}/{oid}{salt}".encode()))
+    gain = float(np.clip(math.exp(rng.normal(0.0, WEATHERING[0])), 0.75, 1.3))
+    tint = rng.normal(0.0, WEATHERING[1], size=3)
+    return tuple(float(round(min(max(m * gain + t, 0.0), 255.0), 1)) for m, t in zip(stats.mean, tint))  # type: ignore[return-value]
 
 
 @dataclass
@@ -63,10 +99,16 @@ class _Builder:
     edges: list[PathEdge] = field(default_factory=list)
 
     # ---- objects ----
-    def area(self, oid: str, kind: str, pts, *, role: str, colour: Colour, shape=None, cost: float = math.inf, name: str | None = None, reflectance: float = 0.5) -> WorldObject:
+    def look(self, oid: str, material: Material, reflectance: float, crown: ColourStats | None = None) -> Appearance:
+        """Return how object `oid` of `material` looks in this world: weathered on its own."""
+        if crown is not None:
+            crown = ColourStats(mean=_weathered(self.name, oid, crown, "/crown"), std=crown.std)
+        return Appearance(mean=_weathered(self.name, oid, material), std=material.std, reflectance=reflectance, crown=crown)
+
+    def area(self, oid: str, kind: str, pts, *, role: str, colour: Material, shape=None, cost: float = math.inf, name: str | None = None, reflectance: float = 0.5) -> WorldObject:
         poly = tuple((round(float(x), 3), round(float(y), 3)) for x, y in pts)
-        obj = WorldObject(id=oid, kind=kind, role=role, cost=cost, colour=colour, shape=shape or FlatShape(z=0.0), name=name,
-                          polygon=poly, reflectance=reflectance)
+        obj = WorldObject(id=oid, kind=kind, role=role, cost=cost, colour=colour.map_colour(), appearance=self.look(oid, colour, reflectance),
+                          shape=shape or FlatShape(z=0.0), name=name, polygon=poly)
         self.objects.append(obj)
         return obj
 
@@ -82,9 +124,10 @@ class _Builder:
         poly = shapely.simplify(poly, 0.01)
         return self.area(oid, kind, list(poly.exterior.coords)[:-1], **kw)
 
-    def round_obj(self, oid: str, kind: str, x: float, y: float, radius: float, *, role: str, colour: Colour, shape, name: str | None = None, reflectance: float = 0.5) -> WorldObject:
-        obj = WorldObject(id=oid, kind=kind, role=role, colour=colour, shape=shape, name=name,
-                          center=(round(float(x), 3), round(float(y), 3)), radius=radius, reflectance=reflectance)
+    def round_obj(self, oid: str, kind: str, x: float, y: float, radius: float, *, role: str, colour: Material, shape, name: str | None = None,
+                  reflectance: float = 0.5, crown: ColourStats | None = None) -> WorldObject:
+        obj = WorldObject(id=oid, kind=kind, role=role, colour=colour.map_colour(), appearance=self.look(oid, colour, reflectance, crown),
+                          shape=shape, name=name, center=(round(float(x), 3), round(float(y), 3)), radius=radius)
         self.objects.append(obj)
         return obj
 
@@ -92,8 +135,8 @@ class _Builder:
         h = float(rng.uniform(6.0, 10.0)) * scale
         crown = float(rng.uniform(1.8, 3.2)) * scale
         trunk = round(float(rng.uniform(0.15, 0.3)), 3)
-        shape = TreeShape(trunk_radius=trunk, crown_radius=round(crown, 2), height=round(h, 2), crown_base=round(h * 0.4, 2), z0=z0, crown_colour=CROWN)
-        return self.round_obj(oid, "tree", x, y, trunk, role="obstacle", colour=TRUNK, shape=shape, reflectance=0.35)
+        shape = TreeShape(trunk_radius=trunk, crown_radius=round(crown, 2), height=round(h, 2), crown_base=round(h * 0.4, 2), z0=z0)
+        return self.round_obj(oid, "tree", x, y, trunk, role="obstacle", colour=TRUNK, shape=shape, reflectance=0.35, crown=CROWN)
 
     def keep_clear(self, path_kinds: tuple[str, ...], clearance: dict[str, float], droppable: tuple[str, ...] = ("tree",)) -> None:
         """Keep standing objects `clearance[kind]` [m] outside every area of `path_kinds`: drop droppable ones, else raise."""
@@ -123,8 +166,9 @@ class _Builder:
         self.edges.append(e)
         return e
 
-    def world(self, *, sun: Sun, start: StartPose) -> World:
-        return World(name=self.name, objects=self.objects, nodes=self.nodes, edges=self.edges, sun=sun, start=start, source=f"<worldgen:{self.name}>")
+    def world(self, *, sun: Sun, start: StartPose, weather: Weather | None = None) -> World:
+        return World(name=self.name, objects=self.objects, nodes=self.nodes, edges=self.edges, sun=sun, start=start,
+                     weather=weather, source=f"<worldgen:{self.name}>")
 
 
 # =========================================================================================
@@ -278,7 +322,8 @@ def build_campus() -> World:
     b.round_obj("sign_library", "sign", 62.5, 100.0, 0.08, role="landmark", colour=RED, shape=PostShape(height=2.2, z0=TZ), name="library sign", reflectance=0.8)
     b.rect("hedge_quad", "hedge", 63.0, 3.0, 87.0, 4.0, role="obstacle", colour=HEDGE, shape=PrismShape(height=1.0), reflectance=0.3)
 
-    return b.world(sun=Sun(azimuth_deg=215.0, elevation_deg=35.0), start=StartPose(x=0.0, y=-28.0, yaw_deg=90.0, node="dorm"))
+    return b.world(sun=Sun(azimuth_deg=215.0, elevation_deg=35.0), start=StartPose(x=0.0, y=-28.0, yaw_deg=90.0, node="dorm"),
+                   weather=Weather(wet_cover=0.06, leaf_cover=0.03, period_s=300.0))
 
 
 # =========================================================================================
@@ -402,7 +447,8 @@ def build_north_hills() -> World:
 
     # Nothing stands in the road: roadside objects keep clear of every road and intersection area.
     b.keep_clear(("road", "intersection"), ROADSIDE_CLEARANCE)
-    w = b.world(sun=Sun(azimuth_deg=160.0, elevation_deg=45.0), start=StartPose(x=0.0, y=-40.0, yaw_deg=90.0, node="start"))
+    w = b.world(sun=Sun(azimuth_deg=160.0, elevation_deg=45.0), start=StartPose(x=0.0, y=-40.0, yaw_deg=90.0, node="start"),
+                weather=Weather(wet_cover=0.08, leaf_cover=0.04, period_s=420.0))
     return w
 
 

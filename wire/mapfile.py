@@ -6,8 +6,13 @@ FeatureCollection in the `world` frame (x east [m], y north [m], z up [m]). See 
 Two feature families:
 
 * objects (`kind` in `OBJECT_KINDS`): a Polygon area or a Point with a footprint `radius` [m],
-  with role, cost, colour statistics and a 3-D `shape`;
+  with role, cost, a colour (what a map says: a colour type such as GRAY or GREEN and a nominal
+  colour, Sidewalk 1986 §3) and a 3-D `shape`;
 * the path graph: `node` features (Point) and `edge` features (LineString from node to node).
+
+A world file also says how things look, which no map says: each object's `appearance` (its own
+colour statistics, laser reflectance, a tree's crown) and the collection's `weather` (wet patches
+and leaves that come and go over a run). A map derived from a world drops both (`MapFile.as_map`).
 
 The map belongs to no simulator: the MAP NAVIGATOR reads it through this module, the simulator
 adds its ground queries in `vehicle_sim.worldfile.World`.
@@ -36,7 +41,12 @@ __all__ = [
     "SHAPES_BY_KIND",
     "WorldFileError",
     "Problem",
-    "Colour",
+    "COLOUR_TYPES",
+    "ColourType",
+    "MapColour",
+    "ColourStats",
+    "Appearance",
+    "Weather",
     "FlatShape",
     "SlopeShape",
     "StairsShape",
@@ -186,7 +196,37 @@ class WorldFileError(WireError, ValueError):
 _FROZEN = ConfigDict(frozen=True, extra="forbid")
 
 
-class Colour(BaseModel):
+#: Colour types a map names (Sidewalk 1986 §3.3.4: "the types of color are GRAY and GREEN").
+COLOUR_TYPES: tuple[str, ...] = ("GRAY", "GREEN", "BROWN", "RED", "BLUE", "YELLOW", "WHITE", "BLACK")
+#: One of `COLOUR_TYPES`.
+ColourType = Literal["GRAY", "GREEN", "BROWN", "RED", "BLUE", "YELLOW", "WHITE", "BLACK"]
+
+
+def _rgb_range(v: tuple[float, float, float], hi: float = 255.0) -> tuple[float, float, float]:
+    if not all(0.0 <= c <= hi and math.isfinite(c) for c in v):
+        raise ValueError(f"each channel must be within 0..{hi:g}, got {list(v)}")
+    return v
+
+
+class MapColour(BaseModel):
+    """What a map says of an object's colour: its colour type and a nominal sRGB colour in daylight [0–255].
+
+    The nominal colour is a catalogue value (\"light gray concrete\"), not a measurement: the surface
+    itself varies from object to object and over a run, and PERCEPTION adapts to what it sees.
+    """
+
+    model_config = _FROZEN
+
+    type: ColourType
+    nominal: tuple[float, float, float]
+
+    @field_validator("nominal")
+    @classmethod
+    def _nominal_range(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
+        return _rgb_range(v)
+
+
+class ColourStats(BaseModel):
     """Gaussian colour statistics in sRGB under full sun: mean and standard deviation per channel [0–255]."""
 
     model_config = _FROZEN
@@ -197,16 +237,38 @@ class Colour(BaseModel):
     @field_validator("mean")
     @classmethod
     def _mean_range(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
-        if not all(0.0 <= c <= 255.0 and math.isfinite(c) for c in v):
-            raise ValueError(f"each channel must be within 0..255, got {list(v)}")
-        return v
+        return _rgb_range(v)
 
     @field_validator("std")
     @classmethod
     def _std_range(cls, v: tuple[float, float, float]) -> tuple[float, float, float]:
-        if not all(0.0 <= c <= 128.0 and math.isfinite(c) for c in v):
-            raise ValueError(f"each channel must be within 0..128, got {list(v)}")
-        return v
+        return _rgb_range(v, 128.0)
+
+
+class Appearance(ColourStats):
+    """How the renderer draws a world object (world files only, never a map): colour statistics under full
+    sun [0–255] (this object's own, weathering included), laser reflectance [0–1], a tree's crown colour."""
+
+    reflectance: float = Field(default=0.5, ge=0.0, le=1.0)
+    crown: ColourStats | None = None
+
+
+class Weather(BaseModel):
+    """How ground covers change over a run (world files only): wet patches that dry and return, fallen leaves.
+
+    Each cover's share of the ground (`wet_cover`, `leaf_cover`, 0–1) swings by ±`swing` (relative)
+    around its mean with period `period_s` [s] sim time; wet ground keeps `wet_brightness` (0–1] of its
+    dry brightness; leaves have the colour statistics `leaves` [0–255].
+    """
+
+    model_config = _FROZEN
+
+    wet_cover: float = Field(default=0.0, ge=0.0, le=1.0)
+    wet_brightness: float = Field(default=0.6, gt=0.0, le=1.0)
+    leaf_cover: float = Field(default=0.0, ge=0.0, le=1.0)
+    leaves: ColourStats = ColourStats(mean=(150.0, 100.0, 50.0), std=(22.0, 18.0, 14.0))
+    swing: float = Field(default=0.6, ge=0.0, le=1.0)
+    period_s: float = Field(default=300.0, gt=0.0)
 
 
 def _finite(v: float, name: str) -> float:
@@ -268,7 +330,6 @@ class TreeShape(BaseModel):
     height: float = Field(gt=0)
     crown_base: float = Field(ge=0)
     z0: float = 0.0
-    crown_colour: Colour | None = None
 
 
 class PostShape(BaseModel):
@@ -292,11 +353,19 @@ class _ObjectProps(BaseModel):
     kind: str
     role: Literal["path", "landmark", "obstacle", "none"]
     cost: float | None = None
-    colour: Colour
+    colour: MapColour
+    appearance: Appearance | None = None
     shape: Shape
     name: str | None = None
     radius: float | None = None
-    reflectance: float = Field(default=0.5, ge=0.0, le=1.0)
+
+    @field_validator("colour", mode="before")
+    @classmethod
+    def _colour_is_a_type(cls, v: Any) -> Any:
+        if isinstance(v, dict) and ("mean" in v or "std" in v) and "type" not in v:
+            raise ValueError('give the colour a map states: {"type": "GRAY", "nominal": [r, g, b]}; '
+                             'colour statistics (mean, std) belong in "appearance" (world files only)')
+        return v
 
 
 class _NodeProps(BaseModel):
@@ -354,7 +423,11 @@ class StartPose(BaseModel):
 
 
 class WorldObject(BaseModel):
-    """One object of the world: an area (`polygon`) or a round footprint (`center` + `radius`) [m], world frame."""
+    """One object of the world: an area (`polygon`) or a round footprint (`center` + `radius`) [m], world frame.
+
+    `colour` is what a map says (colour type, nominal colour); `appearance` what the renderer needs
+    (world files only; None in a map).
+    """
 
     model_config = ConfigDict(frozen=True)
 
@@ -362,13 +435,13 @@ class WorldObject(BaseModel):
     kind: str
     role: Literal["path", "landmark", "obstacle", "none"]
     cost: float = math.inf
-    colour: Colour
+    colour: MapColour
+    appearance: Appearance | None = None
     shape: Union[FlatShape, SlopeShape, StairsShape, PrismShape, TreeShape, PostShape]
     name: str | None = None
     polygon: tuple[tuple[float, float], ...] | None = None
     center: tuple[float, float] | None = None
     radius: float | None = None
-    reflectance: float = 0.5
 
     @property
     def is_point(self) -> bool:
@@ -453,17 +526,21 @@ class WorldObject(BaseModel):
     def _axis(self) -> tuple[float, float]:
         return self.axis_extent()
 
+    def as_mapped(self) -> "WorldObject":
+        """Return this object as a map states it: colour type and nominal colour, no appearance."""
+        return self if self.appearance is None else self.model_copy(update={"appearance": None})
+
     def to_feature(self) -> dict:
         """Return this object as a GeoJSON Feature dict."""
         props: dict[str, Any] = {"id": self.id, "kind": self.kind, "role": self.role}
         if math.isfinite(self.cost):
             props["cost"] = self.cost
-        props["colour"] = {"mean": list(self.colour.mean), "std": list(self.colour.std)}
+        props["colour"] = self.colour.model_dump()
+        if self.appearance is not None:
+            props["appearance"] = self.appearance.model_dump(exclude_none=True)
         props["shape"] = self.shape.model_dump(exclude_none=True)
         if self.name is not None:
             props["name"] = self.name
-        if self.reflectance != 0.5:
-            props["reflectance"] = self.reflectance
         if self.polygon is not None:
             ring = [list(p) for p in self.polygon] + [list(self.polygon[0])]
             geom = {"type": "Polygon", "coordinates": [ring]}
@@ -571,6 +648,7 @@ class MapFile:
         sun: Sun | None = None,
         start: StartPose | None = None,
         source: str = "<memory>",
+        weather: Weather | None = None,
     ) -> None:
         self.name = name
         self.objects: tuple[WorldObject, ...] = tuple(objects)
@@ -578,6 +656,7 @@ class MapFile:
         self.edges: tuple[PathEdge, ...] = tuple(edges)
         self.sun: Sun = sun or Sun(azimuth_deg=200.0, elevation_deg=40.0)
         self.start: StartPose | None = start
+        self.weather: Weather | None = weather
         self.source = source
         self._obj_by_id = {o.id: o for o in self.objects}
         self._node_by_id = {n.id: n for n in self.nodes}
@@ -652,6 +731,8 @@ class MapFile:
         coll["sun"] = self.sun.model_dump()
         if self.start is not None:
             coll["start"] = self.start.model_dump(exclude_none=True)
+        if self.weather is not None:
+            coll["weather"] = self.weather.model_dump()
         feats = [o.to_feature() for o in self.objects]
         feats += [n.to_feature() for n in self.nodes]
         feats += [e.to_feature() for e in self.edges]
@@ -749,6 +830,12 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
             start = StartPose.model_validate(data["start"])
         except ValidationError as exc:
             problems += _pyd_problems(exc, None, None, "start")
+    weather = None
+    if "weather" in data:
+        try:
+            weather = Weather.model_validate(data["weather"])
+        except ValidationError as exc:
+            problems += _pyd_problems(exc, None, None, "weather")
 
     objects: list[WorldObject] = []
     nodes: list[PathNode] = []
@@ -784,7 +871,8 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
         problems.append(p)
     if problems:
         raise WorldFileError(source, problems)
-    return (factory or MapFile)(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source)
+    return (factory or MapFile)(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source,
+                                weather=weather)
 
 
 class _FeatureProblems(WireError):
@@ -900,8 +988,8 @@ def _parse_feature(i: int, f: Any) -> WorldObject | PathNode | PathEdge:
             if p.shape.crown_base >= p.shape.height:
                 raise bad("properties.shape.crown_base", "must be below the tree height")
         return WorldObject(
-            id=p.id, kind=kind, role=p.role, cost=cost, colour=p.colour, shape=p.shape, name=p.name,
-            center=c, radius=float(p.radius), reflectance=p.reflectance,
+            id=p.id, kind=kind, role=p.role, cost=cost, colour=p.colour, appearance=p.appearance, shape=p.shape,
+            name=p.name, center=c, radius=float(p.radius),
         )
     if gtype != "Polygon":
         raise bad("geometry.type", f"an object must be a Polygon or a Point, got {gtype!r}")
@@ -930,8 +1018,8 @@ def _parse_feature(i: int, f: Any) -> WorldObject | PathNode | PathEdge:
         reason = shapely.is_valid_reason(poly)
         raise bad("geometry.coordinates", f"invalid polygon ({reason}; area {poly.area:.3g} m^2)")
     return WorldObject(
-        id=p.id, kind=kind, role=p.role, cost=cost, colour=p.colour, shape=p.shape, name=p.name,
-        polygon=tuple(pts), reflectance=p.reflectance,
+        id=p.id, kind=kind, role=p.role, cost=cost, colour=p.colour, appearance=p.appearance, shape=p.shape,
+        name=p.name, polygon=tuple(pts),
     )
 
 

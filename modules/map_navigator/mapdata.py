@@ -12,7 +12,7 @@ from pathlib import Path
 import shapely
 from wire.mapfile import MapFile, PathNode, WorldFileError, WorldObject, load_map_file
 
-from modules.vocabulary import ColourStats, MapObject
+from modules.vocabulary import MapObject
 
 __all__ = ["MapData", "load_map", "map_object", "WorldFileError"]
 
@@ -22,9 +22,9 @@ def map_object(obj: WorldObject) -> MapObject:
     return MapObject(
         object_id=obj.id, kind=obj.kind, role=obj.role, name=obj.name,
         cost=obj.cost if math.isfinite(obj.cost) else None,
-        colour=ColourStats(mean=obj.colour.mean, std=obj.colour.std),
+        colour=obj.colour,
         shape=obj.shape.model_dump(),
-        polygon=obj.polygon, center=obj.center, radius=obj.radius, reflectance=obj.reflectance,
+        polygon=obj.polygon, center=obj.center, radius=obj.radius,
     )
 
 

@@ -14,6 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from modules.perception.errors import PerceptionError
+
 __all__ = [
     "EdgeObservation",
     "PointObservation",
@@ -23,7 +25,7 @@ __all__ = [
 ]
 
 
-class CalibrationError(RuntimeError):
+class CalibrationError(PerceptionError, RuntimeError):
     """Too few usable observations to fix the vehicle position."""
 
 

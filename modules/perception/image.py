@@ -6,10 +6,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from modules.perception.errors import PerceptionError
+
 __all__ = ["ColoredRangeImage", "ImageError"]
 
 
-class ImageError(ValueError):
+class ImageError(PerceptionError, ValueError):
     """A colored-range image whose arrays disagree in shape or dtype."""
 
 

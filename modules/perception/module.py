@@ -4,12 +4,12 @@ Seed: Sidewalk 1986 §2.3.5 and §3.3. For each pending driving unit the PERCEPT
 segmentation and the view frame, finds the image input position by running the view frame along the
 newest local path plan, waits until the moving vehicle position (local←vehicle) reaches it, asks the
 simulator's capture queryable for an image (images never go through the blackboard), runs the PATCH
-MAKER, OBJECT FINDER and POSITION CALIBRATOR, and writes the result into the driving unit (status
-perceived or failed, with the reason) and posts it on its own as a `perception_result` token.
+MAKER, OBJECT FINDER and POSITION CALIBRATOR, posts the result once as a `perception_result` token
+(perceived or failed, with the reason) and then sets the driving unit's status to match.
 
 Blackboard contract:
   reads   driving_unit (status "pending"), local_path_plan (newest), poses local←vehicle, world←local
-  writes  driving_unit.status + .result (CAS update), perception_result (frame world)
+  writes  perception_result (frame world), then driving_unit.status only (CAS update)
   asks    sidewalk/<ns>/sim/capture (CaptureRequest JSON → `sidewalk.capture/1` msgpack)
 """
 
@@ -154,7 +154,7 @@ class PerceptionModule:
 
     # ---- one driving unit ----------------------------------------------------------------------
     async def handle(self, tok) -> PerceptionResult:
-        """See, find and fix for one driving unit; write the result back; return it."""
+        """See, find and fix for one driving unit; post the result, set the unit's status; return the result."""
         unit: DrivingUnitDescription = tok.attrs
         plan = self.pipeline.table.plan(unit.error_allowance_m, self.cfg.speed)
         note = await self.wait_for_input_position(unit, plan.view_frame)
@@ -258,7 +258,7 @@ class PerceptionModule:
         raise TimeoutError(f"no simulator answered {capture_key(self.rt.net.namespace)} within {self.cfg.capture_timeout_s:.1f} s")
 
     async def _write(self, tok, res: PerceptionResult) -> PerceptionResult:
-        """Write the result into the driving unit (CAS, re-read on conflict) and post it on its own."""
+        """Post the result as its own token, then set the driving unit's status (CAS, re-read on conflict)."""
         if res.status == "perceived":
             self.stats.perceived += 1
         else:
@@ -277,8 +277,7 @@ class PerceptionModule:
             log.warning("perception: posting the result of %s failed: %s", res.unit_id, exc)
         for _ in range(3):
             try:
-                await self.bb.update(tok.id, tok.attrs.model_copy(update={"status": res.status, "result": res}),
-                                     expected_version=tok.version)
+                await self.bb.update(tok.id, tok.attrs.model_copy(update={"status": res.status}), expected_version=tok.version)
                 break
             except VersionConflictError:
                 cur = await self._current(tok)
@@ -288,6 +287,6 @@ class PerceptionModule:
             except NotFoundError:
                 break
             except BlackboardError as exc:
-                log.warning("perception: writing the result into %s failed: %s", res.unit_id, exc)
+                log.warning("perception: setting the status of %s failed: %s", res.unit_id, exc)
                 break
         return res

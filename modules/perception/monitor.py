@@ -4,6 +4,10 @@ position, segmentation parameters.
 Seed: Sidewalk 1986 §3.3 (3.3.1 selection; 3.3.2 view frame and resolution from the error allowance and
 the processing time, Figure 9: V = D/T; 3.3.3 image input position by simulating the view frame along the
 planned path; 3.3.4 colour types and minimum segment area from the predicted objects).
+
+The colour types and their nominal colours come from the map; where the predicted objects say
+which type a pixel must have (well inside an object, whatever the pose error), the monitor hands
+those pixels to the PATCH MAKER to fit its colour classes to this frame (`colour_training`).
 """
 
 from __future__ import annotations
@@ -12,11 +16,12 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import shapely
 from shapely.geometry import Polygon as ShapelyPolygon
 from shapely import affinity
 
-from modules.perception.colour import ColourModel
-from modules.perception.patch_maker import Segmentation, SegmentationParams
+from modules.perception.patch_maker import ColourModel, Segmentation, SegmentationParams
+from modules.perception.predicted import PredictedObject, vehicle_to_world, visible_regions
 from modules.vocabulary import MapObject
 
 __all__ = [
@@ -27,6 +32,7 @@ __all__ = [
     "select_segmentation",
     "segmentation_params",
     "colour_model_for",
+    "colour_training",
     "image_input_position",
 ]
 
@@ -181,14 +187,51 @@ def segmentation_params(objects: tuple[MapObject, ...] | list[MapObject], base: 
     return replace(base, min_area_m2=min_area, range=rp)
 
 
-def colour_model_for(objects: tuple[MapObject, ...] | list[MapObject], shade_factor: float = 0.5) -> ColourModel:
-    """Build the colour classes (types such as GREY and GREEN) for the predicted ground objects."""
-    cols = [(o.colour.mean, o.colour.std) for o in objects if o.colour is not None and o.shape.type in ("flat", "slope", "stairs")]
+def colour_model_for(objects: tuple[MapObject, ...] | list[MapObject]) -> ColourModel:
+    """Build the colour classes (types such as GRAY and GREEN, from the map's nominal colours) for the predicted ground objects."""
+    cols = [(o.colour.type, o.colour.nominal) for o in objects if o.colour is not None and o.shape.type in ("flat", "slope", "stairs")]
     if not cols:
-        cols = [(o.colour.mean, o.colour.std) for o in objects if o.colour is not None]
+        cols = [(o.colour.type, o.colour.nominal) for o in objects if o.colour is not None]
     if not cols:
-        raise ValueError("no predicted object has colour statistics; colour segmentation needs at least one")
-    return ColourModel.from_predicted(cols, shade_factor=shade_factor)
+        raise ValueError("no predicted object has a colour; colour segmentation needs at least one")
+    return ColourModel.from_map(cols)
+
+
+def colour_training(
+    predicted: list[PredictedObject] | tuple[PredictedObject, ...],
+    xy: np.ndarray,
+    usable: np.ndarray,
+    types: tuple[str, ...],
+    prior_pose: tuple[float, float, float],
+    margin: float,
+    max_pixels: int = 6000,
+) -> np.ndarray:
+    """Return the colour type each pixel must have, (H, W) int16 (1-based into `types`, 0 = unknown).
+
+    `xy` (H, W, 2) [m] are the pixels' ground points in the vehicle frame, `usable` (H, W) bool the
+    pixels to consider; `prior_pose` is world←vehicle. A pixel gets a type when its ground point lies
+    inside where a predicted ground object of that type shows (`visible_regions`), at least `margin`
+    [m] — the error allowance — from that region's edge, so a prior pose that far off still holds.
+    At most about `max_pixels` evenly spread pixels are labelled (plenty for 3×3 colour statistics).
+    """
+    out = np.zeros(usable.shape, np.int16)
+    pick = np.flatnonzero(usable.reshape(-1) & np.all(np.isfinite(xy.reshape(-1, 2)), axis=1))
+    if pick.size > max_pixels:
+        pick = pick[:: pick.size // max_pixels]
+    if pick.size == 0:
+        return out
+    world = vehicle_to_world(xy.reshape(-1, 2)[pick].astype(np.float64), prior_pose)
+    flat = out.reshape(-1)
+    for (ctype, _), region in visible_regions(predicted, Segmentation.COLOUR).items():
+        if ctype not in types or region.is_empty:
+            continue
+        inner = region.buffer(-margin)
+        if inner.is_empty:
+            continue
+        shapely.prepare(inner)
+        inside = shapely.contains_xy(inner, world[:, 0], world[:, 1])
+        flat[pick[inside]] = types.index(ctype) + 1
+    return out
 
 
 @dataclass(frozen=True)

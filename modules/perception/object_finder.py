@@ -13,7 +13,7 @@ import numpy as np
 from shapely.geometry import Polygon as ShapelyPolygon
 from shapely.ops import unary_union
 
-from modules.perception.patches import Patch, PatchSet
+from modules.perception.patch_maker import Patch, PatchSet
 from modules.perception.predicted import PredictedObject
 
 __all__ = ["Match", "FoundObject", "WorkingMemory", "symbolic_match", "geometric_score", "find_objects"]

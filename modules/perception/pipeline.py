@@ -16,15 +16,16 @@ from shapely.geometry import Polygon as ShapelyPolygon
 from shapely.ops import unary_union
 
 from modules.perception.calibrator import CalibrationError, CalibrationResult, EdgeObservation, PointObservation, calibrate
-from modules.perception.colour import ColourModel
+from modules.perception.patch_maker import ColourModel, Segmentation, SegmentationParams, Segmented, make_segmentation
 from modules.perception.image import ColoredRangeImage
-from modules.perception.monitor import ResolutionTable, ViewPlan, colour_model_for, segmentation_params, select_segmentation
+from modules.perception.monitor import (
+    ResolutionTable, ViewPlan, colour_model_for, colour_training, segmentation_params, select_segmentation,
+)
 from modules.perception.object_finder import FoundObject, find_objects
-from modules.perception.patch_maker import Segmentation, SegmentationParams, Segmented, make_segmentation
-from modules.perception.predicted import PredictedObject, predict
+from modules.perception.predicted import PredictedObject, class_key, predict, visible_regions
 from modules.vocabulary import MapObject
 
-__all__ = ["PipelineOutput", "PerceptionPipeline", "edge_observations", "visible_regions"]
+__all__ = ["PipelineOutput", "PerceptionPipeline", "edge_observations"]
 
 
 @dataclass(frozen=True)
@@ -91,31 +92,6 @@ def _outline_samples(p, step: float) -> tuple[np.ndarray, np.ndarray]:
     return b[keep], n[keep]
 
 
-def _class_key(obj: PredictedObject, method: Segmentation = Segmentation.COLORED_RANGE) -> tuple:
-    """Return what the segmentation can tell this object by: colour type, surface types, or both."""
-    colour = obj.colour_type if method is not Segmentation.RANGE else None
-    surfaces = tuple(sorted(obj.surfaces)) if method is not Segmentation.COLOUR else ()
-    return (colour, surfaces)
-
-
-def visible_regions(predicted: list[PredictedObject] | tuple[PredictedObject, ...],
-                    method: Segmentation = Segmentation.COLORED_RANGE) -> dict[tuple, object]:
-    """Return, per class the segmentation can tell apart, the world-frame region where that class shows.
-
-    A large ground object (a lawn) is painted under the smaller ones that overlap it (the sidewalks
-    crossing it), so each object shows only outside the smaller overlapping objects of another class.
-    """
-    ground = [p for p in predicted if p.ground]
-    regions: dict[tuple, list] = {}
-    for o in ground:
-        fp = o.world_footprint
-        covers = [q.world_footprint for q in ground if q is not o and _class_key(q, method) != _class_key(o, method)
-                  and q.world_footprint.area < fp.area and q.world_footprint.intersects(fp)]
-        vis = fp.difference(unary_union(covers)) if covers else fp
-        regions.setdefault(_class_key(o, method), []).append(vis)
-    return {k: unary_union(v) for k, v in regions.items()}
-
-
 def _segments(region) -> np.ndarray:
     """Return (M, 2, 2) edges of a (multi)polygon, oriented so the region lies on each edge's left."""
     polys = [region] if region.geom_type == "Polygon" else [g for g in getattr(region, "geoms", []) if g.geom_type == "Polygon"]
@@ -167,7 +143,7 @@ def edge_observations(
             points.append(PointObservation(point=(float(c[0]), float(c[1])), target=(float(obj.center[0]), float(obj.center[1]))))
             continue
         if f.predicted.ground:
-            by_class.setdefault(_class_key(f.predicted, method), []).append(f)
+            by_class.setdefault(class_key(f.predicted, method), []).append(f)
     for key, fs in by_class.items():
         region = regions.get(key)
         if region is None or region.is_empty:
@@ -200,14 +176,12 @@ class PerceptionPipeline:
         self,
         table: ResolutionTable | None = None,
         base: SegmentationParams = SegmentationParams(),
-        shade_factor: float = 0.42,
         speed: float = 1.0,
     ) -> None:
         """Start with a resolution table (sensor geometry), base segmentation parameters and the desired speed [m/s]."""
         self.table = table or ResolutionTable()
         self.speed = speed
         self.base = base
-        self.shade_factor = shade_factor
         self._models: dict[tuple[str, ...], ColourModel] = {}
 
     def params_for(self, objects: tuple[MapObject, ...]) -> SegmentationParams:
@@ -215,8 +189,8 @@ class PerceptionPipeline:
         return segmentation_params(objects, self.base)
 
     def colour_model_for(self, objects: tuple[MapObject, ...]) -> ColourModel:
-        """Return fresh colour classes for these predicted objects."""
-        return colour_model_for(objects, self.shade_factor)
+        """Return fresh colour classes for these predicted objects (the map's colour types and nominal colours)."""
+        return colour_model_for(objects)
 
     def _adapted_model(self, objects: tuple[MapObject, ...]) -> ColourModel:
         fresh = self.colour_model_for(objects)
@@ -224,6 +198,31 @@ class PerceptionPipeline:
         if key not in self._models:
             self._models[key] = fresh
         return self._models[key]
+
+    def segment(
+        self,
+        work: ColoredRangeImage,
+        objects: tuple[MapObject, ...],
+        prior_pose: tuple[float, float, float],
+        method: Segmentation,
+        *,
+        error_allowance: float = 0.5,
+        model: ColourModel | None = None,
+        predicted: list[PredictedObject] | None = None,
+    ) -> Segmented:
+        """Run the PATCH MAKER on one frame: colour classes fitted to the pixels the predicted objects vouch for.
+
+        `model` defaults to the classes this pipeline keeps adapting for these objects; the pixels
+        that teach them lie inside a predicted ground object at least `error_allowance` [m] from its edge.
+        """
+        params = self.params_for(objects)
+        if method is Segmentation.RANGE:
+            return make_segmentation(method, work, params)
+        model = model if model is not None else self._adapted_model(objects)
+        predicted = predicted if predicted is not None else predict(objects, prior_pose)
+        xy = work.xyz[..., :2] if method is Segmentation.COLORED_RANGE else work.ground_xy
+        training = colour_training(predicted, xy, work.valid, model.types, prior_pose, error_allowance)
+        return make_segmentation(method, work, params, model, training=training)
 
     def process(
         self,
@@ -248,10 +247,8 @@ class PerceptionPipeline:
         x = work.xyz[..., 0] if method is not Segmentation.COLOUR else work.ground_xy[..., 0]
         inside = work.valid & np.isfinite(x) & (x <= plan.distance + self.table.sensor.x_offset)
         work = replace(work, valid=inside)
-        params = self.params_for(objects)
-        model = self._adapted_model(objects) if method is not Segmentation.RANGE else None
-        seg = make_segmentation(method, work, params, model)
         predicted = predict(objects, prior_pose)
+        seg = self.segment(work, objects, prior_pose, method, error_allowance=error_allowance, predicted=predicted)
         found, _ = find_objects(seg.patches, predicted, allowance=error_allowance + 0.5)
         nav_parts = [f.outline for f in found if f.predicted.obj.role == "path"]
         navigable = None

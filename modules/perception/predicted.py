@@ -11,12 +11,15 @@ from dataclasses import dataclass
 import numpy as np
 from shapely.geometry import Point as ShapelyPoint
 from shapely.geometry import Polygon as ShapelyPolygon
+from shapely.ops import unary_union
 
-from modules.perception.colour import colour_type_name
-from modules.perception.range_seg import SurfaceType
+from modules.perception.patch_maker import Segmentation, SurfaceType
 from modules.vocabulary import MapObject
 
-__all__ = ["PredictedObject", "predict", "world_to_vehicle", "vehicle_to_world", "expected_surfaces", "is_ground_kind"]
+__all__ = [
+    "PredictedObject", "predict", "world_to_vehicle", "vehicle_to_world", "expected_surfaces", "is_ground_kind",
+    "class_key", "visible_regions",
+]
 
 _GROUND_SHAPES = ("flat", "slope", "stairs")
 
@@ -92,6 +95,31 @@ def predict(objects: tuple[MapObject, ...] | list[MapObject], pose: tuple[float,
         if o.center is not None:
             c = world_to_vehicle(np.asarray([o.center]), pose)[0]
             center = (float(c[0]), float(c[1]))
-        ctype = colour_type_name(o.colour.mean) if o.colour is not None else None
+        ctype = o.colour.type if o.colour is not None else None
         out.append(PredictedObject(o, vf, wf, ctype, expected_surfaces(o), center))
     return out
+
+
+def class_key(obj: PredictedObject, method: Segmentation = Segmentation.COLORED_RANGE) -> tuple:
+    """Return what the segmentation can tell this object by: colour type, surface types, or both."""
+    colour = obj.colour_type if method is not Segmentation.RANGE else None
+    surfaces = tuple(sorted(obj.surfaces)) if method is not Segmentation.COLOUR else ()
+    return (colour, surfaces)
+
+
+def visible_regions(predicted: list[PredictedObject] | tuple[PredictedObject, ...],
+                    method: Segmentation = Segmentation.COLORED_RANGE) -> dict[tuple, object]:
+    """Return, per class the segmentation can tell apart, the world-frame region where that class shows.
+
+    A large ground object (a lawn) is painted under the smaller ones that overlap it (the sidewalks
+    crossing it), so each object shows only outside the smaller overlapping objects of another class.
+    """
+    ground = [p for p in predicted if p.ground]
+    regions: dict[tuple, list] = {}
+    for o in ground:
+        fp = o.world_footprint
+        covers = [q.world_footprint for q in ground if q is not o and class_key(q, method) != class_key(o, method)
+                  and q.world_footprint.area < fp.area and q.world_footprint.intersects(fp)]
+        vis = fp.difference(unary_union(covers)) if covers else fp
+        regions.setdefault(class_key(o, method), []).append(vis)
+    return {k: unary_union(v) for k, v in regions.items()}

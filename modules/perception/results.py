@@ -14,10 +14,9 @@ from shapely.geometry import Polygon as ShapelyPolygon
 
 from modules.perception.calibrator import CalibrationResult
 from modules.perception.image import ColoredRangeImage
-from modules.perception.patch_maker import Segmentation
+from modules.perception.patch_maker import Segmentation, SurfaceType as ST
 from modules.perception.pipeline import PipelineOutput
 from modules.perception.predicted import vehicle_to_world
-from modules.perception.range_seg import SurfaceType as ST
 from modules.vocabulary import DetectedObject, DrivingUnitDescription, LineFix, PerceptionResult, PointFix, Pose
 
 __all__ = ["SENSOR_MODE", "MIN_REGION_AREA", "COV_FLOOR", "LINE_COV_FLOOR", "best_pose", "position_fix", "world_ring", "build_result", "failed_result"]

@@ -16,15 +16,16 @@ import numpy as np
 
 from wire.capture import CaptureDecodeError, decode_capture
 
+from modules.perception.errors import PerceptionError
 from modules.perception.image import ColoredRangeImage
-from modules.perception.range_seg import unwrap_range
+from modules.perception.patch_maker import unwrap_range
 
 __all__ = ["SensorFrameError", "SensorFrame", "decode_sensor_frame", "colored_range_image", "sensor_geometry"]
 
 _NEEDED = ("T_vehicle_laser", "T_vehicle_camera", "camera_K", "laser_az", "laser_el", "laser_range", "laser_valid", "camera_image")
 
 
-class SensorFrameError(ValueError):
+class SensorFrameError(PerceptionError, ValueError):
     """A capture payload PERCEPTION cannot use; the message names the field and what is wrong."""
 
 

@@ -14,8 +14,8 @@ Who writes what (type name: writer → readers; all coordinates in attrs are wor
 - route_plan: MAP NAVIGATOR → monitors (never the PILOT: it sees one segment at a time)
 - route_segment: MAP NAVIGATOR → PILOT (one active at a time; state "cancelled" withdraws it)
 - segment_result: PILOT → MAP NAVIGATOR (end_xy: where the PILOT thinks the vehicle is)
-- driving_unit: PILOT → PERCEPTION, which updates status and fills `result`
-- perception_result: PERCEPTION → PILOT (also embedded in the driving unit)
+- driving_unit: PILOT → PERCEPTION, which updates only its status (pending → perceived/failed)
+- perception_result: PERCEPTION → PILOT (posted once per driving unit, its own token)
 - position_estimate, local_path_constraints: PILOT → monitors
 - local_path_plan: PILOT → HELM (newest `seq` wins)
 - map_object: MAP NAVIGATOR (copies of the map; also embedded in segments and driving units)
@@ -28,7 +28,7 @@ from modules.vocabulary.driving import (
 )
 from modules.vocabulary.health import Heartbeat, ModuleState
 from modules.vocabulary.mapdata import (
-    ColourStats, FlatShape, MapObject, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
+    ColourType, FlatShape, MapColour, MapObject, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
     TreeShape,
 )
 from modules.vocabulary.mission import (
@@ -65,7 +65,7 @@ __all__ = [
     "XY", "Cov3", "Frozen", "Polyline2", "Pose", "Ring",
     "DrivingUnitDescription", "LocalPathConstraints", "LocalPathPlan", "PlanPose", "PositionEstimate", "UnitStatus",
     "Heartbeat", "ModuleState",
-    "ColourStats", "FlatShape", "MapObject", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
+    "ColourType", "MapColour", "FlatShape", "MapObject", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
     "StairsShape", "TreeShape",
     "DEFAULT_TOLERANCE_M", "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionStart", "MissionState",
     "MissionStatus", "MissionStep", "MissionStepSpec", "StepConstraints", "StepOutcome", "StepResult", "Trigger", "TriggerAction",

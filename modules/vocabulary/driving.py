@@ -1,7 +1,8 @@
 """Local navigation vocabulary: driving units, position estimates, local path constraints and plans.
 
 Seed §2.3.3: the PILOT's DRIVING MONITOR cuts a route segment into driving units and tells
-PERCEPTION where and what to see (not how); PERCEPTION writes its result into the driving unit;
+PERCEPTION where and what to see (not how); PERCEPTION posts its result once, as a
+`perception_result` token, and sets the driving unit's status;
 the DRIVING UNIT NAVIGATOR plots local path constraints; the LOCAL PATH PLANNER posts local path
 plans from the current pose through all driving units to the far edge of the newest, which the HELM
 tracks.
@@ -11,12 +12,11 @@ from __future__ import annotations
 
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import Field
 
 from blackboard.registry import token_type
 from modules.vocabulary._base import Cov3, Frozen, NonNeg, Polyline2, Pose, Ring, finite
 from modules.vocabulary.mapdata import MapObject
-from modules.vocabulary.perception import PerceptionResult
 from modules.vocabulary.route import NavigationMode
 
 __all__ = [
@@ -30,12 +30,12 @@ UnitStatus = Literal["pending", "perceived", "failed", "cancelled"]
 
 @token_type("driving_unit")
 class DrivingUnitDescription(Frozen):
-    """Where and what PERCEPTION should see in one driving unit (world frame), and what it saw.
+    """Where and what PERCEPTION should see in one driving unit (world frame), and how far it got.
 
     `region` is the ground area of the unit; `centreline` the planned track through it; `objects` the
     predicted map objects visible there; `error_allowance_m` [m] and `heading_allowance_rad` [rad]
-    bound the vehicle position uncertainty PERCEPTION must allow for. PERCEPTION updates `status`
-    and fills `result`.
+    bound the vehicle position uncertainty PERCEPTION must allow for. PERCEPTION updates only
+    `status` (pending → perceived or failed); what it saw is its own `perception_result` token.
     """
 
     unit_id: str
@@ -48,17 +48,7 @@ class DrivingUnitDescription(Frozen):
     error_allowance_m: NonNeg = 0.5
     heading_allowance_rad: NonNeg = 0.05
     status: UnitStatus = "pending"
-    result: PerceptionResult | None = None
     frame: Literal["world"] = "world"
-
-    @model_validator(mode="after")
-    def _result_matches_status(self) -> "DrivingUnitDescription":
-        if self.status in ("perceived", "failed"):
-            if self.result is None:
-                raise ValueError(f"status {self.status!r} needs a result")
-            if self.result.status != self.status:
-                raise ValueError(f"status {self.status!r} disagrees with result.status {self.result.status!r}")
-        return self
 
 
 @token_type("position_estimate")

@@ -5,33 +5,31 @@ Geometry is in the `world` frame (x east, y north) [m]. Mirrors the world/map Ge
 
 from __future__ import annotations
 
-from typing import Annotated, Literal, Union
+from typing import Literal
 
-from pydantic import Field, model_validator
+from pydantic import model_validator
 
 from blackboard.registry import token_type
-from wire.mapfile import Colour, FlatShape, PostShape, PrismShape, Shape, SlopeShape, StairsShape, TreeShape
+from wire.mapfile import ColourType, FlatShape, MapColour, PostShape, PrismShape, Shape, SlopeShape, StairsShape, TreeShape
 from modules.vocabulary._base import XY, Frozen, NonNeg, Ring, finite
 
 __all__ = [
-    "ObjectRole", "ColourStats", "FlatShape", "SlopeShape", "StairsShape", "PrismShape",
+    "ObjectRole", "ColourType", "MapColour", "FlatShape", "SlopeShape", "StairsShape", "PrismShape",
     "TreeShape", "PostShape", "Shape", "MapObject",
 ]
 
 #: Role of an object in navigation (seed §2.3.7).
 ObjectRole = Literal["path", "landmark", "obstacle", "none"]
 
-#: Gaussian colour statistics of a surface (sRGB mean and std [0–255]); the map-file model itself.
-ColourStats = Colour
-
 
 @token_type("map_object")
 class MapObject(Frozen):
     """One object of the map (world frame): polygon or center+radius, role, cost, colour, 3-D shape.
 
-    Copied from `wire.mapfile.WorldObject` (same colour and shape models). `cost` is the traversal cost multiplier per metre;
-    None means not traversable. Exactly one of `polygon` (exterior ring [m]) and `center` (with
-    `radius` [m]) is given. `reflectance` is the laser reflectance [0–1].
+    Copied from `wire.mapfile.WorldObject` (same colour and shape models): the colour is what the map
+    says (a colour type such as GRAY, a nominal colour), never how the surface looks in the world.
+    `cost` is the traversal cost multiplier per metre; None means not traversable. Exactly one of
+    `polygon` (exterior ring [m]) and `center` (with `radius` [m]) is given.
     """
 
     object_id: str
@@ -39,12 +37,11 @@ class MapObject(Frozen):
     role: ObjectRole
     name: str | None = None
     cost: NonNeg | None = None
-    colour: ColourStats | None = None
+    colour: MapColour | None = None
     shape: Shape = FlatShape()
     polygon: Ring | None = None
     center: XY | None = None
     radius: NonNeg | None = None
-    reflectance: Annotated[float, Field(ge=0.0, le=1.0)] = 0.5
     frame: Literal["world"] = "world"
 
     @model_validator(mode="after")

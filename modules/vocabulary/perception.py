@@ -82,8 +82,8 @@ PositionFix = Annotated[Union[PointFix, LineFix], Field(discriminator="kind")]
 class PerceptionResult(Frozen):
     """What PERCEPTION saw for one driving unit: status, detected objects, navigable region, fix.
 
-    Written back into the driving unit description (`DrivingUnitDescription.result`) and also
-    postable on its own. Coordinates are in `frame` (the vehicle frame means the vehicle at
+    Posted once per driving unit, as its own token (the driving unit gets only its status).
+    Coordinates are in `frame` (the vehicle frame means the vehicle at
     `captured_at`); `captured_at` is the image input time [s] sim; `processing_s` is wall time [s].
     """
 

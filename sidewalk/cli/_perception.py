@@ -36,7 +36,8 @@ class FrameSource:
         from vehicle_sim.sensors import CaptureRequest, LaserConfig, extrinsics_for
         from vehicle_sim.worldfile import KINDS, load_world, world_path
 
-        from modules.perception.monitor import ResolutionTable, SensorGeometry
+        from modules.map_navigator.mapdata import map_object
+        from modules.perception.monitor import ResolutionTable
 
         self.kinds = tuple(KINDS)
         path = Path(self.world_name) if self.world_name.endswith(".geojson") else world_path(self.world_name)
@@ -47,7 +48,7 @@ class FrameSource:
         self.request = CaptureRequest()
         laser = LaserConfig()
         self.table = ResolutionTable(sensor_geometry(self.vehicle), max_distance=laser.ambiguity)
-        self.map_objects = tuple(_map_object(o) for o in self.map.objects)
+        self.map_objects = tuple(map_object(o) for o in self.map.objects)
 
     def capture(self, pose: tuple[float, float, float], stamp: float, rng: np.random.Generator):
         """Return (ColoredRangeImage, (H, W) truth class labels (-1 = none/sky), capture seconds) at a true pose."""
@@ -79,28 +80,6 @@ def sensor_geometry(vehicle: str):
         vfov=math.radians(laser.vfov_deg), rows=laser.rows, cols=laser.cols, range_step=laser.range_step,
         x_offset=float(lp[0]),
     )
-
-
-def _map_object(o):
-    """Convert a `vehicle_sim` world object into the vocabulary's MapObject (what a driving unit carries)."""
-    from modules.vocabulary import MapObject
-
-    shape = {k: v for k, v in o.shape.model_dump().items() if not isinstance(v, dict)}
-    d = {
-        "object_id": o.id,
-        "kind": o.kind,
-        "role": o.role,
-        "cost": o.cost if o.cost is not None and math.isfinite(o.cost) else None,
-        "colour": {"mean": tuple(o.colour.mean), "std": tuple(o.colour.std)} if o.colour is not None else None,
-        "shape": shape,
-        "reflectance": o.reflectance,
-    }
-    if o.polygon is None:
-        d["center"] = (float(o.center[0]), float(o.center[1]))
-        d["radius"] = float(o.radius)
-    else:
-        d["polygon"] = tuple((float(a), float(b)) for a, b in o.polygon)
-    return MapObject.model_validate(d)
 
 
 def _mission_routes(src: FrameSource) -> list[np.ndarray]:

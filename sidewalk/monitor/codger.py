@@ -101,9 +101,6 @@ class CodgerInterpreter:
                 return
             m.unit(DrawnUnit(id=uid, index=int(a.get("unit_index", 0) or 0), status=status, mode=str(a.get("mode", "")),
                              region=tuple(points_of(a.get("region"))), centreline=tuple(points_of(a.get("centreline")))))
-            res = a.get("result")
-            if isinstance(res, dict):
-                await self._perceived(res)
         elif ttype == "perception_result":
             if not deleted:
                 await self._perceived(a)

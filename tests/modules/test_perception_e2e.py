@@ -15,7 +15,7 @@ from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import start_node
 from modules.runtime import Link
 from modules.vocabulary import DrivingConstraints, ExitCondition, RouteSegmentDescription
-from sidewalk.cli._perception import _map_object
+from modules.map_navigator.mapdata import map_object
 from wire.drive import TruthPose, decode
 from vehicle_sim.worldfile import load_world
 from tests.modules._procs import ROOT, spawn, stop
@@ -26,7 +26,7 @@ pytestmark = [pytest.mark.e2e, pytest.mark.timeout(240)]
 
 def _segment() -> RouteSegmentDescription:
     m = load_world(ROOT / "worlds" / "campus.map.geojson")
-    objs = tuple(_map_object(m.object(i)) for i in ("sw_dorm", "grass_lower"))
+    objs = tuple(map_object(m.object(i)) for i in ("sw_dorm", "grass_lower"))
     a, b = (0.3, -28.25), (0.22, -12.0)
     return RouteSegmentDescription(
         segment_id="pe-seg-0", plan_id="pe-plan", segment_index=0, mode="follow-road",
@@ -59,9 +59,12 @@ async def test_real_perception_corrects_a_wrong_start_pose() -> None:
             assert res.attrs.success, res.attrs.reason
             units = await bb.retrieve(Spec(type="driving_unit", where=(AttrPredicate(path="segment_id", op="==", value="pe-seg-0"),)))
             assert len(units) >= 2
-            assert all(u.attrs.status == "perceived" for u in units), [(u.attrs.unit_id, u.attrs.result) for u in units]
+            results = {t.attrs.unit_id: t.attrs for t in await bb.retrieve(
+                Spec(type="perception_result", where=(AttrPredicate(path="segment_id", op="==", value="pe-seg-0"),)))}
+            assert all(u.attrs.status == "perceived" for u in units), [(u.attrs.unit_id, results.get(u.attrs.unit_id)) for u in units]
+            assert sorted(results) == sorted(u.attrs.unit_id for u in units)  # one result per unit, each its own token
             for u in units:
-                r = u.attrs.result
+                r = results[u.attrs.unit_id]
                 assert r.sensor == "colour" and r.fix is not None and r.navigable_region is not None
                 tp = min(truth, key=lambda t: abs(t.stamp - r.captured_at))
                 if r.fix.kind == "line":  # a straight walk: exact across it (up to the map's own 0.3 m offset)

@@ -17,14 +17,12 @@ from modules.perception.monitor import (
     select_segmentation,
 )
 from modules.perception.object_finder import find_objects
-from modules.perception.patch_maker import Segmentation
-from modules.perception.patches import make_patches
+from modules.perception.patch_maker import Segmentation, make_patches, SurfaceType
 from modules.perception.predicted import predict, vehicle_to_world, world_to_vehicle
-from modules.perception.range_seg import SurfaceType
-from modules.vocabulary import ColourStats, MapObject, SlopeShape, StairsShape, TreeShape
+from modules.vocabulary import MapColour, MapObject, SlopeShape, StairsShape, TreeShape
 
-GREY = ColourStats(mean=(128.0, 128.0, 126.0), std=(8.0, 8.0, 8.0))
-GREEN = ColourStats(mean=(70.0, 125.0, 55.0), std=(12.0, 15.0, 10.0))
+GRAY = MapColour(type="GRAY", nominal=(128.0, 128.0, 126.0))
+GREEN = MapColour(type="GREEN", nominal=(70.0, 125.0, 55.0))
 
 
 def _ring(poly: Polygon) -> np.ndarray:
@@ -123,9 +121,9 @@ def test_calibrator_with_nothing_in_reach_raises() -> None:
 
 
 def _objects():
-    slope = MapObject(object_id="slope1", kind="slope", role="path", cost=1.0, colour=GREY,
+    slope = MapObject(object_id="slope1", kind="slope", role="path", cost=1.0, colour=GRAY,
                       shape=SlopeShape(rise=1.5, axis_deg=0.0), polygon=((6, -1), (16, -1), (16, 1), (6, 1)))
-    stairs = MapObject(object_id="stairs1", kind="stairs", role="path", cost=3.0, colour=GREY,
+    stairs = MapObject(object_id="stairs1", kind="stairs", role="path", cost=3.0, colour=GRAY,
                        shape=StairsShape(rise=1.5, axis_deg=0.0, step_rise=0.15), polygon=((6, 1), (10, 1), (10, 4), (6, 4)))
     grass = MapObject(object_id="grass1", kind="grass", role="none", colour=GREEN, polygon=((6, -5), (16, -5), (16, -1), (6, -1)))
     tree = MapObject(object_id="tree1", kind="tree", role="landmark", colour=GREEN,
@@ -145,7 +143,7 @@ def test_object_finder_matches_by_symbol_then_geometry() -> None:
     labels[(y >= 1) & (y < 4) & (x < 10)] = 2  # grey rough → stairs
     labels[(y < -1) & (y > -5)] = 3  # green flat → grass
     labels[(y >= 1) & (y < 4) & (x >= 10)] = 4  # grey flat → nothing predicted there
-    colour_of = {1: "GREY", 2: "GREY", 3: "GREEN", 4: "GREY"}
+    colour_of = {1: "GRAY", 2: "GRAY", 3: "GREEN", 4: "GRAY"}
     surface_of = {1: SurfaceType.TILTED, 2: SurfaceType.ROUGH, 3: SurfaceType.FLAT, 4: SurfaceType.FLAT}
     ps = make_patches(labels, xy, valid, colour_of=colour_of, surface_of=surface_of, min_area_m2=0.5)
     prior = (0.3, -0.2, math.radians(1.0))

@@ -7,10 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from modules.perception.colour import ColourModel, colour_type_name
-from modules.perception.overlap import overlap_labels, split_label
-from modules.perception.patches import make_patches
-from modules.perception.range_seg import (
+from modules.perception.patch_maker import ColourModel, ColourModelError, make_patches, overlap_labels, split_label
+from modules.perception.patch_maker.range_seg import (
     SurfaceType,
     jump_edges,
     surface_features,
@@ -75,39 +73,108 @@ def test_jump_edges_mark_both_sides_of_a_depth_step() -> None:
     assert not j[:, :4].any() and not j[:, 6:].any()
 
 
-def test_colour_type_names() -> None:
-    assert colour_type_name((128, 128, 130)) == "GREY"
-    assert colour_type_name((70, 130, 50)) == "GREEN"
-    assert colour_type_name((120, 80, 50)) == "BROWN"
+# What the surfaces look like (unknown to PERCEPTION) and what the map says of them (type, nominal colour).
+GRAY_TRUE, GREEN_TRUE = np.array([130.0, 130, 128]), np.array([70.0, 125, 55])
+MAP_COLOURS = [("GRAY", (165.0, 165.0, 160.0)), ("GREEN", (90.0, 140.0, 70.0))]
+SHADE_TINT = np.array([0.95, 1.0, 1.1])  # this test's own skylight
 
 
-def test_quadratic_discrimination_and_adaptation() -> None:
-    rng = np.random.default_rng(7)
-    grey, green = np.array([130.0, 130, 128]), np.array([70.0, 125, 55])
-    model = ColourModel.from_predicted([(grey, (8, 8, 8)), (green, (12, 15, 10))])
-    assert model.types == ("GREY", "GREEN")
+def _scene(rng: np.random.Generator, shade: float = 0.45) -> tuple[np.ndarray, np.ndarray]:
+    """Return a 40×40 image (gray walk left, green lawn right, the lower half in shade) and its truth (0 gray, 1 green)."""
     img = np.zeros((40, 40, 3))
     truth = np.zeros((40, 40), int)
     truth[:, 20:] = 1
-    img[truth == 0] = rng.normal(grey, 8, ((truth == 0).sum(), 3))
-    img[truth == 1] = rng.normal(green, 12, ((truth == 1).sum(), 3))
-    lab, cls, post = model.classify(img)
-    assert np.mean(lab == truth + 1) > 0.97
-    # shaded pixels (half brightness) still get their colour type
-    lab_s, _, _ = model.classify(img * 0.5)
-    assert np.mean(lab_s == truth + 1) > 0.9
-    # the light turns warmer frame after frame: a frozen model loses grey, the adapted one keeps up
-    frozen = ColourModel.from_predicted([(grey, (8, 8, 8)), (green, (12, 15, 10))])
+    img[truth == 0] = rng.normal(GRAY_TRUE, 6, ((truth == 0).sum(), 3))
+    img[truth == 1] = rng.normal(GREEN_TRUE, 10, ((truth == 1).sum(), 3))
+    img[20:] *= shade * SHADE_TINT
+    return img, truth
+
+
+def _strips(truth: np.ndarray) -> np.ndarray:
+    """Return what the PERCEPTION MONITOR vouches for: a strip well inside each object, across sun and shade."""
+    known = np.zeros_like(truth)
+    known[:, 4:8] = 1
+    known[:, 30:34] = 2
+    return known
+
+
+def test_colour_classes_start_from_the_map_and_fit_the_labelled_pixels() -> None:
+    rng = np.random.default_rng(7)
+    img, truth = _scene(rng)
+    model = ColourModel.from_map(MAP_COLOURS)
+    assert model.types == ("GRAY", "GREEN")
+    assert [c.name.split("-")[-1] for c in model.classes] == ["lit", "shade", "lit", "shade"]
+    lab0, _, _ = model.classify(img)
+    before = np.mean(lab0 == truth + 1)
+    assert model.train(img, _strips(truth)) > 200
+    lab, _, _ = model.classify(img)
+    after = np.mean(lab == truth + 1)
+    assert after > 0.98 and after >= before
+    lit, shade = model.current()[0], model.current()[1]
+    # the lit class moved most of the way from the nominal to the walk's true colour, the shaded one to its shade
+    assert np.linalg.norm(np.array(lit.mean) - GRAY_TRUE) < 0.3 * np.linalg.norm(np.array(MAP_COLOURS[0][1]) - GRAY_TRUE)
+    shaded = 0.45 * GRAY_TRUE * SHADE_TINT
+    start = np.array(ColourModel.from_map(MAP_COLOURS).classes[1].mean)
+    assert np.linalg.norm(np.array(shade.mean) - shaded) < 0.3 * np.linalg.norm(start - shaded)
+    # a frame of another place, in another shade: the fitted classes still hold
+    img2, truth2 = _scene(np.random.default_rng(8), shade=0.5)
+    lab2, _, _ = model.classify(img2)
+    assert np.mean(lab2 == truth2 + 1) > 0.97
+
+
+def test_training_ignores_what_does_not_look_like_its_type() -> None:
+    img, truth = _scene(np.random.default_rng(3))
+    img[2:6, 4:8] = (150.0, 100.0, 50.0)  # leaves on the walk, inside the strip vouched for as GRAY
+    model = ColourModel.from_map(MAP_COLOURS)
+    model.train(img, _strips(truth))
+    lit = model.current()[0]
+    assert np.linalg.norm(np.array(lit.mean) - GRAY_TRUE) < 0.3 * np.linalg.norm(np.array(MAP_COLOURS[0][1]) - GRAY_TRUE)
+    assert lit.mean[2] > 0.9 * lit.mean[0]  # the leaves (little blue) did not drag the class towards brown
+    assert ColourModel.from_map(MAP_COLOURS).train(img, np.zeros_like(truth)) == 0  # nothing vouched for, nothing learnt
+
+
+def test_the_classes_follow_the_light_frame_after_frame() -> None:
+    img, truth = _scene(np.random.default_rng(7), shade=1.0)
+    model = ColourModel.from_map(MAP_COLOURS)
+    model.train(img, _strips(truth))
+    frozen = ColourModel.from_map(MAP_COLOURS)
+    frozen.train(img, _strips(truth))
+    # the light turns warmer frame after frame: a frozen model loses gray, the adapted one keeps up
     for k in range(1, 11):
         frame = np.clip(img + k * np.array([5.0, 0.0, -5.0]), 0, 255)
-        lab, cls, post = model.classify(frame)
-        model.adapt(frame, cls, post, rate=0.5)
+        lab, _, post = model.classify(frame)
+        model.adapt(frame, lab, post, rate=0.5)
     lab, _, _ = model.classify(frame)
     lab_frozen, _, _ = frozen.classify(frame)
     assert np.mean(lab == truth + 1) > 0.95
     assert np.mean(lab_frozen == truth + 1) < np.mean(lab == truth + 1) - 0.1
-    sun_grey = model.current()[0]
-    assert sun_grey.mean[0] > 150.0 and sun_grey.mean[2] < 110.0  # the class moved with the light
+    lit_gray = model.current()[0]
+    assert lit_gray.mean[0] > 150.0 and lit_gray.mean[2] < 110.0  # the class moved with the light
+
+
+def test_bad_colours_are_named() -> None:
+    with pytest.raises(ColourModelError, match="three finite channels"):
+        ColourModel.from_map([("GRAY", (1.0, 2.0))])
+    with pytest.raises(ColourModelError, match="no colour type"):
+        ColourModel.from_map([("", (1.0, 2.0, 3.0))])
+
+
+def test_small_specks_join_the_patch_around_them() -> None:
+    h, w = 30, 40
+    labels = np.ones((h, w), int)
+    labels[:, 20:] = 2
+    labels[10:12, 5:7] = 0  # a rejected speck (leaves) inside the walk
+    labels[14:16, 19:21] = 3  # a speck of another colour astride the border between walk and lawn
+    rows, cols = np.mgrid[0:h, 0:w]
+    xy = np.stack([0.1 * (h - rows), -0.1 * cols], axis=-1).astype(np.float32)
+    valid = np.ones((h, w), bool)
+    colours = {1: "GRAY", 2: "GREEN", 3: "BROWN"}
+    ps = make_patches(labels, xy, valid, colour_of=colours, min_area_m2=0.1)
+    walk = next(p for p in ps.patches if p.label == 1)
+    assert (ps.ids[10:12, 5:7] == walk.id).all()  # swallowed by the walk around it
+    assert (ps.ids[14:16, 19:21] == 0).all()  # half beside each: nobody's
+    kept = make_patches(labels, xy, valid, colour_of=colours, min_area_m2=0.1, speck_pixels=0)
+    assert (kept.ids[10:12, 5:7] == 0).all()
 
 
 def test_overlap_is_the_and_of_colour_and_surface() -> None:
@@ -130,7 +197,7 @@ def test_labelled_image_gives_the_known_patches() -> None:
     rows, cols = np.mgrid[0:h, 0:w]
     xy = np.stack([0.1 * (h - rows), -0.1 * cols], axis=-1).astype(np.float32)
     valid = labels > 0  # no data where nothing is labelled
-    ps = make_patches(labels, xy, valid, colour_of={1: "GREY", 2: "GREEN"}, min_area_m2=0.2)
+    ps = make_patches(labels, xy, valid, colour_of={1: "GRAY", 2: "GREEN"}, min_area_m2=0.2)
     assert len(ps.patches) == 3
     by_area = sorted(ps.patches, key=lambda p: -p.area_m2)
     big1 = [p for p in by_area if p.label == 1][0]
@@ -140,7 +207,7 @@ def test_labelled_image_gives_the_known_patches() -> None:
     assert small.area_m2 == pytest.approx(0.7 * 0.7, rel=0.2)
     assert big2.id in big1.neighbours and big1.id in big2.neighbours
     assert small.neighbours == ()
-    assert big1.colour_type == "GREY" and big2.colour_type == "GREEN"
+    assert big1.colour_type == "GRAY" and big2.colour_type == "GREEN"
     assert big1.centroid[1] == pytest.approx(-0.1 * 17, abs=0.15)
     # the shared edge is an object edge (another colour beside it); the outer edges beside missing data are not
     assert not any(big1.edge_flags)  # its corners all touch missing data
@@ -148,3 +215,23 @@ def test_labelled_image_gives_the_known_patches() -> None:
     assert big1.boundary_flags[on_shared].mean() > 0.6
     assert not big1.boundary_flags[big1.boundary[:, 0] > 0.1 * (h - 6)].any()
     assert (ps.ids[labels == 0] == 0).all()
+
+
+def test_perception_copies_no_constant_of_the_renderer() -> None:
+    """The camera's ambient factor and sky tint are the simulator's; PERCEPTION must learn shade from the images."""
+    import io
+    import tokenize
+    from pathlib import Path
+
+    from vehicle_sim.sensors import camera
+
+    perception = Path(__file__).resolve().parents[2] / "modules" / "perception"
+    literals: dict[float, str] = {}
+    for path in perception.rglob("*.py"):
+        for tok in tokenize.generate_tokens(io.StringIO(path.read_text()).readline):
+            if tok.type == tokenize.NUMBER:
+                literals[round(float(tok.string), 6)] = f"{path.name}:{tok.start[0]}"
+    ambient = round(camera.CameraConfig().ambient, 6)
+    assert ambient not in literals, f"the camera's ambient factor {ambient} at {literals.get(ambient)}"
+    tint = [round(float(v), 6) for v in camera._SKY_TINT]  # one channel alone (0.9) may be a coincidence, not all three
+    assert not all(v in literals for v in tint), f"the camera's sky tint {tint} at {[literals[v] for v in tint]}"

@@ -153,9 +153,10 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
                         fix=PointFix(pose=Pose(x=tp.x, y=tp.y, yaw=tp.yaw),
                                      covariance=(0.05**2, 0, 0, 0, 0.05**2, 0, 0, 0, 0.01**2)),
                     )
-                    # PERCEPTION's answer is a perception_result token: the PILOT reads nothing else.
+                    # PERCEPTION's answer is a perception_result token (the PILOT reads nothing else); the unit gets only its status.
                     captured.add(tp.stamp)
                     await bb.post(res, frame="world", stamp=tp.stamp)
+                    await bb.update(ev.token.id, du.model_copy(update={"status": "perceived"}), expected_version=ev.token.version)
                     answered.append(du.unit_id)
 
             mon_task = asyncio.ensure_future(perceive())

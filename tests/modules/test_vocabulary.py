@@ -11,8 +11,8 @@ from pydantic import ValidationError
 
 import modules.vocabulary as voc
 from modules.vocabulary import (
-    ColourStats, Destination, DetectedObject, DrivingConstraints, DrivingUnitDescription, ExitCondition,
-    FlatShape, Heartbeat, LineFix, LocalPathConstraints, LocalPathPlan, MapObject, Mission, MissionStatus,
+    Destination, DetectedObject, DrivingConstraints, DrivingUnitDescription, ExitCondition,
+    FlatShape, Heartbeat, LineFix, LocalPathConstraints, LocalPathPlan, MapColour, MapObject, Mission, MissionStatus,
     MissionStep, MissionStepSpec, PerceptionResult, PlanPose, PointFix, Pose, PositionEstimate, RoutePlan,
     RouteSegmentDescription, SegmentResult, SlopeShape, StepConstraints, StepOutcome, StepResult, Trigger,
 )
@@ -24,7 +24,7 @@ COV = (0.04, 0.0, 0.0, 0.0, 0.04, 0.0, 0.0, 0.0, 0.001)
 def _sidewalk() -> MapObject:
     return MapObject(
         object_id="sw1", kind="sidewalk", role="path", cost=1.0,
-        colour=ColourStats(mean=(150, 150, 150), std=(8, 8, 8)), shape=FlatShape(), polygon=SQUARE,
+        colour=MapColour(type="GRAY", nominal=(150, 150, 150)), shape=FlatShape(), polygon=SQUARE,
     )
 
 
@@ -77,7 +77,7 @@ def _samples() -> list:
         DrivingUnitDescription(unit_id="u1", segment_id="s1", unit_index=0, mode="follow-road", region=SQUARE,
                                centreline=((0.0, 1.5), (4.0, 1.5)), objects=(_sidewalk(),)),
         DrivingUnitDescription(unit_id="u1", segment_id="s1", unit_index=0, mode="follow-road", region=SQUARE,
-                               centreline=((0.0, 1.5), (4.0, 1.5)), status="perceived", result=_result()),
+                               centreline=((0.0, 1.5), (4.0, 1.5)), status="perceived"),
         _result(),
         PerceptionResult(unit_id="u2", segment_id="s1", status="perceived", captured_at=3.0, sensor="colour",
                          fix=PointFix(pose=Pose(x=1.0, y=2.0, yaw=0.1), covariance=COV)),
@@ -137,6 +137,17 @@ def test_non_finite_numbers_and_bad_rings_are_rejected() -> None:
         PointFix(pose=Pose(x=0, y=0), covariance=(1, 2, 0, 0, 1, 0, 0, 0, 1))
 
 
+def test_a_map_object_states_a_colour_type_never_the_world_s_appearance() -> None:
+    with pytest.raises(ValidationError, match="type"):
+        MapObject(object_id="a", kind="sidewalk", role="path", polygon=SQUARE, colour={"mean": (150, 150, 150), "std": (8, 8, 8)})
+    with pytest.raises(ValidationError, match="GRAY"):
+        MapColour(type="GREY", nominal=(150, 150, 150))
+    with pytest.raises(ValidationError, match="appearance"):
+        MapObject(object_id="a", kind="sidewalk", role="path", polygon=SQUARE, appearance={"mean": (1, 2, 3), "std": (1, 1, 1)})
+    with pytest.raises(ValidationError, match="reflectance"):
+        MapObject(object_id="a", kind="sidewalk", role="path", polygon=SQUARE, reflectance=0.5)
+
+
 def test_map_object_footprint_is_outline_xor_point() -> None:
     with pytest.raises(ValidationError, match="exactly one"):
         MapObject(object_id="a", kind="tree", role="obstacle")
@@ -145,13 +156,11 @@ def test_map_object_footprint_is_outline_xor_point() -> None:
     assert not MapObject(object_id="b", kind="building", role="obstacle", polygon=SQUARE).traversable
 
 
-def test_driving_unit_status_and_result_agree() -> None:
-    with pytest.raises(ValidationError, match="needs a result"):
+def test_the_driving_unit_carries_a_status_never_the_result() -> None:
+    # PERCEPTION's result is written once, as its own perception_result token
+    with pytest.raises(ValidationError, match="result"):
         DrivingUnitDescription(unit_id="u", segment_id="s", unit_index=0, mode="follow-road", region=SQUARE,
-                               centreline=((0, 0), (1, 0)), status="perceived")
-    with pytest.raises(ValidationError, match="disagrees"):
-        DrivingUnitDescription(unit_id="u", segment_id="s", unit_index=0, mode="follow-road", region=SQUARE,
-                               centreline=((0, 0), (1, 0)), status="failed", result=_result())
+                               centreline=((0, 0), (1, 0)), status="perceived", result=_result())
     with pytest.raises(ValidationError, match="failure_reason"):
         PerceptionResult(unit_id="u", segment_id="s", status="failed", captured_at=0.0, sensor="colour")
 

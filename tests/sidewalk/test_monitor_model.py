@@ -43,17 +43,19 @@ async def test_codger_tokens_become_what_the_page_draws():
     await c.on_token("updated", tok("route_segment", {"segment_id": "s1", "centreline": line, "state": "cancelled"}))
     assert m.section("segment") is None
     unit = {"unit_id": "u1", "unit_index": 0, "status": "perceived", "mode": "follow-road", "region": [[0, 0], [2, 0], [2, 2]],
-            "centreline": line, "result": {"unit_id": "u1", "status": "perceived", "captured_at": 2.0, "frame": "vehicle",
-                                           "navigable_region": [[1, 0], [2, 0], [2, 1]], "view_frame": [[0, 0], [5, -2], [5, 2]],
-                                           "detected": [{"outline": [[1, 1], [2, 1], [2, 2]]}], "extra": "ignored"}}
+            "centreline": line}
     await c.on_token("updated", tok("driving_unit", unit))
+    assert m.section("perceived") == []  # the unit carries only its status; what PERCEPTION saw is its own token
+    await c.on_token("new", tok("perception_result", {"unit_id": "u1", "status": "perceived", "captured_at": 2.0, "frame": "vehicle",
+                                                      "navigable_region": [[1, 0], [2, 0], [2, 1]], "view_frame": [[0, 0], [5, -2], [5, 2]],
+                                                      "detected": [{"outline": [[1, 1], [2, 1], [2, 2]]}], "extra": "ignored"}))
     (u,) = m.section("units")
     assert u["id"] == "u1" and u["status"] == "perceived"
     (p,) = m.section("perceived")
     # vehicle@2 → world: (12, 0) + rotation by π/2: (x, y) → (12 - y, x)
     assert p["navigable_region"][0] == pytest.approx((12.0, 1.0)) and p["view_frame"][1] == pytest.approx((14.0, 5.0))
     assert len(p["detected"]) == 1
-    await c.on_token("updated", tok("driving_unit", {**unit, "status": "cancelled", "result": None}))
+    await c.on_token("updated", tok("driving_unit", {**unit, "status": "cancelled"}))
     assert m.section("units") == [] and m.section("perceived") == []
     await c.on_token("new", tok("local_path_plan", {"seq": 1, "frame": "local", "poses": [{"x": 0, "y": 0}, {"x": 1, "y": 0}]}))
     assert m.section("plan")["points"] == []  # no world←local yet: nothing to draw it through

@@ -102,7 +102,7 @@ def _tokens() -> list[dict]:
                                                         path_object_ids=("w",), centreline=line, width_m=2.0, length_m=4.0,
                                                         exit=ExitCondition(point=line[1], gate=((0.0, 4.0), (2.0, 4.0)), heading=1.57))),
         _token("driving_unit", DrivingUnitDescription(unit_id="u1", segment_id="s1", unit_index=0, mode="follow-road",
-                                                      region=ring, centreline=line, status="perceived", result=res)),
+                                                      region=ring, centreline=line, status="perceived")),
         _token("perception_result", res),
         _token("local_path_plan", LocalPathPlan(seq=3, segment_id="s1", poses=(PlanPose(x=0, y=0, yaw=0, speed=1),
                                                                              PlanPose(x=1, y=0, yaw=0, speed=1))), frame="local"),

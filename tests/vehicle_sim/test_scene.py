@@ -10,8 +10,9 @@ import pytest
 from vehicle_sim.scene import LABEL_SKY, MATERIAL_SKY, Scene
 from vehicle_sim.worldfile import (
     KINDS,
-    Colour,
+    Appearance,
     FlatShape,
+    MapColour,
     PostShape,
     PrismShape,
     SlopeShape,
@@ -22,8 +23,13 @@ from vehicle_sim.worldfile import (
     WorldObject,
 )
 
-GREY = Colour(mean=(150.0, 150.0, 148.0), std=(6.0, 6.0, 6.0))
-GREEN = Colour(mean=(70.0, 120.0, 50.0), std=(10.0, 14.0, 8.0))
+def look(mean: tuple, std: tuple, ctype: str = "GRAY") -> dict:
+    """Return the colour fields of a test object: its map colour (type, nominal = mean) and its appearance."""
+    return {"colour": MapColour(type=ctype, nominal=mean), "appearance": Appearance(mean=mean, std=std)}
+
+
+GREY = look((150.0, 150.0, 148.0), (6.0, 6.0, 6.0))
+GREEN = look((70.0, 120.0, 50.0), (10.0, 14.0, 8.0), "GREEN")
 
 
 def box(x0: float, y0: float, x1: float, y1: float) -> tuple:
@@ -36,21 +42,21 @@ def synthetic_world(*, extra: tuple = (), sun: Sun = Sun(azimuth_deg=200.0, elev
     stairs (right, y < 0: 10 steps up 1.5 m over x 10–15 m) and slope (left: 1.5 m over x 10–20 m) with a
     grass bank in the slope's plane beside it, a plaza on top (z 1.5 m), a building, a tree, a mailbox."""
     objs = [
-        WorldObject(id="grass", kind="grass", role="none", cost=3.0, colour=GREEN, shape=FlatShape(), polygon=box(-60, -60, 60, 60)),
-        WorldObject(id="walk", kind="sidewalk", role="path", cost=1.0, colour=GREY, shape=FlatShape(), polygon=box(-5, -1.5, 10, 1.5)),
-        WorldObject(id="ramp", kind="slope", role="path", cost=1.0, colour=GREY, shape=SlopeShape(rise=1.5, axis_deg=0.0),
+        WorldObject(id="grass", kind="grass", role="none", cost=3.0, **GREEN, shape=FlatShape(), polygon=box(-60, -60, 60, 60)),
+        WorldObject(id="walk", kind="sidewalk", role="path", cost=1.0, **GREY, shape=FlatShape(), polygon=box(-5, -1.5, 10, 1.5)),
+        WorldObject(id="ramp", kind="slope", role="path", cost=1.0, **GREY, shape=SlopeShape(rise=1.5, axis_deg=0.0),
                     polygon=box(10, 0, 20, 5)),
-        WorldObject(id="bank", kind="grass", role="none", cost=3.0, colour=GREEN, shape=SlopeShape(rise=1.5, axis_deg=0.0),
+        WorldObject(id="bank", kind="grass", role="none", cost=3.0, **GREEN, shape=SlopeShape(rise=1.5, axis_deg=0.0),
                     polygon=box(10, 5, 20, 12)),
-        WorldObject(id="steps", kind="stairs", role="path", cost=1.0, colour=GREY,
+        WorldObject(id="steps", kind="stairs", role="path", cost=1.0, **GREY,
                     shape=StairsShape(rise=1.5, axis_deg=0.0, step_rise=0.15), polygon=box(10, -5, 15, 0)),
-        WorldObject(id="top1", kind="sidewalk", role="path", cost=1.0, colour=GREY, shape=FlatShape(z=1.5), polygon=box(15, -5, 30, 0)),
-        WorldObject(id="top2", kind="sidewalk", role="path", cost=1.0, colour=GREY, shape=FlatShape(z=1.5), polygon=box(20, 0, 30, 5)),
-        WorldObject(id="hall", kind="building", role="landmark", colour=Colour(mean=(160.0, 90.0, 70.0), std=(8.0, 6.0, 6.0)),
+        WorldObject(id="top1", kind="sidewalk", role="path", cost=1.0, **GREY, shape=FlatShape(z=1.5), polygon=box(15, -5, 30, 0)),
+        WorldObject(id="top2", kind="sidewalk", role="path", cost=1.0, **GREY, shape=FlatShape(z=1.5), polygon=box(20, 0, 30, 5)),
+        WorldObject(id="hall", kind="building", role="landmark", **look((160.0, 90.0, 70.0), (8.0, 6.0, 6.0), "BROWN"),
                     shape=PrismShape(height=6.0), polygon=box(25, 8, 32, 16)),
-        WorldObject(id="oak", kind="tree", role="obstacle", colour=Colour(mean=(92.0, 72.0, 54.0), std=(8.0, 8.0, 8.0)),
+        WorldObject(id="oak", kind="tree", role="obstacle", **look((92.0, 72.0, 54.0), (8.0, 8.0, 8.0), "BROWN"),
                     shape=TreeShape(trunk_radius=0.2, crown_radius=2.0, height=6.0, crown_base=2.5), center=(8.0, -3.0), radius=0.2),
-        WorldObject(id="box1", kind="mailbox", role="landmark", colour=Colour(mean=(40.0, 60.0, 140.0), std=(5.0, 5.0, 5.0)),
+        WorldObject(id="box1", kind="mailbox", role="landmark", **look((40.0, 60.0, 140.0), (5.0, 5.0, 5.0), "BLUE"),
                     shape=PostShape(height=1.1), center=(6.0, 2.2), radius=0.25),
         *extra,
     ]
@@ -148,3 +154,27 @@ def test_column_order_does_not_change_what_is_seen(scene: Scene) -> None:
     np.testing.assert_array_equal(a.label, b.label[:, ::-1])
     np.testing.assert_allclose(a.s, b.s[:, ::-1], rtol=1e-6)
     assert (a.label == KINDS.index("building")).sum() > 50
+
+
+def test_weather_comes_and_goes_on_the_ground_covers_only(world: World) -> None:
+    """Wet patches and leaves change the ground over a run (seeded: the same at the same time), never the solids."""
+    from vehicle_sim.worldfile import Weather
+
+    wet = World(name="wet", objects=world.objects, sun=world.sun,
+                weather=Weather(wet_cover=0.3, leaf_cover=0.1, swing=0.8, period_s=100.0))
+    dry, rainy, again = Scene(world, seed=3), Scene(wet, seed=3), Scene(wet, seed=3)
+    az = np.linspace(0.6, -0.6, 120)
+    el = np.linspace(-0.15, -0.6, 60)
+    hits = rainy.cast(np.array([-4.0, 0.0, 1.6]), az, el)
+    ground = np.isin(hits.material, [1, 2])  # the lawn and the walk
+    assert ground.mean() > 0.5
+    base = dry.albedo(hits, 0.0)
+    wet_a, wet_b = rainy.covers_at(0.0), rainy.covers_at(30.0)
+    assert wet_a != wet_b and all(0.0 < c < 1.0 for c in wet_a + wet_b)
+    a, b = rainy.albedo(hits, 0.0), rainy.albedo(hits, 30.0)
+    np.testing.assert_array_equal(a, again.albedo(hits, 0.0))  # reproducible from the seed
+    changed = np.any(np.abs(a - base) > 1.0, axis=-1)
+    assert 0.05 < changed[ground].mean() < 0.8  # patches of the ground, not all of it
+    assert not changed[~ground & hits.hit].any()  # trees, buildings and mailboxes stay as they are
+    assert np.any(np.abs(a - b) > 1.0, axis=-1)[ground].mean() > 0.02  # and the patches move over the run
+    assert dry.albedo(hits, 0.0).tolist() == dry.albedo(hits, 30.0).tolist()  # no weather: nothing changes

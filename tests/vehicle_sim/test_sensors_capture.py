@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import shapely
 
-from tests.vehicle_sim.test_scene import box, synthetic_world
+from tests.vehicle_sim.test_scene import box, look, synthetic_world
 from vehicle_sim.scene import Scene
 from vehicle_sim.sensors import (
     CaptureDecodeError,
@@ -24,10 +24,10 @@ from vehicle_sim.sensors import (
 )
 from vehicle_sim.sensors.camera import CameraConfig
 from vehicle_sim.sensors.laser import LaserConfig
-from vehicle_sim.worldfile import KINDS, Colour, FlatShape, WorldObject
+from vehicle_sim.worldfile import KINDS, FlatShape, WorldObject
 from wire.capture import TRUTH_FIELDS
 
-MARK = WorldObject(id="mark", kind="intersection", role="path", cost=1.0, colour=Colour(mean=(200.0, 40.0, 40.0), std=(3.0, 3.0, 3.0)),
+MARK = WorldObject(id="mark", kind="intersection", role="path", cost=1.0, **look((200.0, 40.0, 40.0), (3.0, 3.0, 3.0), "RED"),
                    shape=FlatShape(), polygon=box(7.0, -0.9, 7.6, -0.3))
 
 

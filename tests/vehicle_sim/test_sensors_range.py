@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.vehicle_sim.test_scene import GREEN, box
+from tests.vehicle_sim.test_scene import GREEN, box, look
 from vehicle_sim.scene import Scene
 from vehicle_sim.sensors.laser import (
     LaserConfig,
@@ -17,17 +17,17 @@ from vehicle_sim.sensors.laser import (
     range_sigma,
     scan,
 )
-from vehicle_sim.worldfile import KINDS, Colour, FlatShape, PrismShape, World, WorldObject
+from vehicle_sim.worldfile import KINDS, FlatShape, PrismShape, World, WorldObject
 
-WALL = Colour(mean=(150.0, 140.0, 130.0), std=(5.0, 5.0, 5.0))
+WALL = look((150.0, 140.0, 130.0), (5.0, 5.0, 5.0))
 QUIET = LaserConfig(sigma0=0.0, sigma_k=0.0, mixed_probability=0.0, reflectance_noise=0.0)
 
 
 def walls_world(*walls: tuple) -> World:
     """Return flat grass with tall walls (boxes [m])."""
-    objs = [WorldObject(id="grass", kind="grass", role="none", cost=3.0, colour=GREEN, shape=FlatShape(), polygon=box(-80, -80, 80, 80))]
+    objs = [WorldObject(id="grass", kind="grass", role="none", cost=3.0, **GREEN, shape=FlatShape(), polygon=box(-80, -80, 80, 80))]
     for i, b in enumerate(walls):
-        objs.append(WorldObject(id=f"wall{i}", kind="building", role="landmark", colour=WALL, shape=PrismShape(height=20.0), polygon=box(*b)))
+        objs.append(WorldObject(id=f"wall{i}", kind="building", role="landmark", **WALL, shape=PrismShape(height=20.0), polygon=box(*b)))
     return World(name="walls", objects=objs)
 
 

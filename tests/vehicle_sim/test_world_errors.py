@@ -15,7 +15,8 @@ def _sidewalk(fid="sw1", **over):
         "type": "Feature",
         "geometry": {"type": "Polygon", "coordinates": [[[0, 0], [10, 0], [10, 2], [0, 2], [0, 0]]]},
         "properties": {"id": fid, "kind": "sidewalk", "role": "path", "cost": 1.0,
-                       "colour": {"mean": [150, 150, 150], "std": [8, 8, 8]}, "shape": {"type": "flat", "z": 0.0}},
+                       "colour": {"type": "GRAY", "nominal": [150, 150, 150]},
+                       "appearance": {"mean": [146, 144, 140], "std": [8, 8, 8]}, "shape": {"type": "flat", "z": 0.0}},
     }
     f["properties"].update(over)
     return f
@@ -71,7 +72,13 @@ def test_not_a_feature_collection(tmp_path):
     [
         (lambda d: d["features"][0]["properties"].update(kind="sidwalk"), "properties.kind", "unknown kind 'sidwalk'"),
         (lambda d: d["features"][0]["properties"].pop("colour"), "properties.colour", "required field is missing"),
-        (lambda d: d["features"][0]["properties"]["colour"].update(mean=[300, 0, 0]), "properties.colour.mean", "0..255"),
+        (lambda d: d["features"][0]["properties"]["colour"].update(nominal=[300, 0, 0]), "properties.colour.nominal", "0..255"),
+        (lambda d: d["features"][0]["properties"]["colour"].update(type="GREY"), "properties.colour.type", "'GRAY'"),
+        (lambda d: d["features"][0]["properties"].update(colour={"mean": [150, 150, 150], "std": [8, 8, 8]}),
+         "properties.colour", 'belong in "appearance"'),
+        (lambda d: d["features"][0]["properties"]["appearance"].update(mean=[300, 0, 0]), "properties.appearance.mean", "0..255"),
+        (lambda d: d["features"][0]["properties"]["appearance"].update(reflectance=2.0), "properties.appearance.reflectance", "1"),
+        (lambda d: d["features"][0]["properties"].update(reflectance=0.5), "properties.reflectance", "unknown field"),
         (lambda d: d["features"][0]["properties"].update(color={"mean": [1, 2, 3]}), "properties.color", "unknown field"),
         (lambda d: d["features"][0]["properties"].update(role="road"), "properties.role", "path"),
         (lambda d: d["features"][0]["properties"].update(cost=-1.0), "properties.cost", ">= 0"),
@@ -109,7 +116,7 @@ def test_point_objects_need_a_radius(tmp_path):
     data = _good()
     data["features"].append({"type": "Feature", "geometry": {"type": "Point", "coordinates": [5, 5]},
                              "properties": {"id": "mb", "kind": "mailbox", "role": "landmark",
-                                            "colour": {"mean": [0, 0, 200], "std": [5, 5, 5]}, "shape": {"type": "post", "height": 1.1}}})
+                                            "colour": {"type": "BLUE", "nominal": [0, 0, 200]}, "shape": {"type": "post", "height": 1.1}}})
     _, err = _problems(tmp_path, data)
     (p,) = err.problems
     assert p.index == 4 and p.feature_id == "mb" and p.field == "properties.radius"
@@ -153,10 +160,10 @@ def test_parse_world_source_is_named():
 
 def test_reference_problems_come_with_feature_problems_and_indices(tmp_path):
     data = _good()
-    data["features"][0]["properties"]["colour"]["std"] = [-1, 0, 0]  # the sidewalk is broken …
+    data["features"][0]["properties"]["appearance"]["std"] = [-1, 0, 0]  # the sidewalk is broken …
     data["features"][3]["properties"]["to"] = "nowhere"  # … and the edge points at nothing
     _, err = _problems(tmp_path, data)
     fields = {(p.index, p.field) for p in err.problems}
-    assert (0, "properties.colour.std") in fields and (3, "properties.to") in fields
+    assert (0, "properties.appearance.std") in fields and (3, "properties.to") in fields
     # the edge's reference to the broken sidewalk is not reported as "unknown object"
     assert "unknown object 'sw1'" not in str(err)

@@ -241,7 +241,26 @@ def test_shipped_map_is_derived_with_default_error(campus):
     shipped = load_world("campus", kind="map")
     assert shipped.to_geojson() == map_for(campus, 1.0, 0).to_geojson()
     exact = derive_map(campus, NO_MAP_ERROR, np.random.default_rng(0))
-    assert exact.to_geojson()["features"] == campus.to_geojson()["features"]
+    # with no error the map is the world as a map states it: the same geometry, colour types, no appearance
+    told = [o.as_mapped().to_feature() for o in campus.objects] + [f.to_feature() for f in (*campus.nodes, *campus.edges)]
+    assert exact.to_geojson()["features"] == told
+
+
+@pytest.mark.parametrize("name", ["campus", "north_hills"])
+def test_maps_state_colour_types_and_worlds_keep_the_appearance(name):
+    """A map says what the paper's map said (GRAY, GREEN, a nominal colour); how surfaces look stays in the world."""
+    world, shipped = load_world(name), load_world(name, kind="map")
+    assert all(o.appearance is None for o in shipped.objects) and shipped.weather is None
+    assert "appearance" not in world_path(name, kind="map").read_text() and "weather" not in world_path(name, kind="map").read_text()
+    assert all(o.appearance is not None for o in world.objects) and world.weather is not None
+    assert world.weather.wet_cover > 0 and world.weather.leaf_cover > 0
+    walks = [o for o in world.objects if o.kind in ("sidewalk", "road")]
+    # one material, one map colour; each object weathered on its own, none exactly the catalogue colour
+    assert len({o.colour for o in walks}) == 1
+    assert len({o.appearance.mean for o in walks}) == len(walks)
+    nominal = np.array(walks[0].colour.nominal)
+    gaps = [float(np.abs(np.array(o.appearance.mean) - nominal).max()) for o in walks]
+    assert min(gaps) > 1.0 and max(gaps) > 15.0
 
 
 def test_derive_map_error_model(campus):

@@ -127,7 +127,7 @@ def shoot(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: Cam
     """Render the camera image from the camera origin (3,) [m] (world) at vehicle heading yaw [rad], sim time stamp [s]."""
     cfg = model.config
     hits = scene.cast(origin, yaw + model.grid_az, model.grid_el, reach=cfg.reach)
-    alb = scene.albedo(hits)
+    alb = scene.albedo(hits, stamp)
     sun = scene.sun_factor(hits)
     amb = cfg.ambient * _SKY_TINT
     light = amb[None, None, :] + (1.0 - cfg.ambient) * sun[..., None]

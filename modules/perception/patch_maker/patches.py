@@ -85,6 +85,44 @@ def _neighbour_pairs(ids: np.ndarray, reach: int = 2) -> set[tuple[int, int]]:
     return pairs
 
 
+def _absorb_specks(ids: np.ndarray, usable: np.ndarray, max_pixels: int, share: float = 0.6) -> set[int]:
+    """Give each speck of usable, patchless pixels (≤ `max_pixels`) to the patch holding at least `share` of
+    its border (8-neighbours), in place; return the ids of the patches grown."""
+    free = ((ids == 0) & usable).astype(np.uint8)
+    n, cc, stats, _ = cv2.connectedComponentsWithStats(free, connectivity=4)
+    small = np.zeros(n, bool)
+    small[1:] = stats[1:, cv2.CC_STAT_AREA] <= max_pixels
+    if not small.any():
+        return set()
+    speck = np.where(small[cc], cc, 0)
+    h, w = ids.shape
+    pad = np.pad(ids, 1)
+    owners, around = [], []
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            if dy == 0 and dx == 0:
+                continue
+            nb = pad[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
+            sel = (speck > 0) & (nb > 0)
+            owners.append(speck[sel])
+            around.append(nb[sel])
+    sp = np.concatenate(owners).astype(np.int64)
+    if sp.size == 0:
+        return set()
+    top = int(ids.max()) + 1
+    key, count = np.unique(sp * top + np.concatenate(around), return_counts=True)
+    sp, pid = key // top, key % top
+    total = np.bincount(sp, weights=count, minlength=n)
+    order = np.lexsort((-count, sp))
+    first = order[np.concatenate([[True], np.diff(sp[order]) != 0])]
+    won = first[count[first] >= share * total[sp[first]]]
+    lut = np.zeros(n, ids.dtype)
+    lut[sp[won]] = pid[won]
+    gain = lut[speck]
+    np.copyto(ids, gain, where=gain > 0)
+    return {int(v) for v in pid[won]}
+
+
 def make_patches(
     labels: np.ndarray,
     xy: np.ndarray,
@@ -96,12 +134,15 @@ def make_patches(
     z: np.ndarray | None = None,
     min_area_m2: float = 0.2,
     min_pixels: int = 6,
+    speck_pixels: int = 30,
 ) -> PatchSet:
     """Split a label image (H, W) int into connected patches with polygons in the vehicle frame.
 
     `xy` (H, W, 2) [m] vehicle-frame ground position of each pixel; `valid` (H, W) bool pixels with
     data; `colour_of` / `surface_of` map a label to its colour type / SurfaceType; `normals`
-    (H, W, 3) and `z` (H, W) give patch normals and heights when range exists.
+    (H, W, 3) and `z` (H, W) give patch normals and heights when range exists. Specks of at most
+    `speck_pixels` pixels that belong to no patch (a few leaves, a rejected colour, a segment below
+    the minimum area) join the one patch all around them.
     """
     h, w = labels.shape
     ids = np.zeros((h, w), dtype=np.int32)
@@ -137,6 +178,10 @@ def make_patches(
         ids[f["mask"]] = next_id
         f["id"] = next_id
         next_id += 1
+    if speck_pixels > 0 and found:
+        for pid in _absorb_specks(ids, good_xy, speck_pixels):
+            f = found[pid - 1]
+            f["mask"] = ids == pid
     pairs = _neighbour_pairs(ids)
     nb: dict[int, set[int]] = {f["id"]: set() for f in found}
     for a, b in pairs:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modules.perception.range_seg import SurfaceType
+from modules.perception.patch_maker.range_seg import SurfaceType
 
 __all__ = ["N_SURFACE", "overlap_labels", "split_label"]
 

@@ -10,11 +10,11 @@ from enum import Enum
 
 import numpy as np
 
-from modules.perception.colour import ColourModel
+from modules.perception.patch_maker.colour import ColourModel
 from modules.perception.image import ColoredRangeImage
-from modules.perception.overlap import overlap_labels, split_label
-from modules.perception.patches import PatchSet, make_patches
-from modules.perception.range_seg import RangeSegParams, SurfaceType, segment_range
+from modules.perception.patch_maker.overlap import overlap_labels, split_label
+from modules.perception.patch_maker.patches import PatchSet, make_patches
+from modules.perception.patch_maker.range_seg import RangeSegParams, SurfaceType, segment_range
 
 __all__ = ["Segmentation", "SegmentationParams", "Segmented", "make_segmentation"]
 
@@ -34,6 +34,7 @@ class SegmentationParams:
     min_area_m2: float = 0.3
     range: RangeSegParams = RangeSegParams()
     adapt_rate: float = 0.3
+    train_rate: float = 0.8
 
 
 @dataclass(frozen=True)
@@ -51,16 +52,28 @@ def make_segmentation(
     params: SegmentationParams,
     model: ColourModel | None = None,
     adapt: bool = True,
+    training: np.ndarray | None = None,
 ) -> Segmented:
-    """Segment one colored-range frame with the chosen module; colour modules adapt `model` in place."""
+    """Segment one colored-range frame with the chosen module; colour modules adapt `model` in place.
+
+    `training` (H, W) int: the colour type each pixel is known to have (1-based into `model.types`,
+    0 = unknown); the colour classes are first fitted to those pixels of this frame (Wallace), then
+    classify, then follow the confidently classified pixels to the next frame (SCARF).
+    """
     colour_lab = None
     if method in (Segmentation.COLOUR, Segmentation.COLORED_RANGE):
         if model is None:
             raise ValueError(f"{method.value} segmentation needs a ColourModel")
         mask = img.valid if method is Segmentation.COLORED_RANGE else np.all(np.isfinite(img.ground_xy), axis=-1) & img.valid
+        if adapt and training is not None and params.train_rate > 0:
+            if training.shape != mask.shape:
+                raise ValueError(f"{method.value} segmentation: training labels {training.shape}, image {mask.shape}")
+            model.train(img.rgb, np.where(mask, training, 0), rate=params.train_rate)
         colour_lab, cls_idx, post = model.classify(img.rgb, mask)
         if adapt and params.adapt_rate > 0:
-            model.adapt(img.rgb, cls_idx, post, rate=params.adapt_rate)
+            # what the predicted objects contradict teaches nothing (a shadow taken for another colour type)
+            agreed = colour_lab if training is None else np.where((training == 0) | (training == colour_lab), colour_lab, 0)
+            model.adapt(img.rgb, agreed, post, rate=params.adapt_rate)
     if method is Segmentation.COLOUR:
         assert model is not None and colour_lab is not None
         colour_of = {i + 1: t for i, t in enumerate(model.types)}

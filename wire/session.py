@@ -28,7 +28,7 @@ from wire.errors import ConnectError, SessionClosedError
 from wire.network import NetworkConfig
 
 __all__ = [
-    "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "session_stats", "traffic", "is_json_payload",
+    "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "secure_hint", "session_stats", "traffic", "is_json_payload",
 ]
 
 _JSON = zenoh.Encoding.APPLICATION_JSON
@@ -216,9 +216,20 @@ def _open_zenoh(net: NetworkConfig) -> "zenoh.Session":
         return zenoh.open(zenoh.Config.from_json5(json.dumps(net.zenoh_json())))
     except Exception as exc:  # zenoh raises ZError for every failure
         where = ", ".join(net.endpoints) or "no endpoint"
-        hint = " (is `sidewalk up router` running there, and are --connect/--ns right?)" if net.mode == "client" else ""
         detail = str(exc).split(" at /", 1)[0].rstrip(" .!")  # zenoh appends its source location
+        if net.secure is not None:
+            raise ConnectError(secure_hint(net, f"could not connect to {where}")) from None
+        hint = " (is `sidewalk up router` running there, and are --connect/--ns right?)" if net.mode == "client" else ""
         raise ConnectError(f"cannot open a Zenoh {net.mode} session on {where}: {detail}{hint}") from None
+
+
+def secure_hint(net: NetworkConfig, what: str) -> str:
+    """Return `what` followed by what to check in a secure deployment (a refused TLS or password looks like no router)."""
+    sec = net.secure
+    assert sec is not None
+    return (f"{what} with --secure {sec.dir} as role {sec.role!r}: is the router running there with --secure? "
+            f"otherwise check the certificate/password for role {sec.role!r} (a wrong CA, certificate or password "
+            "is refused silently and looks like this)")
 
 
 def open_session(net: NetworkConfig) -> "Session":
@@ -284,6 +295,9 @@ class Session:
                 raise ConnectError(f"{name or 'session'}: stopped while waiting for {', '.join(self.net.connect)}")
             now = time.monotonic()
             if timeout is not None and now - t0 >= timeout:
+                if self.net.secure is not None:
+                    raise ConnectError(secure_hint(self.net, f"{name or 'session'}: could not connect to "
+                                                             f"{', '.join(self.net.connect)} within {timeout:.0f} s"))
                 raise ConnectError(
                     f"{name or 'session'}: nothing reachable at {', '.join(self.net.connect)} after {timeout:.0f} s "
                     "(is `sidewalk up router` running there? with --secure, a wrong password or certificate also looks like this)"

@@ -94,10 +94,11 @@ def _enc(e: Any) -> str:
 class Query:
     """A received query: key, selector parameters, payload bytes, whether it is JSON; reply, then `finish`."""
 
-    __slots__ = ("_q", "key", "payload", "is_json", "_params")
+    __slots__ = ("_q", "key", "payload", "is_json", "_params", "_own")
 
-    def __init__(self, q: "zenoh.Query") -> None:
+    def __init__(self, q: "zenoh.Query", own: str | None = None) -> None:
         self._q = q
+        self._own = own
         self.key: str = str(q.key_expr)
         p = q.payload
         self.payload: bytes = p.to_bytes() if p is not None else b""
@@ -123,9 +124,12 @@ class Query:
         return str(self._q.parameters)
 
     def reply(self, payload: bytes, *, as_json: bool = False, key: str | None = None) -> None:
-        """Send a successful reply (on the query's key unless `key` is given)."""
+        """Send a successful reply on `key`, else the queryable's own key (when it has no wildcard), else the query's.
+
+        Replying on the queryable's own key, not on a wildcard query's, lets access control see what is answered.
+        """
         _traffic.out(len(payload))
-        self._q.reply(key or self._q.key_expr, payload, encoding=_JSON if as_json else _MSGPACK)
+        self._q.reply(key or self._own or self._q.key_expr, payload, encoding=_JSON if as_json else _MSGPACK)
 
     def reply_err(self, payload: bytes, *, as_json: bool = False) -> None:
         """Send an error reply."""
@@ -317,7 +321,8 @@ class Session:
     def queryable(self, key: str, on_query: Callable[[Query], None], *, complete: bool = True) -> Any:
         """Serve queries on `key`; `on_query(Query)` runs on a Zenoh thread and must finish the query."""
         self._check()
-        q = self._z.declare_queryable(key, zenoh.handlers.Callback(lambda q: on_query(Query(q)), indirect=False), complete=complete)
+        own = None if "*" in key or "$" in key else key
+        q = self._z.declare_queryable(key, zenoh.handlers.Callback(lambda q: on_query(Query(q, own)), indirect=False), complete=complete)
         self._keep.append(q)
         return q
 

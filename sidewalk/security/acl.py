@@ -1,8 +1,9 @@
 """Zenoh access control generated from the rules: what the router enforces.
 
-Every role is a Zenoh subject matched by BOTH its certificate's common name and its user name. Each
-guard and operation that names allowed roles becomes one deny rule for every other role; the
-default is allow (keys no guard names are open to every authenticated role).
+Each guard and operation that names allowed roles becomes deny rules for every other role, matched
+by its certificate's common name OR its user name: a connection is allowed a guarded operation only
+when both its certificate and its password belong to allowed roles. The default is allow (keys no
+guard names are open to every authenticated role).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ MESSAGES: dict[str, tuple[tuple[str, tuple[str, ...]], ...]] = {
 def access_control(rules: Rules) -> dict:
     """Return the Zenoh `access_control` section for `rules` (zenoh 1.x schema)."""
     roles = rules.all_roles
-    subjects = [{"id": f"role:{r}", "cert_common_names": [r], "usernames": [r]} for r in roles]
+    subjects = [{"id": f"cert:{r}", "cert_common_names": [r]} for r in roles] + [{"id": f"user:{r}", "usernames": [r]} for r in roles]
     zrules: list[dict] = []
     policies: list[dict] = []
     for g in rules.guards:
@@ -47,7 +48,8 @@ def access_control(rules: Rules) -> dict:
                 rid = f"{g.name}:{op}:{flow}"
                 zrules.append({"id": rid, "permission": "deny", "flows": [flow], "messages": list(messages), "key_exprs": key_exprs})
                 ids.append(rid)
-            policies.append({"id": f"{g.name}:{op}", "rules": ids, "subjects": [f"role:{r}" for r in denied]})
+            policies.append({"id": f"{g.name}:{op}", "rules": ids,
+                             "subjects": [f"cert:{r}" for r in denied] + [f"user:{r}" for r in denied]})
     return {"enabled": True, "default_permission": "allow", "rules": zrules, "subjects": subjects, "policies": policies}
 
 

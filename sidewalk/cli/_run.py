@@ -139,7 +139,8 @@ def run(
             if not announced:
                 announced.append(True)
                 bar.console.print(f"namespace [bold]{p.namespace}[/bold], endpoint [bold]{p.endpoint}[/bold] — inspect with "
-                                  f"`sidewalk status --ns {p.namespace} --connect {p.endpoint}`")
+                                  f"`sidewalk status --ns {p.namespace} --connect {p.endpoint}"
+                                  f"{'' if secure is None else f' --secure {secure}'}`")
             bar.update(task, total=max(1, p.step_count), completed=p.step_index, step=p.step[:28], dist=p.distance_m,
                        sim=p.sim_time_s, rtf=p.rtf, state=p.state)
 

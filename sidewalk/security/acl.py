@@ -28,10 +28,17 @@ MESSAGES: dict[str, tuple[tuple[str, tuple[str, ...]], ...]] = {
 }
 
 
-def access_control(rules: Rules) -> dict:
-    """Return the Zenoh `access_control` section for `rules` (zenoh 1.x schema)."""
+def access_control(rules: Rules, host_names: tuple[str, ...] = ()) -> dict:
+    """Return the Zenoh `access_control` section for `rules` (zenoh 1.x schema).
+
+    `host_names`: the common names of the router certificates, so that one used as a client
+    certificate is still judged by its user name.
+    """
     roles = rules.all_roles
-    subjects = [{"id": f"cert:{r}", "cert_common_names": [r]} for r in roles] + [{"id": f"user:{r}", "usernames": [r]} for r in roles]
+    names = list(dict.fromkeys([*roles, *host_names]))
+    # each subject names both attributes: zenoh matched none of two one-attribute subjects on one connection
+    subjects = ([{"id": f"cert:{r}", "cert_common_names": [r], "usernames": list(roles)} for r in roles]
+                + [{"id": f"user:{r}", "cert_common_names": names, "usernames": [r]} for r in roles])
     zrules: list[dict] = []
     policies: list[dict] = []
     for g in rules.guards:
@@ -55,4 +62,5 @@ def access_control(rules: Rules) -> dict:
 
 def access_control_json(directory: Path) -> str:
     """Return the access control of secure directory `directory` (from its rules.yaml) as JSON text."""
-    return json.dumps(access_control(load_rules(Path(directory) / "rules.yaml")))
+    hosts = tuple(sorted(p.stem for p in (Path(directory) / "hosts").glob("*.pem")))
+    return json.dumps(access_control(load_rules(Path(directory) / "rules.yaml"), hosts))

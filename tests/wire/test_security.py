@@ -185,3 +185,31 @@ def test_only_evaluation_monitor_and_recorder_read_truth(router, secure_dir) -> 
     finally:
         for s in (sim, pilot, recorder):
             s.close()
+
+
+def test_a_stolen_password_under_another_certificate_cannot_drive(router, secure_dir) -> None:
+    """The PILOT's certificate with the HELM's user and password connects, but is denied drive commands."""
+    helm_pw = next(line.split(":", 1)[1] for line in (secure_dir / "credentials.txt").read_text().splitlines()
+                   if line.startswith("helm:"))
+    cfg = {"mode": "client", "scouting": {"multicast": {"enabled": False}}, "connect": {"endpoints": [router.replace("tcp/", "tls/")]},
+           "transport": {"link": {"tls": {"root_ca_certificate": str(secure_dir / "ca.pem"), "enable_mtls": True,
+                                          "connect_certificate": str(secure_dir / "roles" / "pilot.pem"),
+                                          "connect_private_key": str(secure_dir / "roles" / "pilot.key")}},
+                         "auth": {"usrpwd": {"user": "helm", "password": helm_pw}}}}
+    mixed = zenoh.open(zenoh.Config.from_json5(json.dumps(cfg)))
+    sim = _session(router, secure_dir, "sim")
+    try:
+        cmds: list[bytes] = []
+        probes: list[bytes] = []
+        heard = threading.Event()
+        _collect(sim, K.sim.cmd, cmds)
+        _collect(sim, K.bench("probe"), probes, heard, 3)
+        for i in range(2000):
+            mixed.put(K.sim.cmd, encode(DriveCommand(speed=1.0, curvature=0.0, seq=i + 1)))
+            mixed.put(K.bench("probe"), b"probe")  # after the command on the same link: once probes arrive, so would commands
+            if heard.wait(0.01):
+                break
+        assert heard.is_set() and cmds == []
+    finally:
+        sim.close()
+        mixed.close()

@@ -80,6 +80,7 @@ class RunConfig(BaseModel):
     record: bool = True  # write run.mcap beside report.json
     monitor_port: Optional[int] = Field(default=None, ge=1, le=65535)  # serve the monitor page on this port
     # ---- end monitor and recording ----
+    secure: Optional[Path] = None  # `sidewalk security init` directory: TLS, passwords, access control (issue 14)
 
 
 @dataclass
@@ -257,13 +258,14 @@ def prepare_run(cfg: RunConfig) -> RunSetup:
 
 def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list[ProcessPlan]:
     """Return the processes of a run in start order: router, node, simulator, then the modules."""
-    zflags = ("--ns", ns, "--connect", endpoint)
+    secure = () if cfg.secure is None else ("--secure", str(cfg.secure))
+    zflags = ("--ns", ns, "--connect", endpoint, *secure)
     out, vehicle = Path(cfg.out), setup.vehicle
     sx, sy, syaw = setup.start_belief
     sim_start = () if setup.start_truth is None else (
         f"--start={setup.start_truth[0]},{setup.start_truth[1]},{math.degrees(setup.start_truth[2])}",)
     plans = [
-        ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint)),
+        ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint, *secure)),
         ProcessPlan("blackboard", ("-m", "sidewalk", "up", "blackboard", *zflags,
                                    "--db", str(out / "blackboard.db"), "--types", "modules.vocabulary")),
         ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", cfg.world, "--vehicle", vehicle, *sim_start,
@@ -337,7 +339,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
     out = Path(cfg.out)
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs")
+    system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)
     progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)
     stop_reason = ""
     gave_up_at: tuple[float, float] | None = None

@@ -15,6 +15,7 @@ from blackboard.replies import NodeStats
 from modules.captain.client import CaptainUnavailableError, MissionClient
 from modules.runtime import ModuleKeys, Link
 from wire.keys import BlackboardKeys
+from wire.network import SecureConfig
 from modules.vocabulary import MissionStatus, RoutePlan
 from sidewalk.recorder import Recorder
 from sidewalk.run_record import RecordedPlan, StampedStatus
@@ -35,10 +36,13 @@ class SystemRun:
     reach the recorder) and returns the exit code of each process.
     """
 
-    def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path) -> None:
+    def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path, secure: Path | None = None) -> None:
         self.plans = {p.name: p for p in plans}
         self.ns = ns
-        self.net = NetworkConfig(namespace=ns, connect=(endpoint,))
+        # under --secure the observer is `evaluation` (it reads truth) and submits as the `operator`
+        self.net = NetworkConfig(namespace=ns, connect=(endpoint,),
+                                 secure=None if secure is None else SecureConfig(dir=secure, role="evaluation"))
+        self._operator: Link | None = None
         self.sup = Supervisor(log_dir)
         self.link: Link | None = None
         self.bb: BlackboardClient | None = None
@@ -72,6 +76,9 @@ class SystemRun:
     async def submit(self, text: str, *, timeout: float = 15.0) -> str:
         """Submit a mission to the CAPTAIN as `sidewalk submit` does; return its id."""
         assert self.link is not None
+        if self.net.secure is not None and self._operator is None:
+            self._operator = Link.open(self.net.with_role("operator"))
+        link = self._operator or self.link
         loop = asyncio.get_running_loop()
         end = loop.time() + timeout
         while True:
@@ -79,7 +86,7 @@ class SystemRun:
             # session yet: a query nobody answers returns at once, so ask again until the timeout.
             left = end - loop.time()
             try:
-                accepted = await MissionClient(self.link, ModuleKeys(self.ns), timeout=max(left, 0.5)).submit(text)
+                accepted = await MissionClient(link, ModuleKeys(self.ns), timeout=max(left, 0.5)).submit(text)
                 self.submitted[accepted.mission_id] = self.stamps()
                 return accepted.mission_id
             except CaptainUnavailableError:
@@ -182,6 +189,8 @@ class SystemRun:
         try:
             codes = await self.sup.stop_all()
         finally:
+            if self._operator is not None:
+                self._operator.close()
             if self.link is not None:
                 self.link.close()
         return codes

@@ -121,6 +121,7 @@ class SimNode:
             self._pub_preview = z.publisher(k.preview, droppable=True)  # monitor/recorder only: may drop, never blocks
             z.subscribe_payload(k.cmd, self._on_cmd)
             z.queryable(k.capture, self._on_capture)
+            z.queryable(k.truth_capture, lambda q: self._on_capture(q, truth=True))
             z.queryable(k.info, self._on_info)
             z.queryable(k.map, lambda q: self._reply_static(q, self._map_json))
             z.queryable(k.world, lambda q: self._reply_static(q, self._world_json))
@@ -168,10 +169,10 @@ class SimNode:
     def _on_cmd(self, key: str, payload: bytes) -> None:
         self._cmds.append(payload)
 
-    def _on_capture(self, q: Query) -> None:
+    def _on_capture(self, q: Query, *, truth: bool = False) -> None:
         with self._lock:
             t, state = self._snapshot
-        self._captures.put((q, t, state))
+        self._captures.put((q, t, state, truth))
 
     def _on_info(self, q: Query) -> None:
         try:
@@ -195,7 +196,7 @@ class SimNode:
             item = self._captures.get()
             if item is None:
                 return
-            q, t, state = item
+            q, t, state, truth = item
             res = None
             try:
                 if self._stop.is_set():
@@ -203,7 +204,8 @@ class SimNode:
                     continue
                 req = decode(CaptureRequest, q.payload) if q.payload else CaptureRequest()
                 res = capture(self._scene, (state.x, state.y, state.yaw), t, req, vehicle=self.config.vehicle)
-                q.reply(encode_capture(res, truth=req.truth))
+                # truth only on its own key, which access control can deny (it cannot see a payload's flag)
+                q.reply(encode_capture(res, truth=truth))
             except WireError as exc:
                 q.reply_err(json.dumps({"error": "bad capture request", "detail": str(exc)}).encode(), as_json=True)
             except Exception as exc:  # noqa: BLE001 - report any capture failure to the asker

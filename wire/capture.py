@@ -6,8 +6,9 @@ needs nothing from the simulator to use it; it travels as msgpack (`encode_captu
 the ground), `laser`, `camera` (optical).
 
 Truth (`TRUTH_FIELDS`: the true pose and ground height, label images, true range, mixed-point flags)
-travels only when the request sets `truth=True`; only evaluation asks (the recorder, `sidewalk`'s
-evaluation commands, tests). PERCEPTION never asks and its decoder has no place for it.
+travels only in replies on its own key, `sim/truth_capture` (so that access control can deny it: it
+cannot see a payload's flag); only evaluation asks (the recorder, `sidewalk`'s evaluation commands,
+tests). `sim/capture` never carries truth. PERCEPTION never asks and its decoder has no place for it.
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ class CaptureRequest(BaseModel):
     camera: bool = True
     camera_width: int = Field(320, ge=16, le=2048)
     camera_height: int = Field(240, ge=16, le=2048)
-    #: ask for the truth fields too (evaluation only)
+    #: ignored by the simulator (kept for old senders): truth comes only from the `sim/truth_capture` key
     truth: bool = False
 
 

@@ -1,10 +1,15 @@
-"""The one set of Zenoh flags every Sidewalk command shares: `--ns --connect --listen --mode`.
+"""The one set of Zenoh flags every Sidewalk command shares: `--ns --connect --listen --mode --secure --role`.
 
 Defined once (`FLAGS`) and offered to both command-line front ends: Typer (`with_network`, the
 `sidewalk` CLI) and argparse (`add_network_args` / `network_from_args`, the module entry points).
 Each flag has an environment variable. The default mode depends on the command's role: a `router`
 listens, a `peer` (modules, the blackboard node, the simulator) connects to the router, a `tool`
 (status, submit, cancel, bb …) is a client of the router.
+
+`--secure DIR` (see docs/security.md) switches the session to mutual TLS with a user/password and
+makes every process a client of the router, whose access control enforces DIR/rules.yaml. The
+process's identity there is its role: the command's (`who`: `helm`, `sim`, `monitor`, `router`…;
+`operator` for tools), overridden by `--role`.
 """
 
 from __future__ import annotations
@@ -18,7 +23,9 @@ from typing import Annotated, Any, Callable, Literal, Optional
 
 from pydantic import ValidationError
 
-from wire.network import NetworkConfig
+from pathlib import Path
+
+from wire.network import NetworkConfig, SecureConfig, check_chunk
 from wire.errors import WireError
 
 __all__ = ["FLAGS", "Flag", "Role", "network_config", "with_network", "add_network_args", "network_from_args"]
@@ -45,7 +52,12 @@ FLAGS: tuple[Flag, ...] = (
     Flag("connect", "-e", "SIDEWALK_CONNECT", "Endpoint to connect to (repeatable), e.g. tcp/10.0.0.2:7447 (default: tcp/127.0.0.1:7447)", True),
     Flag("listen", "-l", "SIDEWALK_LISTEN", "Endpoint to listen on (repeatable)", True),
     Flag("mode", "-m", "SIDEWALK_MODE", "Zenoh mode: peer, client or router (default: by command — router for `up router`, client for tools, peer otherwise)"),
+    Flag("secure", "", "SIDEWALK_SECURE", "Secure directory from `sidewalk security init`: mutual TLS, password and the router's access control"),
+    Flag("role", "", "", "Identity under --secure (default: the command's — helm, sim, monitor, router…; operator for tools)"),
 )
+
+#: The identity a command has under --secure when it names none: tools act for the operator.
+_ROLE_WHO = {"router": "router", "tool": "operator"}
 
 
 class FlagError(WireError, ValueError):
@@ -53,9 +65,22 @@ class FlagError(WireError, ValueError):
 
 
 def network_config(*, ns: str | None, connect: list[str] | None, listen: list[str] | None, mode: str | None,
-                   role: Role) -> NetworkConfig:
-    """Return the NetworkConfig of parsed flag values (None = not given: environment, then default); raise FlagError."""
+                   role: Role, secure: str | None = None, who: str | None = None) -> NetworkConfig:
+    """Return the NetworkConfig of parsed flag values (None = not given: environment, then default); raise FlagError.
+
+    `who` is the identity under --secure (the --role flag, else the command's own name).
+    """
     env = os.environ
+    secure = secure if secure is not None else env.get("SIDEWALK_SECURE") or None
+    sec = None
+    if secure:
+        who = who or _ROLE_WHO.get(role)
+        if not who:
+            raise FlagError("--role: this command has no default identity under --secure; name one with --role")
+        try:
+            sec = SecureConfig(dir=Path(secure).expanduser(), role=check_chunk(who, "--role"))
+        except (ValidationError, ValueError) as exc:
+            raise FlagError(f"--role: {exc}") from None
     ns = ns if ns is not None else env.get("SIDEWALK_NS", "default")
     if connect is None:
         connect = [e for e in env.get("SIDEWALK_CONNECT", "").split(",") if e]
@@ -63,11 +88,23 @@ def network_config(*, ns: str | None, connect: list[str] | None, listen: list[st
         listen = [e for e in env.get("SIDEWALK_LISTEN", "").split(",") if e]
     mode = mode if mode is not None else env.get("SIDEWALK_MODE") or _ROLE_MODE[role]
     try:
-        net = NetworkConfig(namespace=ns, mode=mode, connect=tuple(connect), listen=tuple(listen))
+        net = NetworkConfig(namespace=ns, mode=mode, connect=tuple(connect), listen=tuple(listen), secure=sec)
     except ValidationError as exc:
-        msgs = "; ".join(f"--{e['loc'][0] if e['loc'] else '?'}: {e['msg']}" for e in exc.errors())
+        msgs = "; ".join(f"--{e['loc'][0] if e['loc'] else 'connect/listen'}: {e['msg']}".replace("Value error, ", "")
+                         for e in exc.errors())
         raise FlagError(msgs) from None
-    return net.with_defaults()
+    net = net.with_defaults()
+    if net.secure is not None:
+        hosts = tuple(_listen_host(ep) for ep in net.listen)
+        problems = net.secure.problems(hosts)
+        if problems:
+            raise FlagError(problems[0])
+    return net
+
+
+def _listen_host(endpoint: str) -> str:
+    addr = endpoint.partition("/")[2].split("#", 1)[0]
+    return (addr.rsplit(":", 1)[0] if ":" in addr else addr).strip("[]")
 
 
 # ---- Typer --------------------------------------------------------------------------------------
@@ -86,9 +123,11 @@ def _typer_params() -> list[inspect.Parameter]:
     return out
 
 
-def with_network(role: Role = "tool") -> Callable[[Callable[..., Any]], Callable[..., Any]]:
-    """Add the shared Zenoh flags to a Typer command and pass them as `net: NetworkConfig`."""
+def with_network(role: Role = "tool", who: str | None = None) -> Callable[[Callable[..., Any]], Callable[..., Any]]:
+    """Add the shared Zenoh flags to a Typer command and pass them as `net: NetworkConfig` (`who`: its --secure identity)."""
     import typer
+
+    kind = role
 
     def decorate(fn: Callable[..., Any]) -> Callable[..., Any]:
         sig = inspect.signature(fn, eval_str=True)
@@ -96,9 +135,10 @@ def with_network(role: Role = "tool") -> Callable[[Callable[..., Any]], Callable
 
         @functools.wraps(fn)
         def wrapper(*args: Any, ns: str | None, connect: list[str] | None, listen: list[str] | None, mode: str | None,
-                    **kwargs: Any) -> Any:
+                    secure: str | None, role: str | None, **kwargs: Any) -> Any:
             try:
-                net = network_config(ns=ns, connect=connect, listen=listen, mode=mode, role=role)
+                net = network_config(ns=ns, connect=connect, listen=listen, mode=mode, role=kind, secure=secure,
+                                     who=role or who)
             except FlagError as exc:
                 raise typer.BadParameter(str(exc)) from None
             return fn(*args, net=net, **kwargs)
@@ -125,10 +165,17 @@ def add_network_args(parser: argparse.ArgumentParser) -> None:
         g.add_argument(*names, action="append" if f.repeat else "store", default=None, help=f.help)
 
 
-def network_from_args(parser: argparse.ArgumentParser, args: argparse.Namespace, *, role: Role = "peer") -> NetworkConfig:
-    """Return the NetworkConfig of parsed flags; exit through `parser.error` naming the bad flag."""
+def network_from_args(parser: argparse.ArgumentParser, args: argparse.Namespace, *, role: Role = "peer",
+                      who: str | None = None) -> NetworkConfig:
+    """Return the NetworkConfig of parsed flags; exit through `parser.error` naming the bad flag.
+
+    The --secure identity is --role, else `who`, else the program's module (`python -m modules.helm` → helm).
+    """
+    if who is None:
+        who = parser.prog.rsplit(" ", 1)[-1].rsplit(".", 1)[-1] if parser.prog.startswith("python -m ") else None
     try:
-        return network_config(ns=args.ns, connect=args.connect, listen=args.listen, mode=args.mode, role=role)
+        return network_config(ns=args.ns, connect=args.connect, listen=args.listen, mode=args.mode, role=role,
+                              secure=args.secure, who=args.role or who)
     except FlagError as exc:
         parser.error(str(exc))
         raise  # parser.error exits

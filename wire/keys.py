@@ -87,6 +87,9 @@ class SimKeys:
         self.events = f"{base}/events"
         #: queryable: `CaptureRequest` (msgpack/JSON/empty) → capture bytes at the current pose
         self.capture = f"{base}/capture"
+        #: queryable: `CaptureRequest` → the capture WITH its truth fields — evaluation, monitor, recorder only
+        #: (its own key so that access control can deny it; `capture` never carries truth)
+        self.truth_capture = f"{base}/truth_capture"
         #: queryable: → `SimInfo` (msgpack; JSON if the query is JSON)
         self.info = f"{base}/info"
         #: queryable: → the map GeoJSON (JSON) the robot is told

@@ -28,7 +28,7 @@ from wire.errors import ConnectError, SessionClosedError
 from wire.network import NetworkConfig
 
 __all__ = [
-    "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "session_stats", "traffic", "is_json_payload",
+    "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "secure_hint", "session_stats", "traffic", "is_json_payload",
 ]
 
 _JSON = zenoh.Encoding.APPLICATION_JSON
@@ -94,10 +94,11 @@ def _enc(e: Any) -> str:
 class Query:
     """A received query: key, selector parameters, payload bytes, whether it is JSON; reply, then `finish`."""
 
-    __slots__ = ("_q", "key", "payload", "is_json", "_params")
+    __slots__ = ("_q", "key", "payload", "is_json", "_params", "_own")
 
-    def __init__(self, q: "zenoh.Query") -> None:
+    def __init__(self, q: "zenoh.Query", own: str | None = None) -> None:
         self._q = q
+        self._own = own
         self.key: str = str(q.key_expr)
         p = q.payload
         self.payload: bytes = p.to_bytes() if p is not None else b""
@@ -123,9 +124,12 @@ class Query:
         return str(self._q.parameters)
 
     def reply(self, payload: bytes, *, as_json: bool = False, key: str | None = None) -> None:
-        """Send a successful reply (on the query's key unless `key` is given)."""
+        """Send a successful reply on `key`, else the queryable's own key (when it has no wildcard), else the query's.
+
+        Replying on the queryable's own key, not on a wildcard query's, lets access control see what is answered.
+        """
         _traffic.out(len(payload))
-        self._q.reply(key or self._q.key_expr, payload, encoding=_JSON if as_json else _MSGPACK)
+        self._q.reply(key or self._own or self._q.key_expr, payload, encoding=_JSON if as_json else _MSGPACK)
 
     def reply_err(self, payload: bytes, *, as_json: bool = False) -> None:
         """Send an error reply."""
@@ -216,9 +220,20 @@ def _open_zenoh(net: NetworkConfig) -> "zenoh.Session":
         return zenoh.open(zenoh.Config.from_json5(json.dumps(net.zenoh_json())))
     except Exception as exc:  # zenoh raises ZError for every failure
         where = ", ".join(net.endpoints) or "no endpoint"
-        hint = " (is `sidewalk up router` running there, and are --connect/--ns right?)" if net.mode == "client" else ""
         detail = str(exc).split(" at /", 1)[0].rstrip(" .!")  # zenoh appends its source location
+        if net.secure is not None:
+            raise ConnectError(secure_hint(net, f"could not connect to {where}")) from None
+        hint = " (is `sidewalk up router` running there, and are --connect/--ns right?)" if net.mode == "client" else ""
         raise ConnectError(f"cannot open a Zenoh {net.mode} session on {where}: {detail}{hint}") from None
+
+
+def secure_hint(net: NetworkConfig, what: str) -> str:
+    """Return `what` followed by what to check in a secure deployment (a refused TLS or password looks like no router)."""
+    sec = net.secure
+    assert sec is not None
+    return (f"{what} with --secure {sec.dir} as role {sec.role!r}: is the router running there with --secure? "
+            f"otherwise check the certificate/password for role {sec.role!r} (a wrong CA, certificate or password "
+            "is refused silently and looks like this)")
 
 
 def open_session(net: NetworkConfig) -> "Session":
@@ -284,6 +299,9 @@ class Session:
                 raise ConnectError(f"{name or 'session'}: stopped while waiting for {', '.join(self.net.connect)}")
             now = time.monotonic()
             if timeout is not None and now - t0 >= timeout:
+                if self.net.secure is not None:
+                    raise ConnectError(secure_hint(self.net, f"{name or 'session'}: could not connect to "
+                                                             f"{', '.join(self.net.connect)} within {timeout:.0f} s"))
                 raise ConnectError(
                     f"{name or 'session'}: nothing reachable at {', '.join(self.net.connect)} after {timeout:.0f} s "
                     "(is `sidewalk up router` running there? with --secure, a wrong password or certificate also looks like this)"
@@ -303,7 +321,8 @@ class Session:
     def queryable(self, key: str, on_query: Callable[[Query], None], *, complete: bool = True) -> Any:
         """Serve queries on `key`; `on_query(Query)` runs on a Zenoh thread and must finish the query."""
         self._check()
-        q = self._z.declare_queryable(key, zenoh.handlers.Callback(lambda q: on_query(Query(q)), indirect=False), complete=complete)
+        own = None if "*" in key or "$" in key else key
+        q = self._z.declare_queryable(key, zenoh.handlers.Callback(lambda q: on_query(Query(q, own)), indirect=False), complete=complete)
         self._keep.append(q)
         return q
 

@@ -48,6 +48,16 @@ def bench_sim(
     _emit(mod.run(world=world, frames=frames), as_json)
 
 
+@bench_app.command("secure")
+def bench_secure(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    samples: Annotated[int, typer.Option(min=10, help="Samples per latency figure")] = 1000,
+) -> None:
+    """The cost of --secure: post → monitor latency, plain peers vs plain clients vs TLS + passwords + access control."""
+    mod = importlib.import_module("bench.secure")
+    _emit(mod.run(samples=samples), as_json)
+
+
 @bench_app.command("record")
 def bench_record(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

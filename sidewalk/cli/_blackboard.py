@@ -15,7 +15,7 @@ blackboard_app = typer.Typer(help="The CODGER blackboard node.", no_args_is_help
 
 
 @blackboard_app.command("serve")
-@with_network("peer")
+@with_network("peer", who="blackboard")
 def serve_cmd(
     net: NetworkConfig,
     db: Annotated[str, typer.Option("--db", help="SQLite database file, or :memory: for a throwaway store")] = ":memory:",

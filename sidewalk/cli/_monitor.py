@@ -31,7 +31,7 @@ def _check_port(port: int, host: str) -> None:
         raise typer.Exit(2) from None
 
 
-@with_network("peer")
+@with_network("peer", who="monitor")
 def monitor(
     *,
     net: NetworkConfig,
@@ -70,7 +70,7 @@ def replay(
     raise typer.Exit(serve_replay(rec, host=host, port=port, speed=speed))
 
 
-@with_network("peer")
+@with_network("peer", who="recorder")
 def record(
     *,
     net: NetworkConfig,

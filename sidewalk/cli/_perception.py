@@ -234,7 +234,7 @@ def _run_command() -> None:
     from wire.flags import with_network
 
     @perception_app.command("run")
-    @with_network("peer")
+    @with_network("peer", who="perception")
     def run_cmd(
         net,
         vehicle: Annotated[str, typer.Option(help="terregator or navlab (the first capture's calibration then wins)")] = "terregator",

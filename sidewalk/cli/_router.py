@@ -21,6 +21,15 @@ def serve(*, net: NetworkConfig) -> None:
     """Run the router until SIGINT/SIGTERM; prints "router ready …" once listening (default tcp/127.0.0.1:7447)."""
     from wire.router import serve_router
 
+    if net.secure is not None:  # the router enforces DIR/rules.yaml: regenerate its access control at each start
+        from sidewalk.security import SecurityError, access_control_json
+
+        try:
+            acl = access_control_json(net.secure.dir)
+        except SecurityError as exc:
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(2) from None
+        net = net.model_copy(update={"secure": net.secure.model_copy(update={"access_control": acl})})
     stop = threading.Event()
     old = {s: signal.signal(s, lambda *_: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
     try:

@@ -76,6 +76,7 @@ def run(
     monitor_port: Annotated[int, typer.Option("--monitor-port", help="HTTP port of the monitor page")] = 8080,
     no_record: Annotated[bool, typer.Option("--no-record", help="Do not write run.mcap")] = False,
     # ---- end monitor and recording ----
+    secure: Annotated[Optional[Path], typer.Option("--secure", help="Secure directory (`sidewalk security init`): every process on mutual TLS with a password, the router enforcing its rules.yaml")] = None,
 ) -> None:
     """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh; writes run.mcap."""
     from rich.console import Console
@@ -96,11 +97,18 @@ def run(
         cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
                         perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
                         max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns,
-                        record=not no_record, monitor_port=monitor_port if monitor else None)  # issue 11
+                        record=not no_record, monitor_port=monitor_port if monitor else None,  # issue 11
+                        secure=secure)
     except ValidationError as exc:
         e = exc.errors()[0]
         raise typer.BadParameter(f"{e['loc'][0]}: {e['msg']}") from None
     console = Console(stderr=True)
+    if secure is not None:
+        from wire.network import SecureConfig
+
+        problems = SecureConfig(dir=secure, role="evaluation").problems(("127.0.0.1",))
+        if problems:
+            raise typer.BadParameter(problems[0].removeprefix("--secure: "), param_hint="--secure")
     try:
         preflight(cfg)
     except LaunchError as exc:
@@ -131,7 +139,8 @@ def run(
             if not announced:
                 announced.append(True)
                 bar.console.print(f"namespace [bold]{p.namespace}[/bold], endpoint [bold]{p.endpoint}[/bold] — inspect with "
-                                  f"`sidewalk status --ns {p.namespace} --connect {p.endpoint}`")
+                                  f"`sidewalk status --ns {p.namespace} --connect {p.endpoint}"
+                                  f"{'' if secure is None else f' --secure {secure}'}`")
             bar.update(task, total=max(1, p.step_count), completed=p.step_index, step=p.step[:28], dist=p.distance_m,
                        sim=p.sim_time_s, rtf=p.rtf, state=p.state)
 

@@ -21,7 +21,7 @@ _VEHICLES = ("terregator", "navlab")
 
 
 @sim_app.command("serve")
-@with_network("peer")
+@with_network("peer", who="sim")
 def serve(
     *,
     net: NetworkConfig,

@@ -163,7 +163,7 @@ def test_map_world_and_capture_queries(served):
 
 
 def test_capture_carries_truth_only_when_asked(served):
-    """A capture without the truth flag has no truth field on the wire; evaluation's request gets it."""
+    """A capture has no truth field on the wire (even with the flag); evaluation's truth_capture key gets it."""
     import msgpack
 
     from wire.capture import TRUTH_FIELDS, CaptureRequest, decode_capture
@@ -176,6 +176,8 @@ def test_capture_carries_truth_only_when_asked(served):
     cap = decode_capture(r.payload)
     assert all(getattr(cap, f) is None for f in TRUTH_FIELDS) and cap.laser_range is not None
     (r,) = z.get_blocking(k.capture, encode(CaptureRequest(camera_width=64, camera_height=48, truth=True)), timeout=30.0)
+    assert decode_capture(r.payload).truth_pose is None  # the flag alone never gets truth: only its own key does
+    (r,) = z.get_blocking(k.truth_capture, encode(CaptureRequest(camera_width=64, camera_height=48)), timeout=30.0)
     cap = decode_capture(r.payload)
     assert cap.truth_pose is not None and cap.laser_labels is not None and cap.camera_labels.shape == (48, 64)
 

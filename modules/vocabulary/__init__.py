@@ -1,8 +1,8 @@
 """The Sidewalk vocabulary: token types the modules exchange, registered with the blackboard.
 
-Importing this package declares every type without loading `blackboard` (EDDIE imports it too); the
-declarations bind to the blackboard's registry at once when `blackboard` is loaded (`sidewalk blackboard
-serve --types modules.vocabulary`), else by `register_token_types()` where a module connects to it.
+Importing this package declares every type (in `wire.token_types`) without loading `blackboard` (EDDIE
+imports it too); the blackboard's default registry follows the declarations in any import order
+(`sidewalk blackboard serve --types modules.vocabulary`).
 One file per token group: mapdata (map objects), mission (CAPTAIN ↔ MAP NAVIGATOR), route
 (MAP NAVIGATOR ↔ PILOT), perception (PERCEPTION results), driving (PILOT ↔ PERCEPTION/HELM),
 health (heartbeats).

@@ -3,13 +3,13 @@
 from __future__ import annotations
 
 import math
-import sys
 from typing import Annotated
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
-__all__ = ["Frozen", "XY", "Ring", "Polyline2", "Pose", "Cov3", "finite", "NonNeg", "DECLARED_TOKEN_TYPES", "token_type",
-           "register_token_types"]
+from wire.token_types import declare, declared
+
+__all__ = ["Frozen", "XY", "Ring", "Polyline2", "Pose", "Cov3", "finite", "NonNeg", "token_type", "register_token_types"]
 
 
 class Frozen(BaseModel):
@@ -76,31 +76,21 @@ class Pose(Frozen):
     yaw: finite = 0.0
 
 
-#: Token type name of every vocabulary model declared so far (bound to the blackboard lazily).
-DECLARED_TOKEN_TYPES: dict[str, type[BaseModel]] = {}
-
-
 def token_type(name: str):  # noqa: ANN201 - a decorator returning its argument
     """Declare the decorated model as blackboard token type `name` without importing `blackboard`.
 
-    The declaration is bound to the blackboard's default registry at once when `blackboard` is
-    already loaded (the node's `--types modules.vocabulary`), else by `register_token_types()`
-    where a module connects to the blackboard. EDDIE imports the vocabulary without the blackboard.
+    The declaration goes to `wire.token_types`; the blackboard's default registry follows it (in any
+    import order), so EDDIE imports the vocabulary without loading the blackboard.
     """
 
     def deco(model):  # noqa: ANN001, ANN202
-        DECLARED_TOKEN_TYPES[name] = model
-        reg = sys.modules.get("blackboard.registry")
-        if reg is not None:
-            reg.default_registry.register(name, model)
+        declare(name, model)
         return model
 
     return deco
 
 
-def register_token_types(registry=None) -> None:  # noqa: ANN001 - a blackboard.TypeRegistry
-    """Register every declared vocabulary type with `registry` (default: the blackboard's default registry)."""
-    if registry is None:
-        from blackboard.registry import default_registry as registry  # imported only where tokens are posted
-    for name, model in DECLARED_TOKEN_TYPES.items():
+def register_token_types(registry) -> None:  # noqa: ANN001 - a blackboard.TypeRegistry
+    """Register every declared token type with `registry` (the default registry follows them by itself)."""
+    for name, model in declared().items():
         registry.register(name, model)

@@ -8,6 +8,7 @@ from typing import Any, Callable, TypeVar
 from pydantic import BaseModel, ValidationError
 
 from blackboard.errors import InvalidTokenError, UnknownTypeError
+from wire import token_types
 
 __all__ = ["TypeRegistry", "default_registry", "token_type"]
 
@@ -100,8 +101,10 @@ def _short(exc: ValidationError) -> str:
     return "; ".join(parts)
 
 
-#: The registry `@token_type` registers into unless told otherwise.
+#: The registry `@token_type` registers into unless told otherwise; it also takes every type declared in
+#: `wire.token_types` (the modules' vocabulary declares there, so importing it does not load the blackboard).
 default_registry = TypeRegistry()
+token_types.follow(default_registry.register)
 
 
 def token_type(name: str, *, registry: TypeRegistry | None = None) -> Callable[[M], M]:

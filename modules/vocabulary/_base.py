@@ -7,7 +7,9 @@ from typing import Annotated
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
-__all__ = ["Frozen", "XY", "Ring", "Polyline2", "Pose", "Cov3", "finite", "NonNeg"]
+from wire.token_types import declare, declared
+
+__all__ = ["Frozen", "XY", "Ring", "Polyline2", "Pose", "Cov3", "finite", "NonNeg", "token_type", "register_token_types"]
 
 
 class Frozen(BaseModel):
@@ -72,3 +74,23 @@ class Pose(Frozen):
     x: finite
     y: finite
     yaw: finite = 0.0
+
+
+def token_type(name: str):  # noqa: ANN201 - a decorator returning its argument
+    """Declare the decorated model as blackboard token type `name` without importing `blackboard`.
+
+    The declaration goes to `wire.token_types`; the blackboard's default registry follows it (in any
+    import order), so EDDIE imports the vocabulary without loading the blackboard.
+    """
+
+    def deco(model):  # noqa: ANN001, ANN202
+        declare(name, model)
+        return model
+
+    return deco
+
+
+def register_token_types(registry) -> None:  # noqa: ANN001 - a blackboard.TypeRegistry
+    """Register every declared token type with `registry` (the default registry follows them by itself)."""
+    for name, model in declared().items():
+        registry.register(name, model)

@@ -9,7 +9,7 @@ from typing import Literal
 
 from pydantic import model_validator
 
-from blackboard.registry import token_type
+from modules.vocabulary._base import token_type
 from wire.mapfile import ColourType, FlatShape, MapColour, PostShape, PrismShape, Shape, SlopeShape, StairsShape, TreeShape
 from modules.vocabulary._base import XY, Frozen, NonNeg, Ring, finite
 

@@ -68,6 +68,10 @@ _SETTLE_DELAY = 0.05
 _SETTLE_NOW = 1_000
 #: most clients whose publishers are kept declared (the earliest declared is dropped first)
 _MAX_CLIENT_PUBLISHERS = 4096
+#: acknowledgements kept per client, so a batch sent again (its ack was lost) is not applied twice
+_ACK_CACHE = 64
+#: most clients whose dropped monitors are remembered (to tell them to re-register on return)
+_MAX_DROPPED = 4096
 
 
 class _Ack:
@@ -120,6 +124,10 @@ class BlackboardNode:
         #: declared publishers on `bb/to/<client>`, kept while the client lives
         self._client_pubs: dict[str, Any] = {}
         self._settle_scheduled = False
+        #: client → its newest acknowledgements (request id → results), oldest first
+        self._acked: dict[str, collections.OrderedDict[Any, Any]] = {}
+        #: clients whose monitors were dropped when their liveliness token went (told to resync on return)
+        self._dropped: dict[str, None] = {}
         #: test hook (durability tests only): hold after a commit's journal append while this file exists
         self._hold_path = test_hold_after_journal
         self._stop = asyncio.Event()
@@ -148,7 +156,7 @@ class BlackboardNode:
             s.subscribe_payload(f"{k.write_prefix}/*", lambda key, payload: self._submit(self._on_write, (key, payload), True))
             s.liveliness_subscribe(
                 f"{k.client_alive_prefix}/*",
-                lambda key, alive: None if alive else self._submit(self._client_gone, (key,), False),
+                lambda key, alive: self._submit(self._client_back if alive else self._client_gone, (key,), False),
             )
             s.liveliness_token(k.alive)
             hb = asyncio.create_task(self._heartbeat())
@@ -290,6 +298,10 @@ class BlackboardNode:
             log.warning("write batch from %s is not [request_id, ops]: %.200r", client, msg)
             return
         rid, ops = msg
+        done = self._acked.get(client)
+        if done is not None and type(rid) is int and rid in done:
+            self._deliver({client: [(rid, done[rid])]}, {})  # sent again: its ack was lost
+            return
         if type(ops) is not list:
             stats.errors += 1
             self._deliver({client: [(rid, BadRequestError(f"{key}: ops must be a list of operations").to_wire())]}, {})
@@ -350,6 +362,7 @@ class BlackboardNode:
         for (q, _, single), res in zip(pending, results):
             if type(q) is _Ack:
                 acks.setdefault(q.client, []).append((q.rid, res))
+                self._remember_ack(q.client, q.rid, res)
             else:
                 queries.append((q, single, res))
         self._deliver(acks, events)  # monitor events and put-channel acks: one message per client
@@ -366,6 +379,18 @@ class BlackboardNode:
             except Exception:  # noqa: BLE001 - a vanished querier must not stop the others
                 log.debug("reply failed", exc_info=True)
         self._after_commit()
+
+    def _remember_ack(self, client: str, rid: Any, res: Any) -> None:
+        if type(rid) is not int:
+            return
+        done = self._acked.get(client)
+        if done is None:
+            if len(self._acked) >= _MAX_CLIENT_PUBLISHERS:
+                self._acked.pop(next(iter(self._acked)))
+            done = self._acked[client] = collections.OrderedDict()
+        done[rid] = res
+        if len(done) > _ACK_CACHE:
+            done.popitem(last=False)
 
     @staticmethod
     def _hold_after_journal(path: str) -> None:
@@ -411,24 +436,28 @@ class BlackboardNode:
             out.setdefault(m.client, {}).setdefault(m.mid, []).append(ev)
         return out
 
-    def _deliver(self, acks: dict[str, list], events: dict[str, dict[str, list[bytes]]]) -> None:
-        """Publish `[acks, events]` on `bb/to/<client>` for every client with something (events first)."""
+    def _deliver(self, acks: dict[str, list], events: dict[str, dict[str, list[bytes]]],
+                 notice: dict[str, str] | None = None) -> None:
+        """Publish `[acks, events]` (`[acks, events, notice]`) on `bb/to/<client>` for every client with something (events first)."""
         s = self._session
         if s is None:
             return
         order = list(events) + [c for c in acks if c not in events]
+        if notice:
+            order += [c for c in notice if c not in events and c not in acks]
         for client in order:
             a = acks.get(client)
             ev = events.get(client)
+            note = notice.get(client) if notice else None
             try:
-                head = b"\x92" + (_packb(a) if a else b"\x90")
+                head = (b"\x92" if note is None else b"\x93") + (_packb(a) if a else b"\x90")
             except Exception:  # noqa: BLE001 - a request id msgpack cannot echo back (a foreign writer)
                 log.warning("cannot encode the acknowledgement for %s", client)
                 continue
             data = head + (
                 pack_array_of_packed([b"\x92" + _packb(mid) + pack_array_of_packed(evs) for mid, evs in ev.items()])
                 if ev else b"\x90"
-            )
+            ) + (b"" if note is None else _packb(note))
             pub = self._client_pubs.get(client)
             if pub is None:
                 if len(self._client_pubs) >= _MAX_CLIENT_PUBLISHERS:
@@ -473,8 +502,20 @@ class BlackboardNode:
         pub = self._client_pubs.pop(client, None)
         if pub is not None and self._session is not None:
             self._session.undeclare(pub)
+        self._acked.pop(client, None)
         if n:
             log.info("client %s gone: dropped %d monitors", client, n)
+            if len(self._dropped) >= _MAX_DROPPED:
+                self._dropped.pop(next(iter(self._dropped)))
+            self._dropped[client] = None
+
+    def _client_back(self, key: str) -> None:
+        """Tell a client whose monitors were dropped while its token was gone to register them again."""
+        client = key.rsplit("/", 1)[-1]
+        if client in self._dropped and self._session is not None:
+            del self._dropped[client]
+            log.info("client %s is back: asking it to re-register its monitors", client)
+            self._deliver({}, {}, notice={client: "resync"})
 
 
 def serve(

@@ -509,6 +509,20 @@ class BlackboardClient:
             while self._node_alive != alive:
                 await self._node_change.wait()
 
+    @property
+    def link_state(self) -> str:
+        """Return "up", "away" (the node is unreachable) or "resyncing" (re-registering monitors)."""
+        if not self._node_alive:
+            return "away"
+        if self._resync_task is not None and not self._resync_task.done():
+            return "resyncing"
+        return "up"
+
+    @property
+    def monitor_count(self) -> int:
+        """Return how many monitors this client holds open."""
+        return len(self._monitors)
+
     async def wait_resyncs(self, count: int, *, timeout: float | None = None) -> None:
         """Return once monitors were re-registered `count` times in all; TimeoutError after `timeout` [s] wall."""
         async with asyncio.timeout(timeout):
@@ -674,16 +688,29 @@ class BlackboardClient:
             mon = MonitorStream(self, spec)
             try:
                 await mon.start()
-                now = await self.retrieve(spec)
-                if now:
-                    return now[0]
                 while True:
-                    try:
-                        ev = await mon.__anext__()
-                    except StopAsyncIteration:
-                        raise NodeUnavailableError("client closed while waiting") from None
-                    if ev.kind != "deleted":
-                        return ev.token
+                    resyncs = self.resyncs
+                    now = await self.retrieve(spec)
+                    if now:
+                        return now[0]
+                    # a match posted while the monitor was not registered (the node was away) is
+                    # found by retrieving again after each re-registration
+                    while self.resyncs == resyncs:
+                        nxt = asyncio.ensure_future(mon.__anext__())
+                        back = asyncio.ensure_future(self._resync_change.wait())
+                        try:
+                            await asyncio.wait({nxt, back}, return_when=asyncio.FIRST_COMPLETED)
+                        finally:
+                            back.cancel()
+                            if not nxt.done():
+                                nxt.cancel()
+                        if nxt.done() and not nxt.cancelled():
+                            try:
+                                ev = nxt.result()
+                            except StopAsyncIteration:
+                                raise NodeUnavailableError("client closed while waiting") from None
+                            if ev.kind != "deleted":
+                                return ev.token
             finally:
                 await mon.close()
 

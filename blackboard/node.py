@@ -39,6 +39,7 @@ import socket
 import signal
 import sys
 import time
+import uuid
 from typing import Any, Callable, Literal
 
 import msgpack
@@ -111,6 +112,8 @@ class BlackboardNode:
         self.core = BlackboardCore(self.store, registry if registry is not None else default_registry, frames)
         self.heartbeat_period = heartbeat_period
         self._hb_seq = 0
+        #: this node's incarnation, in its heartbeat: a client (or an operator) sees a restart as a new value
+        self.epoch = uuid.uuid4().hex[:12]
         self._session: ZSession | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self.dispatch = dispatch
@@ -191,7 +194,7 @@ class BlackboardNode:
             s.put(self.keys.heartbeat, encode_heartbeat(Heartbeat(
                 module="blackboard", seq=self._hb_seq, wall_time=time.time(), period_s=self.heartbeat_period,
                 pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"],
-                usage=process_usage(traffic()))))
+                usage=process_usage(traffic()), epoch=self.epoch)))
             await asyncio.sleep(self.heartbeat_period)
 
     # ------------------------------------------------------------------ dispatch

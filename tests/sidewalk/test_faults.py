@@ -34,7 +34,9 @@ async def _drive_to(system, mid: str, metres: float, timeout: float = 90.0) -> N
 @pytest.mark.e2e
 @pytest.mark.timeout(400)
 async def test_node_restart_and_a_wedged_helm_are_survived_and_the_mission_truly_arrives(tmp_path, capsys):
-    system, text, cfg, setup = await _system(tmp_path, str(DATA / "short-hop.yaml"))
+    # at a lower RTF the sim-time bounds (the PILOT's stuck timer) leave a loaded machine more wall time
+    system, text, cfg, setup = await _system(tmp_path, str(DATA / "short-hop.yaml"), rtf=10.0,
+                                             ready_timeout=120.0)
     keys = ModuleKeys(system.ns)
     loop = asyncio.get_running_loop()
     try:

@@ -131,6 +131,9 @@ class BlackboardNode:
         self._acked: dict[str, collections.OrderedDict[Any, Any]] = {}
         #: clients whose monitors were dropped when their liveliness token went (told to resync on return)
         self._dropped: dict[str, None] = {}
+        #: clients back after their monitors were dropped: every message to them carries the resync
+        #: notice until they register a monitor again (a notice may reach a client before its subscriber)
+        self._resync_due: dict[str, None] = {}
         #: test hook (durability tests only): hold after a commit's journal append while this file exists
         self._hold_path = test_hold_after_journal
         self._stop = asyncio.Event()
@@ -439,19 +442,22 @@ class BlackboardNode:
             out.setdefault(m.client, {}).setdefault(m.mid, []).append(ev)
         return out
 
-    def _deliver(self, acks: dict[str, list], events: dict[str, dict[str, list[bytes]]],
-                 notice: dict[str, str] | None = None) -> None:
-        """Publish `[acks, events]` (`[acks, events, notice]`) on `bb/to/<client>` for every client with something (events first)."""
+    def _deliver(self, acks: dict[str, list], events: dict[str, dict[str, list[bytes]]]) -> None:
+        """Publish `[acks, events]` on `bb/to/<client>` for every client with something (events first).
+
+        A client due to re-register its monitors gets `[acks, events, "resync"]`, with or without something else.
+        """
         s = self._session
         if s is None:
             return
         order = list(events) + [c for c in acks if c not in events]
+        notice = self._resync_due
         if notice:
             order += [c for c in notice if c not in events and c not in acks]
         for client in order:
             a = acks.get(client)
             ev = events.get(client)
-            note = notice.get(client) if notice else None
+            note = "resync" if notice and client in notice else None
             try:
                 head = (b"\x92" if note is None else b"\x93") + (_packb(a) if a else b"\x90")
             except Exception:  # noqa: BLE001 - a request id msgpack cannot echo back (a foreign writer)
@@ -497,6 +503,7 @@ class BlackboardNode:
             self._reply(q, {"cancelled": self.core.cancel_monitor(req.client, req.mid)})
             return
         self.core.register_monitor(req.client, req.mid, req.spec)
+        self._resync_due.pop(req.client, None)
         self._reply(q, {"registered": req.mid})
 
     def _client_gone(self, key: str) -> None:
@@ -506,6 +513,7 @@ class BlackboardNode:
         if pub is not None and self._session is not None:
             self._session.undeclare(pub)
         self._acked.pop(client, None)
+        self._resync_due.pop(client, None)
         if n:
             log.info("client %s gone: dropped %d monitors", client, n)
             if len(self._dropped) >= _MAX_DROPPED:
@@ -517,8 +525,9 @@ class BlackboardNode:
         client = key.rsplit("/", 1)[-1]
         if client in self._dropped and self._session is not None:
             del self._dropped[client]
+            self._resync_due[client] = None
             log.info("client %s is back: asking it to re-register its monitors", client)
-            self._deliver({}, {}, notice={client: "resync"})
+            self._deliver({}, {})
 
 
 def serve(

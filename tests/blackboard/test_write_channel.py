@@ -47,7 +47,7 @@ async def test_a_write_is_acknowledged_only_once_durable(tmp_path):
 
     obs = _observer(node, "sidewalk/wc1/bb/to/*", on_message)
     try:
-        async with BlackboardClient(node.client_net(), source="w", timeout=10.0) as bb:
+        async with BlackboardClient(node.client_net(), source="w", timeout=10.0, reconnect=False) as bb:
             futs = [bb.post(Landmark(name=f"durable-{k}"), stamp=1.0) for k in range(5)]
             await asyncio.wait_for(seen, 20)
             await asyncio.gather(*futs, return_exceptions=True)

@@ -5,8 +5,18 @@ node); each call still gets its own acknowledgement or typed error. A write reso
 has committed it (durable per the node's sync mode). Write batches travel as puts on
 `bb/write/<client>` (`[request_id, ops]`); after each commit the node publishes one message on
 `bb/to/<client>` with this client's acknowledgements (`[request_id, results]`) and the events of
-its monitors. A batch not acknowledged within `timeout` [s], or outstanding when the node's
-liveliness token goes, fails with NodeUnavailableError. `post`, `post_raw`, `post_pose` and
+its monitors. A batch not acknowledged within `timeout` [s] while the node is up is sent again (the
+node answers a batch it already committed from its acknowledgement cache), waiting twice as long
+each time; after `_WRITE_TRIES` sends it fails with NodeUnavailableError.
+
+The node may go away (killed, restarted, a link down) and come back: while its liveliness token is
+gone, writes and queries are held (a warning says so every `_WAIT_WARN_S` [s]) and batches in
+flight are kept; once it is back the client re-registers every open monitor, then re-sends what it
+held (a batch in flight when the node died may have been committed: it is sent again, so a post
+may be stored twice). A node that dropped this client's monitors (its liveliness lease expired,
+e.g. while the process was stopped) says so with a resync notice when the client's token comes
+back, and the client re-registers them too. Events committed while a monitor was not registered
+are not replayed. `post`, `post_raw`, `post_pose` and
 `set_static_frame` queue their request when called and return an awaitable future (so
 `asyncio.gather(*[bb.post(...) for ...])` pipelines without a task per post); `update`, `delete`,
 `retrieve`, `wait`, `lookup_pose` and `transform` are coroutines. Replies and monitor events
@@ -59,6 +69,11 @@ _packb = msgpack.Packer(use_bin_type=True).pack
 _unpackb = msgpack.unpackb
 _SAFE = re.compile(r"[^A-Za-z0-9_-]")
 _EVENT_FIELDS = {"kind", "token"}
+#: while the node is away, warn this often [s] wall that requests are held
+_WAIT_WARN_S = 5.0
+#: a write batch unacknowledged while the node is up is sent this many times, the wait doubling
+#: each time (10 + 20 + 40 s with the default timeout), before it fails
+_WRITE_TRIES = 3
 
 
 def _geom_wire(g: Point | Polyline | Polygon | None) -> dict | None:
@@ -96,11 +111,14 @@ class MonitorStream:
         if not self._started:
             self._started = True
             self._client._monitors[self.mid] = self
-            c = self._client
-            await c._request(c.keys.monitor, MonitorRegister.trusted(
-                {"client": c.client_id, "mid": self.mid, "spec": parse_spec(self.spec), "cancel": False},
-                {"client", "mid", "spec"}).wire())
+            await self._register()
         return self
+
+    async def _register(self) -> None:
+        c = self._client
+        await c._request(c.keys.monitor, MonitorRegister.trusted(
+            {"client": c.client_id, "mid": self.mid, "spec": parse_spec(self.spec), "cancel": False},
+            {"client", "mid", "spec"}).wire())
 
     async def close(self) -> None:
         """Cancel the monitor on the node."""
@@ -109,10 +127,11 @@ class MonitorStream:
         self._closed = True
         self._append(None)  # ends any iteration in progress
         self._client._monitors.pop(self.mid, None)
-        if self._started and not self._client._closed:
+        c = self._client
+        if self._started and not c._closed and c._node_alive:  # a node that is away forgets it anyway
             try:
-                c = self._client
-                await c._request(c.keys.monitor, MonitorCancel.trusted({"client": c.client_id, "mid": self.mid, "cancel": True}).wire())
+                await c._query_once(c.keys.monitor, encode(
+                    MonitorCancel.trusted({"client": c.client_id, "mid": self.mid, "cancel": True}).wire()))
             except BlackboardError:
                 pass
 
@@ -175,8 +194,11 @@ class BlackboardClient:
         timeout: float = 10.0,
         connect_timeout: float = 10.0,
         lenient: bool = False,
+        reconnect: bool = True,
     ) -> None:
         self.net = net
+        #: hold requests while the node is away and re-send them once it is back (False: fail them at once)
+        self.reconnect = reconnect
         self.source = source
         self.registry = registry if registry is not None else default_registry
         self.timeout = timeout
@@ -202,6 +224,18 @@ class BlackboardClient:
         #: whether the node's liveliness token is up; `_node_change` is set (and replaced) on each change
         self._node_alive = False
         self._node_change = asyncio.Event()
+        #: whether the node was seen up once (a later "up" is a return: monitors are re-registered)
+        self._node_seen = False
+        #: write batches held while the node is away, in sending order: (request id, batch)
+        self._held: list[tuple[int, list[tuple[WriteOp, asyncio.Future, Any]]]] = []
+        self._resync_task: asyncio.Task | None = None
+        #: request id → how many times its batch was sent (only for those sent more than once)
+        self._tries: dict[int, int] = {}
+        #: how many times monitors were re-registered after the node came back or dropped them
+        self.resyncs = 0
+        self._resync_change = asyncio.Event()
+        #: loop time [s] the node was last seen going away (None: it is up)
+        self._lost_at: float | None = None
 
     # ------------------------------------------------------------------ lifecycle
     @classmethod
@@ -240,6 +274,11 @@ class BlackboardClient:
             if not fut.done():
                 fut.set_exception(NodeUnavailableError("client closed"))
         self._batch.clear()
+        held, self._held = self._held, []
+        for _, batch in held:
+            _distribute(batch, None, NodeUnavailableError("client closed"))
+        if self._resync_task is not None:
+            self._resync_task.cancel()
         self._fail_inflight(NodeUnavailableError("client closed"))
         if self._session is not None:
             s, self._session = self._session, None
@@ -253,7 +292,31 @@ class BlackboardClient:
         await self.close()
 
     # ------------------------------------------------------------------ transport
-    def _query(self, selector: str, payload: bytes | None, as_json: bool = False) -> asyncio.Future:
+    async def _query(self, selector: str, payload: bytes | None, as_json: bool = False) -> Any:
+        """Ask the node; while it is away wait for it (warning every `_WAIT_WARN_S` [s]) and ask again."""
+        while True:
+            await self._until_node(selector)
+            try:
+                return await self._query_once(selector, payload, as_json)
+            except NodeUnavailableError:
+                if self._closed or self._node_alive or not self.reconnect:
+                    raise
+                # the node went away while we asked: ask again once it is back
+
+    async def _until_node(self, what: str) -> None:
+        """Return once the node is up; warn every `_WAIT_WARN_S` [s] while waiting."""
+        waited = 0.0
+        while not self._node_alive and self.reconnect:
+            if self._closed:
+                raise NodeUnavailableError("client is closed")
+            try:
+                await self.wait_node(timeout=_WAIT_WARN_S)
+            except (asyncio.TimeoutError, TimeoutError):
+                waited += _WAIT_WARN_S
+                log.warning("%s: blackboard node in namespace %r unreachable for %.0f s; %s waits for it",
+                            self.source, self.net.namespace, waited, what)
+
+    def _query_once(self, selector: str, payload: bytes | None, as_json: bool = False) -> asyncio.Future:
         loop = self._loop
         assert loop is not None
         if self._session is None:
@@ -302,16 +365,22 @@ class BlackboardClient:
             _distribute(batch, None, NodeUnavailableError("client is closed"))
             return
         rid = next(self._rids)
+        if not self._node_alive and self._node_seen and self.reconnect:
+            self._held.append((rid, batch))  # sent once the node is back
+            return
+        self._put_batch(rid, batch)
+
+    def _put_batch(self, rid: int, batch: list[tuple[WriteOp, asyncio.Future, Any]], timeout: float | None = None) -> None:
         try:
             data = _packb((rid, [e[0].wire() for e in batch]))
         except Exception as exc:  # noqa: BLE001 - e.g. an attribute msgpack cannot carry
             _distribute(batch, None, BadRequestError(f"cannot encode write: {type(exc).__name__}: {exc}"[:300]))
             return
         loop = self._loop
-        assert loop is not None
-        self._inflight[rid] = (batch, loop.time() + self.timeout)
+        assert loop is not None and self._wpub is not None
+        self._inflight[rid] = (batch, loop.time() + (timeout or self.timeout))
         if self._sweeper is None:
-            self._sweeper = loop.call_later(self.timeout, self._sweep)
+            self._sweeper = loop.call_later(timeout or self.timeout, self._sweep)
         self._wpub.put(data)
 
     def _on_message(self, payload: bytes) -> None:
@@ -321,7 +390,9 @@ class BlackboardClient:
                 msg = _unpackb(payload)  # the common case, without the codec's error wrapping
             except Exception:  # noqa: BLE001 - let the codec say what is wrong
                 msg = decode(payload)
-            acks, events = msg
+            acks, events = msg[0], msg[1]
+            if len(msg) > 2 and msg[2] == "resync":
+                self._start_resync("the node dropped this client's monitors")
             for mid, evs in events:
                 self._on_events(mid, evs)
             if acks:
@@ -343,6 +414,8 @@ class BlackboardClient:
     def _on_ack(self, rid: Any, results: Any) -> None:
         """Resolve the futures of the write batch `rid` with its results (a list, or one error object)."""
         entry = self._inflight.pop(rid, None) if type(rid) is int else None
+        if self._tries:
+            self._tries.pop(rid, None)
         if entry is None:
             return  # already timed out, or not ours
         batch = entry[0]
@@ -365,16 +438,70 @@ class BlackboardClient:
                 self._sweeper = loop.call_at(deadline, self._sweep)
                 break
             del inflight[rid]
-            _distribute(batch, None, NodeUnavailableError(
-                f"no acknowledgement from the blackboard node within {self.timeout} s "
-                f"(namespace {self.net.namespace!r}); the write may or may not have been stored"))
+            tries = self._tries.get(rid, 1)
+            if tries >= _WRITE_TRIES or not self.reconnect:
+                self._tries.pop(rid, None)
+                _distribute(batch, None, NodeUnavailableError(
+                    f"no acknowledgement from the blackboard node after {tries} tries over "
+                    f"{self.timeout * (2 ** tries - 1):.0f} s (namespace {self.net.namespace!r}); "
+                    "the write may or may not have been stored"))
+                continue
+            self._tries[rid] = tries + 1
+            log.warning("%s: no acknowledgement of write batch %d within %.0f s; sending it again",
+                        self.source, rid, self.timeout * 2 ** (tries - 1))
+            # the node answers a batch it already committed from its acknowledgement cache
+            self._put_batch(rid, batch, timeout=self.timeout * 2 ** tries)
 
     def _on_node(self, alive: bool) -> None:
+        if alive == self._node_alive:
+            return
         self._node_alive = alive
+        loop = self._loop
+        assert loop is not None
         if not alive:
+            self._lost_at = loop.time()
             self._node_gone()
+        elif self._node_seen and not self._closed:
+            self._start_resync("the node came back", restart=True)
+        self._node_seen = self._node_seen or alive
         change, self._node_change = self._node_change, asyncio.Event()
         change.set()
+
+    def _start_resync(self, why: str, *, restart: bool = False) -> None:
+        running = self._resync_task is not None and not self._resync_task.done()
+        if self._closed or (running and not restart):
+            return
+        if running:
+            self._resync_task.cancel()  # the node went away again meanwhile: register everything anew
+        assert self._loop is not None
+        self._resync_task = self._loop.create_task(self._resync(why))
+
+    async def _resync(self, why: str) -> None:
+        """Re-register every open monitor, then send the writes held while the node was away."""
+        loop = self._loop
+        assert loop is not None
+        t0 = loop.time()
+        mons = [m for m in self._monitors.values() if m._started and not m._closed]
+        failed = 0
+        for m in mons:
+            try:
+                await m._register()
+            except BlackboardError as exc:
+                failed += 1
+                log.warning("%s: could not re-register monitor %s (%s): %s", self.source, m.mid, m.spec, exc)
+        held, self._held = self._held, []
+        if self._node_alive:
+            for rid, batch in held:
+                self._put_batch(rid, batch)
+        else:
+            self._held = held + self._held
+        self.resyncs += 1
+        change, self._resync_change = self._resync_change, asyncio.Event()
+        change.set()
+        away = f" after {t0 - self._lost_at:.1f} s away" if self._lost_at is not None else ""
+        self._lost_at = None
+        log.warning("%s: blackboard node %s%s: re-registered %d monitors (%d failed), re-sent %d write batches in %.2f s",
+                    self.source, why.removeprefix("the node "), away, len(mons) - failed, failed, len(held), loop.time() - t0)
 
     async def wait_node(self, alive: bool = True, *, timeout: float | None = None) -> None:
         """Return once the node's liveliness token is up (`alive`) or gone; TimeoutError after `timeout` [s] wall."""
@@ -382,11 +509,40 @@ class BlackboardClient:
             while self._node_alive != alive:
                 await self._node_change.wait()
 
+    @property
+    def link_state(self) -> str:
+        """Return "up", "away" (the node is unreachable) or "resyncing" (re-registering monitors)."""
+        if not self._node_alive:
+            return "away"
+        if self._resync_task is not None and not self._resync_task.done():
+            return "resyncing"
+        return "up"
+
+    @property
+    def monitor_count(self) -> int:
+        """Return how many monitors this client holds open."""
+        return len(self._monitors)
+
+    async def wait_resyncs(self, count: int, *, timeout: float | None = None) -> None:
+        """Return once monitors were re-registered `count` times in all; TimeoutError after `timeout` [s] wall."""
+        async with asyncio.timeout(timeout):
+            while self.resyncs < count:
+                await self._resync_change.wait()
+
     def _node_gone(self) -> None:
-        """Fail every unacknowledged write: the node that would acknowledge them went away."""
-        self._fail_inflight(NodeUnavailableError(
-            f"the blackboard node in namespace {self.net.namespace!r} went away before acknowledging; "
-            "the write may or may not have been stored"))
+        """Hold every unacknowledged write to re-send once the node is back (without `reconnect`: fail them)."""
+        if not self.reconnect:
+            self._fail_inflight(NodeUnavailableError(
+                f"the blackboard node in namespace {self.net.namespace!r} went away before acknowledging; "
+                "the write may or may not have been stored"))
+            return
+        log.warning("%s: the blackboard node in namespace %r went away; holding requests until it is back",
+                    self.source, self.net.namespace)
+        inflight, self._inflight = self._inflight, {}
+        if self._sweeper is not None:
+            self._sweeper.cancel()
+            self._sweeper = None
+        self._held = [(rid, batch) for rid, (batch, _) in inflight.items()] + self._held
 
     def _fail_inflight(self, exc: BlackboardError) -> None:
         inflight, self._inflight = self._inflight, {}
@@ -532,16 +688,29 @@ class BlackboardClient:
             mon = MonitorStream(self, spec)
             try:
                 await mon.start()
-                now = await self.retrieve(spec)
-                if now:
-                    return now[0]
                 while True:
-                    try:
-                        ev = await mon.__anext__()
-                    except StopAsyncIteration:
-                        raise NodeUnavailableError("client closed while waiting") from None
-                    if ev.kind != "deleted":
-                        return ev.token
+                    resyncs = self.resyncs
+                    now = await self.retrieve(spec)
+                    if now:
+                        return now[0]
+                    # a match posted while the monitor was not registered (the node was away) is
+                    # found by retrieving again after each re-registration
+                    while self.resyncs == resyncs:
+                        nxt = asyncio.ensure_future(mon.__anext__())
+                        back = asyncio.ensure_future(self._resync_change.wait())
+                        try:
+                            await asyncio.wait({nxt, back}, return_when=asyncio.FIRST_COMPLETED)
+                        finally:
+                            back.cancel()
+                            if not nxt.done():
+                                nxt.cancel()
+                        if nxt.done() and not nxt.cancelled():
+                            try:
+                                ev = nxt.result()
+                            except StopAsyncIteration:
+                                raise NodeUnavailableError("client closed while waiting") from None
+                            if ev.kind != "deleted":
+                                return ev.token
             finally:
                 await mon.close()
 

@@ -39,6 +39,7 @@ import socket
 import signal
 import sys
 import time
+import uuid
 from typing import Any, Callable, Literal
 
 import msgpack
@@ -68,6 +69,10 @@ _SETTLE_DELAY = 0.05
 _SETTLE_NOW = 1_000
 #: most clients whose publishers are kept declared (the earliest declared is dropped first)
 _MAX_CLIENT_PUBLISHERS = 4096
+#: acknowledgements kept per client, so a batch sent again (its ack was lost) is not applied twice
+_ACK_CACHE = 64
+#: most clients whose dropped monitors are remembered (to tell them to re-register on return)
+_MAX_DROPPED = 4096
 
 
 class _Ack:
@@ -107,6 +112,8 @@ class BlackboardNode:
         self.core = BlackboardCore(self.store, registry if registry is not None else default_registry, frames)
         self.heartbeat_period = heartbeat_period
         self._hb_seq = 0
+        #: this node's incarnation, in its heartbeat: a client (or an operator) sees a restart as a new value
+        self.epoch = uuid.uuid4().hex[:12]
         self._session: ZSession | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self.dispatch = dispatch
@@ -120,6 +127,13 @@ class BlackboardNode:
         #: declared publishers on `bb/to/<client>`, kept while the client lives
         self._client_pubs: dict[str, Any] = {}
         self._settle_scheduled = False
+        #: client → its newest acknowledgements (request id → results), oldest first
+        self._acked: dict[str, collections.OrderedDict[Any, Any]] = {}
+        #: clients whose monitors were dropped when their liveliness token went (told to resync on return)
+        self._dropped: dict[str, None] = {}
+        #: clients back after their monitors were dropped: every message to them carries the resync
+        #: notice until they register a monitor again (a notice may reach a client before its subscriber)
+        self._resync_due: dict[str, None] = {}
         #: test hook (durability tests only): hold after a commit's journal append while this file exists
         self._hold_path = test_hold_after_journal
         self._stop = asyncio.Event()
@@ -148,7 +162,7 @@ class BlackboardNode:
             s.subscribe_payload(f"{k.write_prefix}/*", lambda key, payload: self._submit(self._on_write, (key, payload), True))
             s.liveliness_subscribe(
                 f"{k.client_alive_prefix}/*",
-                lambda key, alive: None if alive else self._submit(self._client_gone, (key,), False),
+                lambda key, alive: self._submit(self._client_back if alive else self._client_gone, (key,), False),
             )
             s.liveliness_token(k.alive)
             hb = asyncio.create_task(self._heartbeat())
@@ -183,7 +197,7 @@ class BlackboardNode:
             s.put(self.keys.heartbeat, encode_heartbeat(Heartbeat(
                 module="blackboard", seq=self._hb_seq, wall_time=time.time(), period_s=self.heartbeat_period,
                 pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"],
-                usage=process_usage(traffic()))))
+                usage=process_usage(traffic()), epoch=self.epoch)))
             await asyncio.sleep(self.heartbeat_period)
 
     # ------------------------------------------------------------------ dispatch
@@ -290,6 +304,10 @@ class BlackboardNode:
             log.warning("write batch from %s is not [request_id, ops]: %.200r", client, msg)
             return
         rid, ops = msg
+        done = self._acked.get(client)
+        if done is not None and type(rid) is int and rid in done:
+            self._deliver({client: [(rid, done[rid])]}, {})  # sent again: its ack was lost
+            return
         if type(ops) is not list:
             stats.errors += 1
             self._deliver({client: [(rid, BadRequestError(f"{key}: ops must be a list of operations").to_wire())]}, {})
@@ -350,6 +368,7 @@ class BlackboardNode:
         for (q, _, single), res in zip(pending, results):
             if type(q) is _Ack:
                 acks.setdefault(q.client, []).append((q.rid, res))
+                self._remember_ack(q.client, q.rid, res)
             else:
                 queries.append((q, single, res))
         self._deliver(acks, events)  # monitor events and put-channel acks: one message per client
@@ -366,6 +385,18 @@ class BlackboardNode:
             except Exception:  # noqa: BLE001 - a vanished querier must not stop the others
                 log.debug("reply failed", exc_info=True)
         self._after_commit()
+
+    def _remember_ack(self, client: str, rid: Any, res: Any) -> None:
+        if type(rid) is not int:
+            return
+        done = self._acked.get(client)
+        if done is None:
+            if len(self._acked) >= _MAX_CLIENT_PUBLISHERS:
+                self._acked.pop(next(iter(self._acked)))
+            done = self._acked[client] = collections.OrderedDict()
+        done[rid] = res
+        if len(done) > _ACK_CACHE:
+            done.popitem(last=False)
 
     @staticmethod
     def _hold_after_journal(path: str) -> None:
@@ -412,23 +443,30 @@ class BlackboardNode:
         return out
 
     def _deliver(self, acks: dict[str, list], events: dict[str, dict[str, list[bytes]]]) -> None:
-        """Publish `[acks, events]` on `bb/to/<client>` for every client with something (events first)."""
+        """Publish `[acks, events]` on `bb/to/<client>` for every client with something (events first).
+
+        A client due to re-register its monitors gets `[acks, events, "resync"]`, with or without something else.
+        """
         s = self._session
         if s is None:
             return
         order = list(events) + [c for c in acks if c not in events]
+        notice = self._resync_due
+        if notice:
+            order += [c for c in notice if c not in events and c not in acks]
         for client in order:
             a = acks.get(client)
             ev = events.get(client)
+            note = "resync" if notice and client in notice else None
             try:
-                head = b"\x92" + (_packb(a) if a else b"\x90")
+                head = (b"\x92" if note is None else b"\x93") + (_packb(a) if a else b"\x90")
             except Exception:  # noqa: BLE001 - a request id msgpack cannot echo back (a foreign writer)
                 log.warning("cannot encode the acknowledgement for %s", client)
                 continue
             data = head + (
                 pack_array_of_packed([b"\x92" + _packb(mid) + pack_array_of_packed(evs) for mid, evs in ev.items()])
                 if ev else b"\x90"
-            )
+            ) + (b"" if note is None else _packb(note))
             pub = self._client_pubs.get(client)
             if pub is None:
                 if len(self._client_pubs) >= _MAX_CLIENT_PUBLISHERS:
@@ -465,6 +503,7 @@ class BlackboardNode:
             self._reply(q, {"cancelled": self.core.cancel_monitor(req.client, req.mid)})
             return
         self.core.register_monitor(req.client, req.mid, req.spec)
+        self._resync_due.pop(req.client, None)
         self._reply(q, {"registered": req.mid})
 
     def _client_gone(self, key: str) -> None:
@@ -473,8 +512,22 @@ class BlackboardNode:
         pub = self._client_pubs.pop(client, None)
         if pub is not None and self._session is not None:
             self._session.undeclare(pub)
+        self._acked.pop(client, None)
+        self._resync_due.pop(client, None)
         if n:
             log.info("client %s gone: dropped %d monitors", client, n)
+            if len(self._dropped) >= _MAX_DROPPED:
+                self._dropped.pop(next(iter(self._dropped)))
+            self._dropped[client] = None
+
+    def _client_back(self, key: str) -> None:
+        """Tell a client whose monitors were dropped while its token was gone to register them again."""
+        client = key.rsplit("/", 1)[-1]
+        if client in self._dropped and self._session is not None:
+            del self._dropped[client]
+            self._resync_due[client] = None
+            log.info("client %s is back: asking it to re-register its monitors", client)
+            self._deliver({}, {})
 
 
 def serve(

@@ -2,7 +2,9 @@
 
 A liveliness token says a process's Zenoh session is up; it does not reveal a wedged process (a
 stopped or stuck Python keeps its token). So a module alive by its token whose heartbeat is older
-than `WEDGED_AFTER_S` [s] wall is reported **wedged**.
+than `WEDGED_AFTER_S` [s] wall is reported **wedged**. A module beating but whose heartbeat says its
+blackboard node is unreachable is reported **no-node** (it waits for the node, it does not work);
+one re-registering its monitors after the node came back (or had dropped them) is **resyncing**.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ __all__ = ["ModuleHealth", "HealthState", "collect_heartbeats", "WEDGED_AFTER_S"
 #: A live module whose newest heartbeat is older than this [s] wall is wedged.
 WEDGED_AFTER_S = 3.0
 
-HealthState = Literal["starting", "ready", "stopping", "wedged", "silent"]
+HealthState = Literal["starting", "ready", "stopping", "wedged", "silent", "no-node", "resyncing"]
 
 
 class HeardBeat(BaseModel):
@@ -45,6 +47,11 @@ class ModuleHealth(BaseModel):
     host: str = ""
     pid: Optional[int] = None
     sim_time: Optional[float] = None
+    #: its link to the blackboard node ("up", "away", "resyncing"; None: it has none or did not say)
+    blackboard: Optional[str] = None
+    #: monitors it holds open on the blackboard, and how often it re-registered them
+    monitors: Optional[int] = None
+    resyncs: Optional[int] = None
 
     @classmethod
     def judge(cls, name: str, heard: HeardBeat | None, now: float, *, listened_s: float,
@@ -55,8 +62,15 @@ class ModuleHealth(BaseModel):
             return cls(name=name, state="wedged" if listened_s >= wedged_after_s else "silent")
         age = max(0.0, now - heard.received)
         b = heard.beat
-        state: HealthState = "wedged" if age > wedged_after_s else b.state
-        return cls(name=name, state=state, heartbeat_age_s=round(age, 3), host=b.host, pid=b.pid, sim_time=b.sim_time)
+        state: HealthState = b.state
+        if age > wedged_after_s:
+            state = "wedged"
+        elif b.state == "ready" and b.blackboard == "away":
+            state = "no-node"
+        elif b.state == "ready" and b.blackboard == "resyncing":
+            state = "resyncing"
+        return cls(name=name, state=state, heartbeat_age_s=round(age, 3), host=b.host, pid=b.pid, sim_time=b.sim_time,
+                   blackboard=b.blackboard, monitors=b.monitors, resyncs=b.resyncs)
 
 
 async def collect_heartbeats(link: Link, keys: ModuleKeys, expect: set[str], wait_s: float) -> dict[str, HeardBeat]:

@@ -81,6 +81,15 @@ class Heartbeat(BaseModel):
     tokens: int | None = Field(default=None, ge=0)
     #: CPU, memory and Zenoh traffic of the process so far
     usage: ProcessUsage | None = None
+    #: the process's link to the blackboard node: up, away (the node is unreachable) or resyncing
+    #: (re-registering its monitors after the node came back or dropped them); None without one
+    blackboard: Literal["up", "away", "resyncing"] | None = None
+    #: monitors the process holds open on the blackboard
+    monitors: int | None = Field(default=None, ge=0)
+    #: how many times the process re-registered its monitors (the node came back or had dropped them)
+    resyncs: int | None = Field(default=None, ge=0)
+    #: the blackboard node's incarnation (the node only): a new value means the node restarted
+    epoch: str | None = None
 
 
 def encode_heartbeat(hb: BaseModel) -> bytes:

@@ -22,6 +22,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--navigator", default="map_navigator", help="module name of the MAP NAVIGATOR to supervise")
     p.add_argument("--navigator-grace", type=float, default=15.0, help="wall seconds the MAP NAVIGATOR may be gone before the mission fails")
     p.add_argument("--step-timeout", type=float, default=None, help="sim seconds a step may take (default: no limit)")
+    p.add_argument("--ack-timeout", type=float, default=60.0,
+                   help="wall seconds the navigator has to acknowledge a step with a route plan before the mission fails (0: no limit)")
     p.add_argument("--heartbeat", type=float, default=1.0, help="heartbeat period [s wall]")
     add_network_args(p)
     return p
@@ -54,5 +56,6 @@ def main(argv: list[str] | None = None) -> int:
         except MissionFileError as exc:
             print(f"error: {exc}", file=sys.stderr)
             return 2
-    options = CaptainOptions(navigator=args.navigator, navigator_grace_s=args.navigator_grace, step_timeout_s=args.step_timeout)
+    options = CaptainOptions(navigator=args.navigator, navigator_grace_s=args.navigator_grace, step_timeout_s=args.step_timeout,
+                             ack_timeout_s=args.ack_timeout or None)
     return run_module(args.name, captain_main(missions, options), net, heartbeat_period=args.heartbeat)

@@ -36,11 +36,13 @@ def new_mission_id(name: str) -> str:
 
 @dataclass(frozen=True)
 class CaptainOptions:
-    """CAPTAIN settings: which module answers steps, how long it may vanish [s wall], step timeout [s sim]."""
+    """CAPTAIN settings: which module answers steps, how long it may vanish [s wall], step timeout [s sim],
+    and how long [s wall] it has to acknowledge a step with a route plan (None: no bound)."""
 
     navigator: str = "map_navigator"
     navigator_grace_s: float = 15.0
     step_timeout_s: float | None = None
+    ack_timeout_s: float | None = 60.0
     keep_finished: int = 100
 
 
@@ -226,30 +228,50 @@ class Captain:
         cancel = asyncio.ensure_future(e.cancel.wait())
         lost = asyncio.ensure_future(self.navigator.lost(self.options.navigator_grace_s) if self.navigator else asyncio.Event().wait())
         tasks = {result, cancel, lost}
-        timer = None
+        timer = unacked = None
         if self.options.step_timeout_s is not None:
             timer = asyncio.ensure_future(self.rt.clock.sleep(self.options.step_timeout_s))
             tasks.add(timer)
+        if self.options.ack_timeout_s is not None:
+            unacked = asyncio.ensure_future(self._unacknowledged(mid, index, self.options.ack_timeout_s))
+            tasks.add(unacked)
         try:
             while True:
                 done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
-                if result not in done or result.exception() is None:
-                    break
-                log.warning("waiting for the result of %s step %d failed (%r); waiting again", mid, index, result.exception())
-                await asyncio.sleep(0.5)  # wall-time back-off while the blackboard is unreachable
-                tasks.discard(result)
-                result = asyncio.ensure_future(self.bb.wait(spec))
-                tasks.add(result)
+                if result in done and result.exception() is not None:
+                    log.warning("waiting for the result of %s step %d failed (%r); waiting again", mid, index, result.exception())
+                    await asyncio.sleep(0.5)  # wall-time back-off while the blackboard is unreachable
+                    tasks.discard(result)
+                    result = asyncio.ensure_future(self.bb.wait(spec))
+                    tasks.add(result)
+                    continue
+                if unacked is not None and unacked in done and unacked.result() is None and len(done) == 1:
+                    tasks.discard(unacked)  # acknowledged: the result is all that is left to wait for
+                    continue
+                break
             if result in done:
                 return result.result().attrs
             if cancel in done:
                 return ("cancel", e.cancel_reason)
             if lost in done:
                 return ("fail", lost.result())
+            if unacked is not None and unacked in done and unacked.result() is not None:
+                return ("fail", unacked.result())
             return ("fail", f"step {index + 1} timed out after {self.options.step_timeout_s:.0f} s of sim time")
         finally:
             for t in tasks:
                 t.cancel()
+
+    async def _unacknowledged(self, mid: str, index: int, bound: float) -> str | None:
+        """Return None once the navigator posts a route plan for the step, else the reason after `bound` [s] wall."""
+        spec = Spec(type="route_plan", where=(AttrPredicate(path="mission_id", op="==", value=mid),
+                                              AttrPredicate(path="step_index", op="==", value=index)))
+        try:
+            await self.bb.wait(spec, timeout=bound)
+            return None
+        except (asyncio.TimeoutError, TimeoutError):
+            return (f"step {index + 1}: the {self.options.navigator.upper().replace('_', ' ')} did not acknowledge it "
+                    f"(no route plan) within {bound:.0f} s")
 
     # ---- Zenoh services -------------------------------------------------------------------
 

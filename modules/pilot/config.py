@@ -36,6 +36,7 @@ class PilotConfig(BaseModel):
     correction_period_s: float = Field(1.0, gt=0.0, description="repost world←local and the estimate every [s] sim")
     max_speed: float = Field(2.0, gt=0.0, description="speed when the segment sets no limit [m/s]")
     stuck_timeout_s: float = Field(60.0, gt=0.0, description="no progress for this long fails the segment [s] sim")
+    helm: str = Field("helm", description="the module driving the vehicle: while its heartbeat is silent the stuck timer waits")
     final_goal_settle_s: float = Field(3.0, gt=0.0, description="standing this long at the last unit's goal ends the segment [s] sim")
     replan_idle_s: float = Field(10.0, gt=0.0, description="no progress and no new plan for this long: plan again [s] sim")
     max_plan_failures: int = Field(8, ge=1, description="consecutive planning failures that fail the segment")

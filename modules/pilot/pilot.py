@@ -17,6 +17,7 @@ import logging
 from blackboard import Spec
 from blackboard.errors import BlackboardError
 from modules.pilot.config import PilotConfig
+from modules.runtime.watch import HeartbeatWatch
 from modules.pilot.driving_monitor import DrivingMonitor
 from modules.pilot.driving_unit_finder import DrivingUnitFinder
 from modules.pilot.driving_unit_navigator import DrivingUnitNavigator, UnitConstraints
@@ -47,6 +48,10 @@ class Pilot:
         self.navigator = DrivingUnitNavigator(rt.bb, cfg)
         self.planner = LocalPathPlanning(rt.bb, cfg)
         self.plan_failures = 0
+        #: the HELM's heartbeat: while it is silent (wedged) the vehicle cannot move, which is no lack of progress
+        self.helm = HeartbeatWatch(rt.link, rt.keys, cfg.helm) if getattr(rt, "link", None) is not None else None
+        self._resyncs = getattr(rt.bb, "resyncs", 0)
+        self._was_stalled = False
 
     @property
     def stats(self) -> dict[str, int]:
@@ -117,6 +122,11 @@ class Pilot:
                  len(drv.units), "on" if drv.use_perception else "off")
         while not self.rt.stopping:
             now = clock.now()
+            if self._stalled():
+                # the node away or the HELM wedged: the stuck timer starts afresh once both are back,
+                # and the plan is made again from where the vehicle stands
+                last_progress = (now, drv.s_vehicle)
+                drv.planned_through = -1
             await estimator.step()
             drv.update_progress(estimator.pose[:2])
             change = await monitor.change(seg)
@@ -167,6 +177,20 @@ class Pilot:
                 return None
             await clock.sleep(cfg.tick_s)
         return None
+
+    def _stalled(self) -> bool:
+        """Return whether the blackboard node is away (or was since the last call) or the HELM is silent."""
+        bb = self.bb
+        resyncs = getattr(bb, "resyncs", 0)
+        stalled = resyncs != self._resyncs or getattr(bb, "link_state", "up") != "up"
+        self._resyncs = resyncs
+        if self.helm is not None and self.helm.silent:
+            stalled = True
+        if stalled != self._was_stalled:
+            self._was_stalled = stalled
+            log.warning("pilot: %s", "the blackboard node or the HELM is away: the stuck timer waits" if stalled
+                        else "the blackboard node and the HELM are back: planning again from here")
+        return stalled
 
     async def _plan(self, seg: RouteSegmentDescription, drv: SegmentDriver) -> None:
         """DRIVING UNIT NAVIGATOR, then LOCAL PATH PLANNER: constraints and a plan through the newest resolved unit."""

@@ -12,7 +12,7 @@ from modules.runtime.clock import ClockNotRunningError, SimClock
 from modules.runtime.heartbeat import (
     ClockPayloadError, HeartbeatError, HeartbeatTracker, decode_clock, decode_heartbeat, encode_heartbeat,
 )
-from modules.runtime.watch import ModuleWatch
+from modules.runtime.watch import HeartbeatWatch, ModuleWatch
 from modules.runtime.lifecycle import READY_PREFIX, ModuleMain, ModuleRuntime, run_module, run_module_async
 
 __all__ = [
@@ -21,6 +21,6 @@ __all__ = [
     "ClockNotRunningError", "SimClock",
     "ClockPayloadError", "HeartbeatError", "HeartbeatTracker", "decode_clock", "decode_heartbeat", "encode_heartbeat",
     "ModuleKeys", "check_name",
-    "ModuleWatch",
+    "ModuleWatch", "HeartbeatWatch",
     "READY_PREFIX", "ModuleMain", "ModuleRuntime", "run_module", "run_module_async",
 ]

@@ -93,9 +93,16 @@ class ModuleRuntime:
             wall_time=time.time(), period_s=self.heartbeat_period, pid=os.getpid(), host=self._host,
             state=state or ("ready" if self._ready else "starting"), zenoh_sessions=session_stats()["open"],
             usage=process_usage(traffic()),
+            **self._blackboard_health(),
         )
         self._seq += 1
         self.link.put(self.keys.heartbeat(self.name), encode_heartbeat(hb))
+
+    def _blackboard_health(self) -> dict[str, Any]:
+        bb = self.bb
+        if bb is None or not hasattr(bb, "link_state"):
+            return {}
+        return {"blackboard": bb.link_state, "monitors": bb.monitor_count, "resyncs": bb.resyncs}
 
     async def _heartbeat_loop(self) -> None:
         while True:

@@ -1,4 +1,4 @@
-"""Watch another module's liveliness token and tell when it has been gone too long."""
+"""Watch another module: its liveliness token (gone too long?) and its heartbeat (silent: wedged?)."""
 
 from __future__ import annotations
 
@@ -7,8 +7,9 @@ import time
 
 from wire.aio import Link
 from wire.keys import ModuleKeys
+from modules.runtime.heartbeat import HeartbeatError, HeartbeatTracker, decode_heartbeat
 
-__all__ = ["ModuleWatch"]
+__all__ = ["ModuleWatch", "HeartbeatWatch"]
 
 
 class ModuleWatch:
@@ -55,3 +56,24 @@ class ModuleWatch:
                     await asyncio.wait_for(self._changed.wait(), left)
                 except asyncio.TimeoutError:
                     pass
+
+
+class HeartbeatWatch:
+    """The heartbeat of module `name`: silent once no beat came for `silent_after` of its periods (a wedged process keeps its token)."""
+
+    def __init__(self, link: Link, keys: ModuleKeys, name: str, *, silent_after: float = 1.5) -> None:
+        self.name = name
+        self.tracker = HeartbeatTracker(grace=silent_after)
+
+        def on_beat(_key: str, payload: bytes) -> None:
+            try:
+                self.tracker.observe(decode_heartbeat(payload))
+            except HeartbeatError:
+                pass
+
+        link.subscribe(keys.heartbeat(name), on_beat)
+
+    @property
+    def silent(self) -> bool:
+        """Return whether the module, heard once, has not beaten for `silent_after` of its periods [s wall]."""
+        return bool(self.tracker.stale())

@@ -281,19 +281,25 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
         except Exception:  # no CAPTAIN: nothing more to show
             sts = []
         wedged = [h.name for h in health if h.state == "wedged"]
+        no_node = [h.name for h in health if h.state == "no-node"]
         if as_json:
             print(_json.dumps({
                 "namespace": net.namespace, "modules": [h.model_dump(mode="json") for h in health],
-                "blackboard_clients": clients, "wedged": wedged,
+                "blackboard_clients": clients, "wedged": wedged, "no_node": no_node,
                 "missions": [s.model_dump(mode="json") for s in sts],
             }))
         else:
             console = Console()
-            table = Table("module", "state", "heartbeat age [s]", "host", "pid", title=f"live in namespace {net.namespace!r}")
+            table = Table("module", "state", "heartbeat age [s]", "blackboard", "monitors", "host", "pid",
+                          title=f"live in namespace {net.namespace!r}")
             for h in health:
                 age = "-" if h.heartbeat_age_s is None else f"{h.heartbeat_age_s:.1f}"
-                style = "red" if h.state == "wedged" else ""
-                table.add_row(h.name, f"[{style}]{h.state}[/{style}]" if style else h.state, age, h.host or "-", str(h.pid or "-"))
+                style = "red" if h.state in ("wedged", "no-node") else "yellow" if h.state == "resyncing" else ""
+                bbl = h.blackboard or "-"
+                if h.resyncs:
+                    bbl += f" ({h.resyncs} resync{'s' if h.resyncs > 1 else ''})"
+                table.add_row(h.name, f"[{style}]{h.state}[/{style}]" if style else h.state, age, bbl,
+                              "-" if h.monitors is None else str(h.monitors), h.host or "-", str(h.pid or "-"))
             console.print(table)
             if clients:
                 console.print(f"{clients} blackboard client(s) connected")
@@ -306,7 +312,7 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
                 console.print(mt)
         if not names:
             return 1
-        return 4 if wedged else 0
+        return 4 if wedged or no_node else 0
     finally:
         link.close()
 

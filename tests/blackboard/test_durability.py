@@ -44,7 +44,7 @@ async def test_sigkill_while_streaming_loses_no_acknowledged_token(tmp_path, syn
     stop = False
     failures = 0
     try:
-        async with BlackboardClient(node.client_net(), source="streamer", timeout=3.0) as bb:
+        async with BlackboardClient(node.client_net(), source="streamer", timeout=3.0, reconnect=False) as bb:
 
             def record(fut: asyncio.Future) -> None:
                 nonlocal failures
@@ -186,7 +186,8 @@ async def test_hundred_sigkills_at_random_points_of_a_write_stream(tmp_path):
     zygote = Zygote()
     loop = asyncio.get_running_loop()
     # The client listens; each node connects to it (a restarted node is back at once).
-    bb = BlackboardClient(NetworkConfig(namespace=ns, listen=(ep,)), source="stream", timeout=10.0, connect_timeout=30.0)
+    bb = BlackboardClient(NetworkConfig(namespace=ns, listen=(ep,)), source="stream", timeout=10.0, connect_timeout=30.0,
+                          reconnect=False)
     opening = asyncio.ensure_future(bb.open())
     held_kills = 0
     try:

@@ -47,7 +47,7 @@ async def test_a_write_is_acknowledged_only_once_durable(tmp_path):
 
     obs = _observer(node, "sidewalk/wc1/bb/to/*", on_message)
     try:
-        async with BlackboardClient(node.client_net(), source="w", timeout=10.0) as bb:
+        async with BlackboardClient(node.client_net(), source="w", timeout=10.0, reconnect=False) as bb:
             futs = [bb.post(Landmark(name=f"durable-{k}"), stamp=1.0) for k in range(5)]
             await asyncio.wait_for(seen, 20)
             await asyncio.gather(*futs, return_exceptions=True)
@@ -109,11 +109,11 @@ async def test_acknowledgements_reach_only_their_own_client():
 
 
 async def test_pending_writes_fail_with_node_unavailable_not_hang():
-    """A frozen node: writes time out; a dead node: writes in flight fail at once, well before the timeout."""
+    """Without `reconnect`: a frozen node: writes time out; a dead node: writes in flight fail at once, well before the timeout."""
     node = start_node(namespace="wc3", types=TYPES)
     try:
-        async with BlackboardClient(node.client_net(), source="t", timeout=1.0) as quick, \
-                BlackboardClient(node.client_net(), source="t2", timeout=60.0) as slow:
+        async with BlackboardClient(node.client_net(), source="t", timeout=1.0, reconnect=False) as quick, \
+                BlackboardClient(node.client_net(), source="t2", timeout=60.0, reconnect=False) as slow:
             await quick.post(Segment(index=1), stamp=0.0)
             os.kill(node.proc.pid, signal.SIGSTOP)  # alive (liveliness holds) but not answering
             try:
@@ -137,7 +137,7 @@ async def test_node_restart_serves_clients_again(tmp_path):
     db = str(tmp_path / "bb.sqlite")
     port = free_port()
     node = start_node(namespace="wc4", port=port, db=db, types=TYPES)
-    async with BlackboardClient(node.client_net(), source="a", timeout=5.0) as bb:
+    async with BlackboardClient(node.client_net(), source="a", timeout=5.0, reconnect=False) as bb:
         ok = await bb.post(Landmark(name="kept"), stamp=0.0)
         node.kill()
         node.stop()

@@ -16,14 +16,18 @@ DATA = Path(__file__).parent / "data"
 ALL = ("blackboard", "sim", "helm", "pilot", "map_navigator", "captain")
 
 
-async def _system(tmp_path: Path, mission: str) -> tuple[SystemRun, str, RunConfig, RunSetup]:
+async def _system(tmp_path: Path, mission: str, *, rtf: float = 25.0, ready_timeout: float = 60.0) -> tuple[SystemRun, str, RunConfig, RunSetup]:
     # a restarted PILOT may take long to come back on a loaded machine: the MAP NAVIGATOR waits for it
-    cfg = RunConfig(world="campus", mission=mission, rtf=25.0, seed=5, out=tmp_path, perception=False, pilot_grace_s=120.0)
+    cfg = RunConfig(world="campus", mission=mission, rtf=rtf, seed=5, out=tmp_path, perception=False, pilot_grace_s=120.0)
     setup = prepare_run(cfg)
     ns = f"fault{free_port()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=tmp_path / "logs")
-    await system.start()
+    try:
+        await system.start(ready_timeout=ready_timeout)
+    except BaseException:
+        await system.close()  # a process that did not come up: stop the ones that did
+        raise
     return system, mission_path(mission).read_text(), cfg, setup
 
 

@@ -16,12 +16,15 @@ y north, z up) [m]; azimuths are math angles CCW from +x [rad].
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 from scipy.ndimage import gaussian_filter
+
+from typing import TYPE_CHECKING
 
 from vehicle_sim.worldfile import (
     KINDS,
@@ -33,6 +36,9 @@ from vehicle_sim.worldfile import (
     TreeShape,
     World,
 )
+
+if TYPE_CHECKING:
+    from vehicle_sim.actors import ActorSet
 
 __all__ = [
     "LABEL_NONE",
@@ -225,6 +231,44 @@ class Scene:
         self.tile = tile
         self._tile_flat = np.ascontiguousarray(np.moveaxis(tile, 0, -1).reshape(-1, 3))
         self._samples = ground_samples(0.3, self.max_range)
+
+    # ---------------------------------------------------------------- actors (objects not on the map)
+
+    _actor_solids: tuple = ()
+    _actor_mat: dict = {}
+
+    def add_actors(self, actors: "ActorSet") -> None:
+        """Give every actor of `actors` a material (colour, reflectance, label "rock"); call once, before `at_time`."""
+        per_mat = ("mat_mean", "mat_std", "mat_refl", "mat_label", "_g_z0", "_g_rise", "_g_ax", "_g_lo", "_g_inv_len",
+                   "_g_steps", "_g_a0", "_g_a1", "_g_b", "_g_tilted", "_g_normal", "_g_riser_normal", "_mat_ground_shadow")
+        m0 = len(self.mat_refl)
+        k = len(actors.actors)
+        for name in per_mat:
+            a = getattr(self, name)
+            setattr(self, name, np.concatenate([a, np.repeat(a[:1], k, axis=0)], axis=0))
+        self._actor_mat = {}
+        for j, a in enumerate(actors.actors):
+            m = m0 + j
+            self.mat_mean[m] = a.colour
+            self.mat_std[m] = (12.0, 12.0, 12.0)
+            self.mat_refl[m] = a.reflectance
+            self.mat_label[m] = KINDS.index("rock")
+            self._mat_ground_shadow[m] = False
+            self._actor_mat[a.id] = m
+        self._any_tilted = bool(self._g_tilted.any())
+
+    def at_time(self, actors: "ActorSet | None", t: float) -> "Scene":
+        """Return a shallow copy of this scene with `actors` placed where they are at sim time `t` [s]."""
+        if actors is None or not len(actors):
+            return self
+        out = copy.copy(self)
+        solids = []
+        for a, corners in actors.footprints(t):
+            c = corners.mean(axis=0)
+            zb = float(self.elevation(c[None])[0])
+            solids.append((corners.astype(np.float64), zb, zb + a.box[2], self._actor_mat[a.id]))
+        out._actor_solids = tuple(solids)
+        return out
 
     # ---------------------------------------------------------------- ground queries
 
@@ -422,6 +466,8 @@ class Scene:
             for j in self._visible(self._prism_centre, self._prism_radius, ox, oy, az_mid, az_half, rmax):
                 verts, zb, zt, m = self.prisms[j]
                 self._prism(ctx, verts, zb, zt, m)
+        for verts, zb, zt, m in self._actor_solids:  # objects not on the map (vehicle_sim.actors)
+            self._prism(ctx, verts, zb, zt, m)
 
         s_buf = ctx.s
         too_far = s_buf > rmax

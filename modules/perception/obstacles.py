@@ -28,6 +28,7 @@ __all__ = [
     "Obstacle",
     "HeightMap",
     "scan_points",
+    "unwrap_over_ground",
     "height_map",
     "detect_obstacles",
     "path_clear_distance",
@@ -122,8 +123,9 @@ def scan_points(scan: LaserScan, max_horizontal: float = 20.0) -> np.ndarray:
     R = scan.T_vehicle_laser[:3, :3]
     t = scan.T_vehicle_laser[:3, 3]
     valid = scan.valid.astype(bool)
-    r = unwrap_range(scan.range_m, valid, scan.ambiguity).astype(np.float64)
     dv = dirs @ R.T
+    r = unwrap_over_ground(unwrap_range(scan.range_m, valid, scan.ambiguity).astype(np.float64), valid, dv[..., 2], float(t[2]),
+                           scan.ambiguity)
     xyz = dv * r[..., None] + t
     if scan.reflectance is not None:
         atten = 1.0 / (1.0 + np.square(r / 25.0))
@@ -134,6 +136,33 @@ def scan_points(scan: LaserScan, max_horizontal: float = 20.0) -> np.ndarray:
     horiz = np.hypot(xyz[..., 0] - t[0], xyz[..., 1] - t[1])
     keep = valid & (horiz <= max_horizontal)
     return np.concatenate([xyz[keep], sig[keep][:, None]], axis=1).astype(np.float32)
+
+
+def unwrap_over_ground(r: np.ndarray, valid: np.ndarray, dz: np.ndarray, z0: float, ambiguity: float,
+                       max_range: float = 40.0, ground_tol: float = 0.6, jump: float = 1.0) -> np.ndarray:
+    """Return ranges (H, W) [m] with rays that passed over an object's top and met far ground unwrapped once more.
+
+    Such a return comes back one ambiguity interval short and floats in the air behind the object. A
+    pixel is moved out by `ambiguity` when it is not range-continuous with the pixel below it (already
+    decided), it floats above the vehicle's ground plane, and one interval farther it lands on that
+    plane (within `ground_tol` [m]). `dz` (H, W) is each ray's vertical direction component and `z0` [m]
+    the scanner's height, `vehicle` frame.
+    """
+    r = r.copy()
+    h = r.shape[0]
+    below = np.full(r.shape[1], np.nan)
+    for row in range(h - 1, -1, -1):
+        v = valid[row]
+        cur = r[row]
+        alt = cur + ambiguity
+        z_now = z0 + cur * dz[row]
+        z_alt = z0 + alt * dz[row]
+        broken = ~np.isfinite(below) | (np.abs(cur - below) > jump)
+        move = v & broken & (z_now > ground_tol) & (np.abs(z_alt) < ground_tol) & (alt <= max_range)
+        cur = np.where(move, alt, cur)
+        r[row] = cur
+        below = np.where(v, cur, below)
+    return r
 
 
 def height_map(points: np.ndarray, cfg: ObstacleConfig = ObstacleConfig()) -> HeightMap:

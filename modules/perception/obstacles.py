@@ -20,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from scipy.ndimage import label as cc_label
 from scipy.ndimage import maximum_filter, minimum_filter
 
-from modules.perception.range_seg import unwrap_range
+from modules.perception.range_seg import jump_edges, unwrap_range
 
 __all__ = [
     "ObstacleConfig",
@@ -134,7 +134,9 @@ def scan_points(scan: LaserScan, max_horizontal: float = 20.0) -> np.ndarray:
         rho = np.full(r.shape, 0.3)
     sig = (0.015 + 0.00012 * r * r / rho) * np.abs(dv[..., 2])
     horiz = np.hypot(xyz[..., 0] - t[0], xyz[..., 1] - t[1])
-    keep = valid & (horiz <= max_horizontal)
+    # pixels at depth discontinuities may be mixed points (the sum of two returns) floating between
+    # the surfaces: they are dropped
+    keep = valid & (horiz <= max_horizontal) & ~jump_edges(r.astype(np.float32), valid)
     return np.concatenate([xyz[keep], sig[keep][:, None]], axis=1).astype(np.float32)
 
 

@@ -23,6 +23,7 @@ UP_TARGETS: dict[str, tuple[str, str]] = {
     "pilot": ("modules.pilot.__main__", "main"),
     "helm": ("modules.helm.__main__", "main"),
     "perception": ("modules.perception.__main__", "main"),
+    "obstacles": ("modules.obstacles.__main__", "main"),
 }
 
 
@@ -76,6 +77,9 @@ def run(
     monitor_port: Annotated[int, typer.Option("--monitor-port", help="HTTP port of the monitor page")] = 8080,
     no_record: Annotated[bool, typer.Option("--no-record", help="Do not write run.mcap")] = False,
     # ---- end monitor and recording ----
+    actors: Annotated[Optional[str], typer.Option("--actors", help="Objects not on the map: an actors file (JSON/YAML) or a preset (e.g. amv-delivery)")] = None,
+    obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors)")] = None,
+    map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
 ) -> None:
     """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh; writes run.mcap."""
     from rich.console import Console
@@ -96,7 +100,8 @@ def run(
         cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
                         perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
                         max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns,
-                        record=not no_record, monitor_port=monitor_port if monitor else None)  # issue 11
+                        record=not no_record, monitor_port=monitor_port if monitor else None,  # issue 11
+                        actors=actors, obstacles=obstacles, map_file=map_file)  # issue 12
     except ValidationError as exc:
         e = exc.errors()[0]
         raise typer.BadParameter(f"{e['loc'][0]}: {e['msg']}") from None

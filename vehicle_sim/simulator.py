@@ -205,15 +205,18 @@ class Simulator:
         self.actors.update(self.t, (s.x, s.y))
         pts = self.footprint_world(s)
         touching = None
+        near = None  # still in contact: a blocked vehicle stays where it touched (hysteresis of 0.1 m)
         for a, corners in self.actors.footprints(self.t):
             d = _clearance(pts, corners)
             self.actor_clearance_min = min(self.actor_clearance_min, d)
             if d <= 0.0 and touching is None:
                 touching = a
+            if d <= 0.1 and a.id == self._actor_contact:
+                near = a.id
         if touching is not None and self._actor_contact != touching.id:
             self._events.append(SimEvent(stamp=self.t, kind="collision", x=s.x, y=s.y, object_id=touching.id, object_kind="rock",
                                          detail=f"vehicle touched {touching.kind} {touching.id!r} (not on the map)"))
-        self._actor_contact = touching.id if touching is not None else None
+        self._actor_contact = touching.id if touching is not None else near
         return touching is not None
 
     def drain_events(self) -> list[SimEvent]:

@@ -59,7 +59,7 @@ class HelmConfig(BaseModel):
     )
     tracker: TrackerConfig = TrackerConfig()
     keys: DriveKeys = DriveKeys()
-    obstacle_stop_m: float = Field(16.0, ge=0.0, description="stop for a blocking obstacle report this near along the plan [m]")
+    obstacle_stop_m: float = Field(20.0, ge=0.0, description="stop for a blocking obstacle report this near along the plan [m]")
     obstacle_stale_s: float = Field(2.0, gt=0.0, description="an obstacle report older than this no longer stops the vehicle [s] sim")
 
 

@@ -16,9 +16,9 @@ __all__ = ["main", "build_parser"]
 def build_parser() -> argparse.ArgumentParser:
     """Return the OBSTACLE DETECTOR's argument parser (network flags included)."""
     p = argparse.ArgumentParser(prog="python -m modules.obstacles", description=__doc__)
-    p.add_argument("--period", type=float, default=0.25, help="seconds of sim time between scans [s]")
+    p.add_argument("--period", type=float, default=0.1, help="seconds of sim time between scans [s]")
     p.add_argument("--half-width", type=float, default=1.5, help="half-width of the corridor along the plan [m]")
-    p.add_argument("--lookahead", type=float, default=16.0, help="how far along the plan to check [m]")
+    p.add_argument("--lookahead", type=float, default=20.0, help="how far along the plan to check [m]")
     p.add_argument("--name", default="obstacles", help="module name (liveliness, heartbeat)")
     add_network_args(p)
     return p

@@ -38,9 +38,9 @@ class ObstacleDetectorConfig(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    period_s: float = Field(0.25, gt=0.0)
+    period_s: float = Field(0.1, gt=0.0)
     half_width: float = Field(1.5, gt=0.0)  # Navlab half width 1.05 m plus a margin [m]
-    lookahead_m: float = Field(16.0, gt=0.0)
+    lookahead_m: float = Field(20.0, gt=0.0)  # one ambiguity interval [m]
     capture_timeout_s: float = Field(5.0, gt=0.0)
     pose_wait_s: float = Field(1.0, ge=0.0)
     detection: ObstacleConfig = ObstacleConfig()

@@ -188,8 +188,8 @@ ACTOR_PRESETS: dict[str, dict] = {
     # amv-delivery on north_hills: a pedestrian stops in the northbound lane of Oak, then crosses on;
     # a car parked in the westbound lane of Elm pulls away and turns north onto Birch.
     "amv-delivery": {"actors": [
-        {"id": "walker", "kind": "pedestrian", "speed": 0.8, "trigger_distance": 40.0,
-         "path": [{"x": 5.5, "y": 40.0}, {"x": 1.5, "y": 40.0, "dwell": 12.0}, {"x": -6.0, "y": 40.0}]},
+        {"id": "walker", "kind": "pedestrian", "speed": 1.4, "trigger_distance": 30.0,
+         "path": [{"x": 5.0, "y": 40.0}, {"x": 1.5, "y": 40.0, "dwell": 10.0}, {"x": -6.0, "y": 40.0}]},
         {"id": "parked_car", "kind": "car", "speed": 5.0, "trigger_distance": 25.0, "start_after": 12.0,
          "yaw_deg": 180.0, "vanish": True,
          "path": [{"x": -175.0, "y": 241.5}, {"x": -233.0, "y": 241.5}, {"x": -238.5, "y": 247.0}, {"x": -238.5, "y": 300.0}]},

@@ -45,3 +45,15 @@ def test_fast_mode_sees_only_the_corridor() -> None:
     veer = np.array([[0.0, 0.0], [5.0, 0.0], [10.0, 2.8], [20.0, 2.8]])  # the path turns into it
     d = path_clear_distance(scan, veer, 1.2)
     assert 10.0 < d < 12.5
+
+
+def test_plan_goes_into_the_vehicle_frame_ahead_of_the_vehicle() -> None:
+    from modules.obstacles.detector import plan_in_vehicle
+    from modules.vocabulary import LocalPathPlan, PlanPose
+
+    poses = tuple(PlanPose(x=10.0, y=float(y), yaw=math.pi / 2, speed=2.0) for y in range(0, 40, 2))
+    plan = LocalPathPlan(seq=1, segment_id="s", poses=poses)
+    p = plan_in_vehicle(plan, (10.0, 5.0, math.pi / 2), lookahead=10.0)  # vehicle at y = 5 heading north
+    assert tuple(p[0]) == (0.0, 0.0)
+    assert np.allclose(p[1:, 1], 0.0, atol=1e-9)  # straight ahead
+    assert p[1, 0] == pytest.approx(1.0) and p[-1, 0] <= 12.0 + 1e-9

@@ -57,7 +57,13 @@ def plan_in_vehicle(plan: LocalPathPlan, pose: tuple[float, float, float], looka
     out = np.vstack([[0.0, 0.0], ahead]) if len(ahead) else np.array([[0.0, 0.0], [lookahead, 0.0]])
     seg = np.linalg.norm(np.diff(out, axis=0), axis=1)
     keep = np.concatenate([[True], np.cumsum(seg) <= lookahead + seg.max(initial=0.0)])
-    return out[keep]
+    out = out[keep]
+    length = float(np.linalg.norm(np.diff(out, axis=0), axis=1).sum())
+    if length < lookahead:  # the plan ends short of the look-ahead (it reaches only the newest driving unit): carry on straight
+        d = out[-1] - out[-2]
+        d = d / max(float(np.linalg.norm(d)), 1e-9)
+        out = np.vstack([out, out[-1] + (lookahead - length) * d])
+    return out
 
 
 class ObstacleDetector:

@@ -57,3 +57,5 @@ def test_plan_goes_into_the_vehicle_frame_ahead_of_the_vehicle() -> None:
     assert tuple(p[0]) == (0.0, 0.0)
     assert np.allclose(p[1:, 1], 0.0, atol=1e-9)  # straight ahead
     assert p[1, 0] == pytest.approx(1.0) and p[-1, 0] <= 12.0 + 1e-9
+    short = plan_in_vehicle(LocalPathPlan(seq=2, segment_id="s", poses=poses[:5]), (10.0, 0.0, math.pi / 2), lookahead=15.0)
+    assert short[-1, 0] == pytest.approx(15.0) and abs(short[-1, 1]) < 1e-9  # a short plan is carried on straight

@@ -60,7 +60,7 @@ class HelmConfig(BaseModel):
     tracker: TrackerConfig = TrackerConfig()
     keys: DriveKeys = DriveKeys()
     obstacle_stop_m: float = Field(20.0, ge=0.0, description="stop for a blocking obstacle report this near along the plan [m]")
-    obstacle_stale_s: float = Field(2.0, gt=0.0, description="an obstacle report older than this no longer stops the vehicle [s] sim")
+    obstacle_stale_s: float = Field(10.0, gt=0.0, description="a blocking report older than this no longer stops the vehicle [s] sim (a dead detector must not stop it for ever; a slow one must not let it creep)")
 
 
 def helm_config_for(vehicle: Literal["navlab", "terregator"], **overrides) -> HelmConfig:

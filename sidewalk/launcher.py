@@ -81,6 +81,11 @@ class RunConfig(BaseModel):
     monitor_port: Optional[int] = Field(default=None, ge=1, le=65535)  # serve the monitor page on this port
     # ---- end monitor and recording ----
     secure: Optional[Path] = None  # `sidewalk security init` directory: TLS, passwords, access control (issue 14)
+    # ---- laser (issue 12) ----
+    actors: Optional[str] = None  # objects not on the map: an actors file or preset (vehicle_sim.actors)
+    obstacles: Optional[bool] = None  # run the OBSTACLE DETECTOR (default: when there are actors)
+    map_file: Optional[Path] = None  # the map the robot gets (e.g. from `sidewalk mapbuild`); default: the shipped one
+    # ---- end laser ----
 
 
 @dataclass
@@ -149,6 +154,11 @@ def _with_pose_error(pose: tuple[float, float, float], cfg: RunConfig) -> tuple[
 
 def _map(world: World, cfg: RunConfig, out: Path) -> tuple[Path, World]:
     """Return the map file the MAP NAVIGATOR reads and the map: the shipped one, or one derived with --map-error."""
+    if cfg.map_file is not None:  # issue 12: a map built by `sidewalk mapbuild`
+        try:
+            return Path(cfg.map_file), load_world(cfg.map_file, kind="map")
+        except (FileNotFoundError, ValueError) as exc:
+            raise LaunchError(f"--map {cfg.map_file}: {exc}") from None
     if cfg.map_error_m is None:
         path = world_path(cfg.world, kind="map")
         try:
@@ -230,6 +240,13 @@ def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
         raise LaunchError(str(exc)) from None
     if mission.world is not None and mission.world != world.name:
         raise LaunchError(f"mission {mission.name!r} is for world {mission.world!r}, not {world.name!r}")
+    if cfg.actors:  # issue 12: a bad actors file fails here, not in the simulator
+        from vehicle_sim.actors import ActorError, load_actors
+
+        try:
+            load_actors(cfg.actors)
+        except ActorError as exc:
+            raise LaunchError(f"--actors: {exc}") from None
     return world, mission, mpath
 
 
@@ -269,11 +286,14 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
         ProcessPlan("blackboard", ("-m", "sidewalk", "up", "blackboard", *zflags,
                                    "--db", str(out / "blackboard.db"), "--types", "modules.vocabulary")),
         ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", cfg.world, "--vehicle", vehicle, *sim_start,
-                            "--rtf", str(cfg.rtf), "--seed", str(cfg.seed), "--watchdog", str(cfg.watchdog_s), *zflags)),
+                            "--rtf", str(cfg.rtf), "--seed", str(cfg.seed), "--watchdog", str(cfg.watchdog_s), *zflags,
+                            *(("--actors", cfg.actors) if cfg.actors else ()))),
         ProcessPlan("helm", ("-m", "sidewalk", "up", "helm", "--vehicle", vehicle, *zflags)),
     ]
     # ---- monitor and recording (issue 11): recorder and monitor start before the simulator ----
     plans[2:2] = observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port)
+    if cfg.obstacles or (cfg.obstacles is None and cfg.actors):  # issue 12
+        plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", *zflags)))
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags)))
     plans += [
@@ -329,7 +349,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
         estimate=tuple(r for r in rec.estimate.rows if kept_from <= r[0] <= kept_to),
         events=tuple(e for e in rec.events if kept_from <= e.stamp <= kept_to),
         statuses=tuple(statuses), plans=tuple(system.routes.get(mission_id, ())), processes=rec.process_costs(),
-        blackboard=system.bb_stats, exit_codes=exit_codes,
+        blackboard=system.bb_stats, exit_codes=exit_codes, actors=cfg.actors,
     )
 
 

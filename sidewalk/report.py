@@ -22,6 +22,7 @@ from modules.vocabulary import MissionStatus, StepOutcome
 from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
 from sidewalk.run_record import RunRecord
+from sidewalk.stops import StopSummary, stop_summary
 from wire.drive import SimEvent
 
 __all__ = [
@@ -147,6 +148,7 @@ class RunReport(BaseModel):
     blackboard: Optional[BlackboardUsage] = None
     modules: dict[str, ModuleCost] = {}
     exit_codes: dict[str, Optional[int]] = {}
+    stops: Optional[StopSummary] = None  # issue 12: stops on the way, time stopped, closest approach to actors
 
 
 def _final_status(rec: RunRecord) -> MissionStatus | None:
@@ -350,6 +352,7 @@ def build_report(rec: RunRecord) -> RunReport:
         blackboard=_bb_usage(rec.blackboard),
         modules=_module_costs(rec),
         exit_codes=dict(rec.exit_codes),
+        stops=stop_summary(truth, actors=rec.actors, world_name=rec.world, vehicle=rec.vehicle),
     )
 
 

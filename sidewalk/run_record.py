@@ -105,6 +105,7 @@ class RunRecord(BaseModel):
     processes: tuple[ProcessCost, ...] = ()
     blackboard: Optional[dict[str, int | float]] = None
     exit_codes: dict[str, Optional[int]] = {}
+    actors: Optional[str] = None  # issue 12: objects not on the map (file or preset) the run had
 
 
 def save_record(record: RunRecord, path: Path) -> Path:

@@ -25,6 +25,7 @@ from wire.network import NetworkConfig
 from wire.health import process_usage
 from wire.session import Query, Session, open_session, traffic
 from wire.drive import DriveCommand, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
+from vehicle_sim.actors import ActorSet, load_actors
 from vehicle_sim.mapgen import map_for
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, OdometryModel
 from vehicle_sim.simulator import CommandRejected, SimConfig, Simulator
@@ -51,6 +52,8 @@ class NodeConfig(BaseModel):
     capture_workers: int = Field(default=1, ge=1, le=8)
     #: where the vehicle starts: x, y [m] in `world`, yaw [rad]; None = the world file's start
     start: tuple[float, float, float] | None = None
+    #: objects not on the map: an actors file (JSON/YAML) or a preset name (`vehicle_sim.actors`)
+    actors: str | None = None
 
 
 class SimNode:
@@ -63,11 +66,13 @@ class SimNode:
         self.config = config
         self.net = net
         self.keys = SimKeys(net.namespace)
+        self.actors = load_actors(config.actors) if config.actors else ActorSet()
         self.sim = Simulator(
             world,
             SimConfig(vehicle=config.vehicle, physics_hz=config.physics_hz, watchdog_timeout=config.watchdog_timeout,
                       odometry=config.odometry, seed=config.seed),
             start=config.start,
+            actors=self.actors,
         )
         self._publish_every = max(1, int(round(config.physics_hz / config.publish_hz)))
         self._cmds: deque[bytes] = deque()
@@ -107,6 +112,8 @@ class SimNode:
         from vehicle_sim.scene import Scene
 
         self._scene = Scene(self.world, seed=self.config.seed)
+        if len(self.actors):
+            self._scene.add_actors(self.actors)
         self._map_json = json.dumps(map_for(self.world, self.config.map_error, self.config.seed).to_geojson()).encode()
         self._world_json = json.dumps(self.world.to_geojson()).encode()
         self._session = z = open_session(self.net)
@@ -203,7 +210,7 @@ class SimNode:
                     q.reply_err(json.dumps({"error": "simulator is shutting down"}).encode(), as_json=True)
                     continue
                 req = decode(CaptureRequest, q.payload) if q.payload else CaptureRequest()
-                res = capture(self._scene, (state.x, state.y, state.yaw), t, req, vehicle=self.config.vehicle)
+                res = capture(self._scene.at_time(self.actors, t), (state.x, state.y, state.yaw), t, req, vehicle=self.config.vehicle)
                 # truth only on its own key, which access control can deny (it cannot see a payload's flag)
                 q.reply(encode_capture(res, truth=truth))
             except WireError as exc:

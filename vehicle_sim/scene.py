@@ -21,6 +21,7 @@ reproducible: fixed noise fields thresholded at a cover that depends on the time
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -28,6 +29,8 @@ import cv2
 import numpy as np
 from scipy.ndimage import gaussian_filter
 from scipy.special import ndtri
+
+from typing import TYPE_CHECKING
 
 from vehicle_sim.worldfile import (
     KINDS,
@@ -39,6 +42,9 @@ from vehicle_sim.worldfile import (
     TreeShape,
     World,
 )
+
+if TYPE_CHECKING:
+    from vehicle_sim.actors import ActorSet
 
 __all__ = [
     "LABEL_NONE",
@@ -298,6 +304,44 @@ class Scene:
             c += b[k][:, None] * (lc - c)
             flat[at] = c
 
+    # ---------------------------------------------------------------- actors (objects not on the map)
+
+    _actor_solids: tuple = ()
+    _actor_mat: dict = {}
+
+    def add_actors(self, actors: "ActorSet") -> None:
+        """Give every actor of `actors` a material (colour, reflectance, label "rock"); call once, before `at_time`."""
+        per_mat = ("mat_mean", "mat_std", "mat_refl", "mat_label", "_g_z0", "_g_rise", "_g_ax", "_g_lo", "_g_inv_len",
+                   "_g_steps", "_g_a0", "_g_a1", "_g_b", "_g_tilted", "_g_normal", "_g_riser_normal", "_mat_ground_shadow")
+        m0 = len(self.mat_refl)
+        k = len(actors.actors)
+        for name in per_mat:
+            a = getattr(self, name)
+            setattr(self, name, np.concatenate([a, np.repeat(a[:1], k, axis=0)], axis=0))
+        self._actor_mat = {}
+        for j, a in enumerate(actors.actors):
+            m = m0 + j
+            self.mat_mean[m] = a.colour
+            self.mat_std[m] = (12.0, 12.0, 12.0)
+            self.mat_refl[m] = a.reflectance
+            self.mat_label[m] = KINDS.index("rock")
+            self._mat_ground_shadow[m] = False
+            self._actor_mat[a.id] = m
+        self._any_tilted = bool(self._g_tilted.any())
+
+    def at_time(self, actors: "ActorSet | None", t: float) -> "Scene":
+        """Return a shallow copy of this scene with `actors` placed where they are at sim time `t` [s]."""
+        if actors is None or not len(actors):
+            return self
+        out = copy.copy(self)
+        solids = []
+        for a, corners in actors.footprints(t):
+            c = corners.mean(axis=0)
+            zb = float(self.elevation(c[None])[0])
+            solids.append((corners.astype(np.float64), zb, zb + a.box[2], self._actor_mat[a.id]))
+        out._actor_solids = tuple(solids)
+        return out
+
     # ---------------------------------------------------------------- ground queries
 
     def cell_of(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -494,6 +538,8 @@ class Scene:
             for j in self._visible(self._prism_centre, self._prism_radius, ox, oy, az_mid, az_half, rmax):
                 verts, zb, zt, m = self.prisms[j]
                 self._prism(ctx, verts, zb, zt, m)
+        for verts, zb, zt, m in self._actor_solids:  # objects not on the map (vehicle_sim.actors)
+            self._prism(ctx, verts, zb, zt, m)
 
         s_buf = ctx.s
         too_far = s_buf > rmax

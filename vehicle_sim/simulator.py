@@ -13,6 +13,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from wire.drive import DriveCommand, Odometry, SimClock, SimEvent, TruthPose, VehicleLimits
+from vehicle_sim.actors import ActorSet
 from vehicle_sim.kinematics import VehicleParams, VehicleState, limits_of, params_for, step
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, NoiseSource, OdometryModel, OdometryState, odometry_step
 from vehicle_sim.watchdog import CommandSupervisor
@@ -54,8 +55,12 @@ class Simulator:
         rng: np.random.Generator | None = None,
         start: tuple[float, float, float] | None = None,
         params: VehicleParams | None = None,
+        actors: ActorSet | None = None,
     ) -> None:
         self.world = world
+        self.actors = actors if actors is not None else ActorSet()
+        self._actor_contact: str | None = None
+        self.actor_clearance_min = math.inf  # closest approach of the footprint to any actor [m]
         self.config = config
         self.params: VehicleParams = params if params is not None else params_for(config.vehicle)
         if self.params.kind != config.vehicle:
@@ -179,6 +184,9 @@ class Simulator:
         if self._check_ground(new) and self.config.collisions_block:
             new = VehicleState(x=prev.x, y=prev.y, yaw=prev.yaw, v=0.0, kappa=prev.kappa, omega=0.0)
             ds = 0.0
+        if len(self.actors) and self._check_actors(new) and self.config.collisions_block:
+            new = VehicleState(x=prev.x, y=prev.y, yaw=prev.yaw, v=0.0, kappa=prev.kappa, omega=0.0)
+            ds = 0.0
         dyaw = (new.yaw - prev.yaw + math.pi) % (2.0 * math.pi) - math.pi
         self.odom = odometry_step(self.odom, ds, dyaw, self.dt, self.config.odometry, self._noise.pair())
         self.state = new
@@ -191,6 +199,25 @@ class Simulator:
         for _ in range(n):
             out += self.step()
         return out
+
+    def _check_actors(self, s: VehicleState) -> bool:
+        """Move the actors to now, track the closest approach, log a collision on first contact; True while touching."""
+        self.actors.update(self.t, (s.x, s.y))
+        pts = self.footprint_world(s)
+        touching = None
+        near = None  # still in contact: a blocked vehicle stays where it touched (hysteresis of 0.1 m)
+        for a, corners in self.actors.footprints(self.t):
+            d = _clearance(pts, corners)
+            self.actor_clearance_min = min(self.actor_clearance_min, d)
+            if d <= 0.0 and touching is None:
+                touching = a
+            if d <= 0.1 and a.id == self._actor_contact:
+                near = a.id
+        if touching is not None and self._actor_contact != touching.id:
+            self._events.append(SimEvent(stamp=self.t, kind="collision", x=s.x, y=s.y, object_id=touching.id, object_kind="rock",
+                                         detail=f"vehicle touched {touching.kind} {touching.id!r} (not on the map)"))
+        self._actor_contact = touching.id if touching is not None else near
+        return touching is not None
 
     def drain_events(self) -> list[SimEvent]:
         """Return and forget the events not yet returned."""
@@ -223,3 +250,19 @@ class Simulator:
     def colliding_with(self) -> str | None:
         """Return the id of the obstacle the vehicle touches, if any."""
         return self._in_collision
+
+
+def _clearance(points: np.ndarray, corners: np.ndarray) -> float:
+    """Return the distance [m] from the vehicle footprint samples (K, 2) to a convex box (4, 2); <= 0 inside."""
+    c = corners.mean(axis=0)
+    e = np.roll(corners, -1, axis=0) - corners
+    n = np.stack([e[:, 1], -e[:, 0]], -1) / np.linalg.norm(e, axis=1, keepdims=True)
+    if float(np.dot(n[0], corners[0] - c)) < 0:
+        n = -n
+    signed = ((points[:, None, :] - corners[None]) * n[None]).sum(-1).max(axis=1)  # (K,) >0 outside
+    if (signed <= 0).any():
+        return float(signed.min())
+    # outside: distance to the nearest edge segment
+    t = np.clip(((points[:, None, :] - corners[None]) * e[None]).sum(-1) / (e * e).sum(-1)[None], 0.0, 1.0)
+    proj = corners[None] + t[..., None] * e[None]
+    return float(np.linalg.norm(points[:, None, :] - proj, axis=-1).min())

@@ -3,7 +3,8 @@
 Reads odometry (local←vehicle) from the simulator's drive interface and local path plans (frame
 `local`) from the blackboard; sends timed DriveCommands (speed [m/s], curvature [1/m], duration [s])
 on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time). Whenever a new plan appears the old one
-is dropped (seed §2.3.4). With no plan, or at its end, it commands stops.
+is dropped (seed §2.3.4). With no plan, or at its end, it commands stops. It also stops while the newest
+`obstacle_report` says something stands on the plan ahead, and drives on once a newer one says clear.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from blackboard import Pose2D, Spec
 from blackboard.errors import BlackboardError
 from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError, tracker_config_for
-from modules.vocabulary import LocalPathPlan
+from modules.vocabulary import LocalPathPlan, ObstacleReport
 from wire.keys import root as keys_root
 from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
 
@@ -58,6 +59,8 @@ class HelmConfig(BaseModel):
     )
     tracker: TrackerConfig = TrackerConfig()
     keys: DriveKeys = DriveKeys()
+    obstacle_stop_m: float = Field(20.0, ge=0.0, description="stop for a blocking obstacle report this near along the plan [m]")
+    obstacle_stale_s: float = Field(10.0, gt=0.0, description="a blocking report older than this no longer stops the vehicle [s] sim (a dead detector must not stop it for ever; a slow one must not let it creep)")
 
 
 def helm_config_for(vehicle: Literal["navlab", "terregator"], **overrides) -> HelmConfig:
@@ -85,6 +88,9 @@ class Helm:
         self.plan_seq: int | None = None
         self.plan_sensed_at: float | None = None
         self.last_command: DriveCommand | None = None
+        self.obstacle: ObstacleReport | None = None
+        self.obstacle_stops = 0
+        self._held = False
 
     def _on_odom(self, _key: str, payload: bytes) -> None:
         try:
@@ -141,6 +147,23 @@ class Helm:
             if ev.kind == "new":
                 self.take_plan(ev.token.attrs)
 
+    async def _obstacles(self) -> None:
+        async for ev in self.rt.bb.monitor(Spec(type="obstacle_report")):
+            if ev.kind == "new" and (self.obstacle is None or ev.token.attrs.sensed_at >= self.obstacle.sensed_at):
+                self.obstacle = ev.token.attrs
+
+    def obstacle_hold(self, now: float) -> bool:
+        """Return True while the newest obstacle report (fresh) blocks the plan within `obstacle_stop_m` [m]."""
+        o = self.obstacle
+        hold = o is not None and o.blocked and o.distance_m <= self.cfg.obstacle_stop_m and now - o.sensed_at <= self.cfg.obstacle_stale_s
+        if hold and not self._held:
+            self.obstacle_stops += 1
+            log.info("helm: obstacle %.1f m ahead on the plan: stopping", o.distance_m)  # type: ignore[union-attr]
+        elif self._held and not hold:
+            log.info("helm: path clear: driving on")
+        self._held = hold
+        return hold
+
     async def _post_pose(self, od: Odometry) -> None:
         try:
             await self.rt.bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=od.x, y=od.y, yaw=od.yaw),
@@ -155,6 +178,7 @@ class Helm:
         await rt.clock.wait_running()
         await self._odom_event.wait()
         plan_task = asyncio.ensure_future(self._plans())
+        obstacle_task = asyncio.ensure_future(self._obstacles())
         # Take the newest plan already on the blackboard (a restarted HELM picks up where it was).
         try:
             toks = await rt.bb.retrieve(Spec(type="local_path_plan", newest=True))
@@ -174,7 +198,10 @@ class Helm:
                 dt = max(0.0, now - last_t)
                 last_t = now
                 cmd = self.tracker.command(np.array([od.x, od.y, od.yaw]), dt)
-                if cmd.done:
+                if not cmd.done and self.obstacle_hold(now):
+                    self.tracker.halt()
+                    self._send(0.0, 0.0)
+                elif cmd.done:
                     self._send(0.0, 0.0)
                 else:
                     self._send(cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon)
@@ -186,6 +213,7 @@ class Helm:
                 await rt.clock.sleep(period)
         finally:
             plan_task.cancel()
+            obstacle_task.cancel()
             if pose_task is not None:
                 pose_task.cancel()
             try:

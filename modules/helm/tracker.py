@@ -130,6 +130,10 @@ class PathTracker:
         self._fresh = False
         return lo + k, float(t[k]), float(math.copysign(dist[k], cross))
 
+    def halt(self) -> None:
+        """Forget the speed ramp: the vehicle was held at a stop, so the next command ramps up from rest."""
+        self._last_speed = 0.0
+
     def command(self, pose: np.ndarray, dt: float) -> TrackCommand:
         """Return the drive command for local←vehicle `pose` (3,) after a control period `dt` [s]."""
         if self._poses is None:

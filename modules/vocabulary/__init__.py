@@ -21,6 +21,7 @@ Who writes what (type name: writer → readers; all coordinates in attrs are wor
 - position_estimate, local_path_constraints: PILOT → monitors
 - local_path_plan: PILOT → HELM (newest `seq` wins)
 - map_object: MAP NAVIGATOR (copies of the map; also embedded in segments and driving units)
+- obstacle_report: OBSTACLE DETECTOR → HELM (newest wins; frame local)
 - heartbeat: every module, on `sidewalk/<ns>/heartbeat/<module>` (not a blackboard token)
 """
 
@@ -29,6 +30,7 @@ from modules.vocabulary.driving import (
     DrivingUnitDescription, LocalPathConstraints, LocalPathPlan, PlanPose, PositionEstimate, UnitStatus,
 )
 from modules.vocabulary.health import Heartbeat, ModuleState
+from modules.vocabulary.obstacle import ObstaclePolygon, ObstacleReport
 from modules.vocabulary.mapdata import (
     ColourType, FlatShape, MapColour, MapObject, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
     TreeShape,
@@ -61,12 +63,14 @@ TOKEN_TYPES: dict[type, str] = {
     LocalPathConstraints: "local_path_constraints",
     LocalPathPlan: "local_path_plan",
     Heartbeat: "heartbeat",
+    ObstacleReport: "obstacle_report",
 }
 
 __all__ = [
     "XY", "Cov3", "Frozen", "Polyline2", "Pose", "Ring",
     "DrivingUnitDescription", "LocalPathConstraints", "LocalPathPlan", "PlanPose", "PositionEstimate", "UnitStatus",
     "Heartbeat", "ModuleState",
+    "ObstaclePolygon", "ObstacleReport",
     "ColourType", "MapColour", "FlatShape", "MapObject", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
     "StairsShape", "TreeShape",
     "DEFAULT_TOLERANCE_M", "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionStart", "MissionState",

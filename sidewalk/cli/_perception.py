@@ -193,8 +193,13 @@ def eval_cmd(
     pose_error: Annotated[str, typer.Option(help="Prior pose error as M,DEG (std) for the position fixes")] = "0.5,2",
     perfect_map: Annotated[bool, typer.Option("--perfect-map", help="Predict objects from the world instead of the map file")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    laser: Annotated[bool, typer.Option("--laser", help="Score the laser libraries instead: obstacles, landmarks, time per frame")] = False,
+    actors: Annotated[str, typer.Option("--actors", help="With --laser: objects not on the map (file or preset; default <world>-eval when it exists)")] = "",
 ) -> None:
     """Score colour, range and colored-range segmentation, position fixes and cycle time against truth."""
+    if laser:
+        _laser_eval(world, frames, seed, vehicle, actors, as_json)
+        return
     from sidewalk.perception_eval import evaluate
     from modules.perception.pipeline import PerceptionPipeline
 
@@ -228,6 +233,55 @@ def eval_cmd(
     t.add_row("mean{slope,stairs,grass}", *(f"{report['mean_iou_focus'][m]['mean_iou']:.3f}" for m in report["iou_focus"]))
     con.print(t)
     con.print({k: report[k] for k in ("position_fix", "cycle_ms_p50", "cycle_ms_p95", "capture_ms_p50")})
+
+
+def _laser_eval(world: str, frames: int, seed: int, vehicle: str, actors: str, as_json: bool) -> None:
+    """Run `perception eval --laser`: half the frames approach an actor, half anywhere on the routes."""
+    from sidewalk.laser_eval import LaserEvaluation, score_frame, truth_obstacles
+    from vehicle_sim.actors import ACTOR_PRESETS, ActorError, load_actors
+    from vehicle_sim.sensors import CaptureRequest, capture
+
+    try:
+        src = FrameSource(world, vehicle=vehicle, seed=seed)
+    except (FileNotFoundError, ValueError) as exc:
+        raise typer.BadParameter(f"--world {world!r}: {exc}") from None
+    spec = actors or (f"{src.world.name}-eval" if f"{src.world.name}-eval" in ACTOR_PRESETS else "")
+    try:
+        aset = load_actors(spec) if spec else None
+    except ActorError as exc:
+        raise typer.BadParameter(f"--actors: {exc}") from None
+    if aset is not None:
+        src.scene.add_actors(aset)
+    routes, _ = _route_edges(src)
+    weights = np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum() for p, _ in routes])
+    rng = np.random.default_rng(seed)
+    ev = LaserEvaluation()
+    req = CaptureRequest(camera=False, truth=True)
+    for k in range(frames):
+        stamp = float(k)
+        if aset is not None and len(aset) and k % 2 == 0:  # approach an actor along the route direction nearest it
+            st = aset.states(stamp)[int(rng.integers(len(aset)))]
+            poly = min((p for p, _ in routes), key=lambda p: float(np.min(np.linalg.norm(p - (st.x, st.y), axis=1))))
+            j = int(np.argmin(np.linalg.norm(poly - (st.x, st.y), axis=1)))
+            a, b = poly[max(j - 1, 0)], poly[min(j + 1, len(poly) - 1)]
+            yaw = math.atan2(b[1] - a[1], b[0] - a[0])
+            back = rng.uniform(3.0, 15.0)
+            lat = rng.uniform(-1.0, 1.0)
+            pose = (st.x - back * math.cos(yaw) - lat * math.sin(yaw), st.y - back * math.sin(yaw) + lat * math.cos(yaw),
+                    yaw + rng.normal(0, math.radians(4)))
+        else:
+            pose = _sample_pose(routes[int(rng.choice(len(routes), p=weights / weights.sum()))][0], rng)
+        scene = src.scene.at_time(aset, stamp) if aset is not None else src.scene
+        res = capture(scene, pose, stamp, req, vehicle=vehicle, rng=rng)
+        score_frame(ev, res, truth_obstacles(src.world, aset, stamp), pose)
+    report = ev.as_dict()
+    report.update({"world": world, "vehicle": vehicle, "seed": seed, "actors": spec})
+    if as_json:
+        typer.echo(json.dumps(report, sort_keys=True))
+    else:
+        from rich.console import Console
+
+        Console().print(report)
 
 
 def _run_command() -> None:

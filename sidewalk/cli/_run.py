@@ -23,6 +23,7 @@ UP_TARGETS: dict[str, tuple[str, str]] = {
     "pilot": ("modules.pilot.__main__", "main"),
     "helm": ("modules.helm.__main__", "main"),
     "perception": ("modules.perception.__main__", "main"),
+    "obstacles": ("modules.obstacles.__main__", "main"),
 }
 
 
@@ -77,6 +78,9 @@ def run(
     no_record: Annotated[bool, typer.Option("--no-record", help="Do not write run.mcap")] = False,
     # ---- end monitor and recording ----
     secure: Annotated[Optional[Path], typer.Option("--secure", help="Secure directory (`sidewalk security init`): every process on mutual TLS with a password, the router enforcing its rules.yaml")] = None,
+    actors: Annotated[Optional[str], typer.Option("--actors", help="Objects not on the map: an actors file (JSON/YAML) or a preset (e.g. amv-delivery)")] = None,
+    obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors)")] = None,
+    map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
 ) -> None:
     """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh; writes run.mcap."""
     from rich.console import Console
@@ -98,7 +102,7 @@ def run(
                         perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
                         max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns,
                         record=not no_record, monitor_port=monitor_port if monitor else None,  # issue 11
-                        secure=secure)
+                        secure=secure, actors=actors, obstacles=obstacles, map_file=map_file)  # issue 12
     except ValidationError as exc:
         e = exc.errors()[0]
         raise typer.BadParameter(f"{e['loc'][0]}: {e['msg']}") from None

@@ -34,6 +34,7 @@ def serve(
     publish_hz: Annotated[float, typer.Option("--publish-hz", help="Clock/odometry/truth messages per sim second")] = 20.0,
     watchdog: Annotated[float, typer.Option("--watchdog", help="Stop the vehicle after this many sim seconds without commands")] = 0.5,
     start: Annotated[str, typer.Option("--start", help="Start pose X,Y,YAW: world frame [m, m, deg CCW from +x] (default: the world's start)")] = "",
+    actors: Annotated[str, typer.Option("--actors", help="Objects not on the map: an actors file (JSON/YAML) or a preset name")] = "",
 ) -> None:
     """Serve the simulator over Zenoh until SIGINT/SIGTERM; prints a "ready" line once serving."""
     from pydantic import ValidationError
@@ -46,7 +47,8 @@ def serve(
     start_pose = _parse_pose(start, "--start") if start else None
     try:
         cfg = NodeConfig(vehicle=vehicle, rtf=rtf, seed=seed, physics_hz=physics_hz, publish_hz=publish_hz,  # type: ignore[arg-type]
-                         watchdog_timeout=watchdog, map_error=map_error, start=start_pose)
+                         watchdog_timeout=watchdog, map_error=map_error, start=start_pose,
+                         actors=actors or None)
     except ValidationError as exc:
         msgs = "; ".join(f"--{str(e['loc'][0]).replace('_', '-')}: {e['msg']}" for e in exc.errors())
         raise typer.BadParameter(msgs) from None
@@ -59,7 +61,7 @@ def serve(
         raise typer.Exit(2) from None
     try:
         node = SimNode(w, cfg, net)
-    except ValueError as exc:
+    except ValueError as exc:  # ActorError is a ValueError: a bad actors file names itself
         raise typer.BadParameter(str(exc)) from None
 
     stop = threading.Event()

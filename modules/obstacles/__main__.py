@@ -1,0 +1,45 @@
+"""Run the OBSTACLE DETECTOR: `python -m modules.obstacles [--period S] [--half-width M] …`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from pydantic import ValidationError
+
+from modules.obstacles.detector import ObstacleDetector, ObstacleDetectorConfig
+from modules.runtime import add_network_args, network_from_args, run_module, setup_logging
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the OBSTACLE DETECTOR's argument parser (network flags included)."""
+    p = argparse.ArgumentParser(prog="python -m modules.obstacles", description=__doc__)
+    p.add_argument("--period", type=float, default=0.1, help="seconds of sim time between scans [s]")
+    p.add_argument("--half-width", type=float, default=1.5, help="half-width of the corridor along the plan [m]")
+    p.add_argument("--lookahead", type=float, default=20.0, help="how far along the plan to check [m]")
+    p.add_argument("--name", default="obstacles", help="module name (liveliness, heartbeat)")
+    add_network_args(p)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse flags and run the OBSTACLE DETECTOR until SIGINT/SIGTERM; return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    setup_logging()
+    net = network_from_args(parser, args)
+    try:
+        cfg = ObstacleDetectorConfig(period_s=args.period, half_width=args.half_width, lookahead_m=args.lookahead)
+    except ValidationError as exc:
+        parser.error("; ".join(f"--{str(e['loc'][0]).replace('_', '-')}: {e['msg']}" for e in exc.errors()))
+
+    async def body(rt) -> None:
+        await ObstacleDetector(rt, cfg).run()
+
+    return run_module(args.name, body, net)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

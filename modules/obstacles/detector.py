@@ -1,0 +1,148 @@
+"""The OBSTACLE DETECTOR process (seed: Navlab 1990 §2.3.2, the fast mode for emergency stop).
+
+Each cycle it asks the simulator's scanner for a laser image (images never go through the
+blackboard), looks up the vehicle pose in `local` at the scan's time, takes the newest local path
+plan, and checks the plan's corridor for anything standing `min_height` above the ground
+(`modules.perception.obstacles.path_clear_distance`); it also finds every obstacle of the scan as a
+polygon with a height. It posts one `obstacle_report` (frame `local`) per scan.
+
+  reads   local_path_plan (newest), poses local←vehicle
+  asks    sidewalk/<ns>/sim/capture (laser only)
+  writes  obstacle_report
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import math
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from blackboard import Spec
+from blackboard.errors import BlackboardError
+from modules.perception.obstacles import LaserScan, ObstacleConfig, detect_obstacles, path_clear_distance
+from modules.vocabulary import LocalPathPlan, ObstaclePolygon, ObstacleReport
+from wire.capture import CaptureDecodeError, decode_capture
+from wire.keys import SimKeys
+
+__all__ = ["ObstacleDetectorConfig", "ObstacleDetector"]
+
+log = logging.getLogger("modules.obstacles")
+
+
+class ObstacleDetectorConfig(BaseModel):
+    """Detector settings: cycle [s] sim, corridor half-width [m], look-ahead [m], capture timeout [s] wall."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    period_s: float = Field(0.1, gt=0.0)
+    half_width: float = Field(1.5, gt=0.0)  # Navlab half width 1.05 m plus a margin [m]
+    lookahead_m: float = Field(20.0, gt=0.0)  # one ambiguity interval [m]
+    capture_timeout_s: float = Field(5.0, gt=0.0)
+    pose_wait_s: float = Field(1.0, ge=0.0)
+    detection: ObstacleConfig = ObstacleConfig()
+
+
+def plan_in_vehicle(plan: LocalPathPlan, pose: tuple[float, float, float], lookahead: float) -> np.ndarray:
+    """Return the plan ahead of the vehicle, (K, 2) [m] in the `vehicle` frame, starting at the vehicle origin."""
+    p = np.array([(q.x, q.y) for q in plan.poses], np.float64)
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    v = (p - (pose[0], pose[1])) @ np.array([[c, -s], [s, c]])
+    i = int(np.argmin(np.linalg.norm(v, axis=1)))
+    ahead = v[i:]
+    ahead = ahead[ahead[:, 0] > 0.0]
+    out = np.vstack([[0.0, 0.0], ahead]) if len(ahead) else np.array([[0.0, 0.0], [lookahead, 0.0]])
+    seg = np.linalg.norm(np.diff(out, axis=0), axis=1)
+    keep = np.concatenate([[True], np.cumsum(seg) <= lookahead + seg.max(initial=0.0)])
+    out = out[keep]
+    length = float(np.linalg.norm(np.diff(out, axis=0), axis=1).sum())
+    if length < lookahead:  # the plan ends short of the look-ahead (it reaches only the newest driving unit): carry on straight
+        d = out[-1] - out[-2]
+        d = d / max(float(np.linalg.norm(d)), 1e-9)
+        out = np.vstack([out, out[-1] + (lookahead - length) * d])
+    return out
+
+
+class ObstacleDetector:
+    """Run the OBSTACLE DETECTOR on a module runtime `rt` (blackboard `rt.bb`, Zenoh link `rt.link`, clock `rt.clock`)."""
+
+    def __init__(self, rt, cfg: ObstacleDetectorConfig = ObstacleDetectorConfig()) -> None:
+        self.rt = rt
+        self.cfg = cfg
+        self.plan: LocalPathPlan | None = None
+        self.scans = 0
+        self.blocked_scans = 0
+
+    async def _plans(self) -> None:
+        async for ev in self.rt.bb.monitor(Spec(type="local_path_plan")):
+            if ev.kind == "new" and (self.plan is None or ev.token.attrs.seq >= self.plan.seq):
+                self.plan = ev.token.attrs
+
+    async def _capture(self):
+        req = json.dumps({"laser": True, "camera": False}).encode()
+        key = SimKeys(self.rt.net.namespace).capture
+        replies = await self.rt.link.get(key, payload=req, timeout=self.cfg.capture_timeout_s)
+        for r in replies:
+            if r.ok:
+                return decode_capture(r.payload)
+        raise TimeoutError(f"no simulator answered {key}")
+
+    async def _pose_at(self, stamp: float) -> tuple[float, float, float]:
+        deadline = self.rt.clock.now() + self.cfg.pose_wait_s
+        while True:
+            try:
+                p = await self.rt.bb.lookup_pose(parent="local", child="vehicle", stamp=stamp)
+                return (p.x, p.y, p.yaw)
+            except BlackboardError:
+                if self.rt.clock.now() >= deadline:
+                    raise
+                await self.rt.clock.sleep(0.05)
+
+    async def cycle(self) -> ObstacleReport | None:
+        """Check one scan against the newest plan and post the report; None when there is no plan yet."""
+        plan = self.plan
+        if plan is None:
+            return None
+        cap = await self._capture()
+        pose = await self._pose_at(cap.stamp)
+        scan = LaserScan.from_capture(cap)
+        path = plan_in_vehicle(plan, pose, self.cfg.lookahead_m)
+        d = path_clear_distance(scan, path, self.cfg.half_width, self.cfg.detection)
+        blocked = d <= self.cfg.lookahead_m
+        c, s = math.cos(pose[2]), math.sin(pose[2])
+        polys = []
+        for o in detect_obstacles(scan, self.cfg.detection):
+            if len(o.polygon) < 3:
+                continue
+            ring = tuple((pose[0] + c * x - s * y, pose[1] + s * x + c * y) for x, y in o.polygon)
+            polys.append(ObstaclePolygon(polygon=ring, height=max(0.0, o.height)))
+        rep = ObstacleReport(blocked=blocked, distance_m=float(d) if blocked else 0.0, sensed_at=float(cap.stamp),
+                             plan_seq=plan.seq, obstacles=tuple(polys))
+        await self.rt.bb.post(rep, frame="local", geometry=None, stamp=float(cap.stamp))
+        self.scans += 1
+        self.blocked_scans += int(blocked)
+        return rep
+
+    async def run(self) -> None:
+        """Check scans until the runtime stops."""
+        await self.rt.clock.wait_running()
+        plans = asyncio.ensure_future(self._plans())
+        try:
+            toks = await self.rt.bb.retrieve(Spec(type="local_path_plan", newest=True))
+            if toks:
+                self.plan = toks[0].attrs
+        except BlackboardError as exc:
+            log.warning("obstacles: cannot read the newest plan: %s", exc)
+        self.rt.ready()
+        try:
+            while not self.rt.stopping:
+                try:
+                    await self.cycle()
+                except (TimeoutError, CaptureDecodeError, BlackboardError, RuntimeError) as exc:
+                    log.warning("obstacles: cycle failed: %s", exc)
+                await self.rt.clock.sleep(self.cfg.period_s)
+        finally:
+            plans.cancel()

@@ -1,0 +1,65 @@
+"""`sidewalk mapbuild`: drive a route, build a map of the discrete objects the laser finds, score it against truth."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+__all__ = ["register"]
+
+
+def mapbuild(
+    world: Annotated[str, typer.Option(help="World name (worlds/<name>.world.geojson) or file")] = "north_hills",
+    route: Annotated[str, typer.Option(help="Mission whose route to drive (worlds/<name>.yaml or a file)")] = "amv-delivery",
+    out: Annotated[Path, typer.Option(help="Map file to write (GeoJSON)")] = Path("runs/mapbuild/built.map.geojson"),
+    vehicle: Annotated[str, typer.Option(help="terregator or navlab")] = "navlab",
+    seed: Annotated[int, typer.Option(help="Seed of odometry and sensor noise")] = 0,
+    actors: Annotated[str, typer.Option("--actors", help="Objects not on the map during the drive (file or preset)")] = "",
+    speed: Annotated[float, typer.Option(min=0.5, help="Driving speed [m/s]")] = 4.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+) -> None:
+    """Drive a route with the map's objects withheld, track what the laser sees, write a map a later run can use (--map)."""
+    from modules.captain.missionfile import MissionFileError, load_mission
+    from sidewalk.launcher import mission_path
+    from sidewalk.mapbuild import MapBuildReport, build_map, route_polyline, score_map, write_map
+    from vehicle_sim.actors import ActorError, load_actors
+    from vehicle_sim.worldfile import load_world, world_path
+
+    if vehicle not in ("navlab", "terregator"):
+        raise typer.BadParameter(f"{vehicle!r} is not navlab or terregator", param_hint="--vehicle")
+    try:
+        wpath = Path(world) if world.endswith(".geojson") else world_path(world)
+        w = load_world(wpath)
+        mpath = wpath.with_name(wpath.name.replace(".world.geojson", ".map.geojson"))
+        m = load_world(mpath, kind="map") if mpath.exists() and mpath != wpath else w
+    except (FileNotFoundError, ValueError) as exc:
+        raise typer.BadParameter(f"{exc}", param_hint="--world") from None
+    try:
+        mission = load_mission(mission_path(route))
+    except (FileNotFoundError, MissionFileError) as exc:
+        raise typer.BadParameter(f"{exc}", param_hint="--route") from None
+    try:
+        aset = load_actors(actors) if actors else None
+    except ActorError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--actors") from None
+    if m.start is None:
+        raise typer.BadParameter(f"the map {mpath} has no start pose", param_hint="--world")
+    built = build_map(w, m, mission, actors=aset, vehicle=vehicle, seed=seed, speed=speed)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    path = write_map(m, built, out, name=f"{w.name}-built")
+    sc = score_map(w, built, route_polyline(m, mission))
+    rep = MapBuildReport(frames=built.frames, distance_m=round(built.distance_m, 2), built_objects=len(built.objects),
+                         dropped_moving=built.dropped_moving, dropped_spurious=built.dropped_spurious,
+                         odometry_error_final_m=round(built.odometry_error_final_m, 3), map_file=str(path), **sc)
+    if as_json:
+        typer.echo(json.dumps(rep.model_dump(), sort_keys=True))
+    else:
+        typer.echo(rep.model_dump_json(indent=2))
+
+
+def register(app: typer.Typer) -> None:
+    """Add `mapbuild` to the CLI."""
+    app.command("mapbuild")(mapbuild)

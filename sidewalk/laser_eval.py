@@ -1,0 +1,164 @@
+"""Score the laser libraries against truth: obstacle precision/recall, landmark position error, time per frame.
+
+Truth obstacles are the world's standing objects (buildings, trees, posts, mailboxes, …) and the
+actors, taller than 0.3 m, whose footprint lies within 15 m of the vehicle and that the scanner
+actually hit (at least `min_hits` true returns within 0.3 m of the footprint). A detection (a
+polygon from `modules.perception.obstacles`, put in the `world` frame at the true pose) within 15 m
+is correct when it lies within 0.5 m of any standing object or actor. Landmark error: each landmark
+observation against the nearest round standing object (tree, post, mailbox, …) within 1.5 m.
+This module reads truth; it is evaluation only.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from shapely.geometry import Point, Polygon
+
+from modules.perception.landmarks import landmark_observations
+from modules.perception.obstacles import LaserScan, detect_obstacles
+
+__all__ = ["LaserEvaluation", "truth_obstacles", "score_frame", "BANDS"]
+
+#: Distance bands [m] for the per-band figures.
+BANDS: tuple[tuple[float, float], ...] = ((0.0, 5.0), (5.0, 10.0), (10.0, 15.0))
+
+
+def truth_obstacles(world, actors, t: float) -> list[tuple[str, "shapely.Geometry", bool]]:
+    """Return (id, footprint, round) of every standing object taller than 0.3 m and every present actor at sim time t [s]."""
+    from vehicle_sim.worldfile import PostShape, PrismShape, TreeShape
+
+    out = []
+    for o in world.objects:
+        s = o.shape
+        if isinstance(s, (PrismShape, TreeShape, PostShape)) and s.height > 0.3:
+            out.append((o.id, o.footprint, o.center is not None))
+    if actors is not None:
+        for a, corners in actors.footprints(t):
+            if a.box[2] > 0.3:
+                out.append((a.id, Polygon(corners), False))
+    return out
+
+
+@dataclass
+class LaserEvaluation:
+    """Accumulated counts and samples over frames."""
+
+    max_distance: float = 15.0
+    min_hits: int = 5
+    tp: int = 0
+    fp: int = 0
+    found: int = 0
+    visible: int = 0
+    band_tp: list = field(default_factory=lambda: [0] * len(BANDS))
+    band_fp: list = field(default_factory=lambda: [0] * len(BANDS))
+    band_found: list = field(default_factory=lambda: [0] * len(BANDS))
+    band_visible: list = field(default_factory=lambda: [0] * len(BANDS))
+    landmark_err: list = field(default_factory=list)
+    ms: list = field(default_factory=list)
+    frames: int = 0
+
+    def as_dict(self) -> dict:
+        """Return the figures as a JSON-ready dict."""
+        def ratio(a, b):
+            return float(a / b) if b else float("nan")
+        bands = {}
+        for k, (lo, hi) in enumerate(BANDS):
+            bands[f"{lo:g}-{hi:g}m"] = {"precision": ratio(self.band_tp[k], self.band_tp[k] + self.band_fp[k]),
+                                        "recall": ratio(self.band_found[k], self.band_visible[k]),
+                                        "detections": self.band_tp[k] + self.band_fp[k], "visible": self.band_visible[k]}
+        le = np.asarray(self.landmark_err)
+        ms = np.asarray(self.ms)
+        return {
+            "frames": self.frames,
+            "obstacle_precision": ratio(self.tp, self.tp + self.fp),
+            "obstacle_recall": ratio(self.found, self.visible),
+            "obstacle_detections": self.tp + self.fp,
+            "obstacle_visible": self.visible,
+            "by_distance": bands,
+            "landmark_observations": int(len(le)),
+            "landmark_error_m_p50": float(np.percentile(le, 50)) if len(le) else float("nan"),
+            "landmark_error_m_p95": float(np.percentile(le, 95)) if len(le) else float("nan"),
+            "laser_ms_p50": float(np.percentile(ms, 50)) if len(ms) else float("nan"),
+            "laser_ms_p95": float(np.percentile(ms, 95)) if len(ms) else float("nan"),
+        }
+
+
+def _band(d: float) -> int | None:
+    for k, (lo, hi) in enumerate(BANDS):
+        if lo <= d < hi:
+            return k
+    return None
+
+
+def score_frame(ev: LaserEvaluation, capture, truth: list, pose: tuple[float, float, float]) -> None:
+    """Score one capture (with truth) taken at the true `world` pose (x, y [m], yaw [rad])."""
+    scan = LaserScan.from_capture(capture)
+    t0 = time.perf_counter()
+    obs = detect_obstacles(scan)
+    lms = landmark_observations(obs)
+    ev.ms.append(1e3 * (time.perf_counter() - t0))
+    ev.frames += 1
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    R = np.array([[c, -s], [s, c]])
+
+    def to_world(p):
+        return np.asarray(p) @ R.T + (x, y)
+
+    here = Point(x, y)
+    # true returns in the world frame (evaluation may read the true range)
+    az, el = capture.laser_az.astype(np.float64), capture.laser_el.astype(np.float64)
+    ce = np.cos(el)[:, None]
+    d = np.stack([ce * np.cos(az)[None], ce * np.sin(az)[None], np.broadcast_to(np.sin(el)[:, None], ce.shape[:1] + az.shape)], -1)
+    T = capture.T_vehicle_laser
+    rt = capture.laser_range_true.astype(np.float64)
+    ok = np.isfinite(rt) & (rt <= 40.0)
+    pv = (d @ T[:3, :3].T) * np.where(ok, rt, 0.0)[..., None] + T[:3, 3]
+    pv = pv[ok & (pv[..., 2] > 0.3)]
+    pw = to_world(pv[:, :2])
+    pts = shapely.points(pw)
+    tree = shapely.STRtree(pts) if len(pw) else None
+    foot = [g for _, g, _ in truth]
+    for tid, g, _ in truth:
+        dist = g.distance(here)
+        if dist > ev.max_distance or tree is None:
+            continue
+        hits = len(tree.query(g, predicate="dwithin", distance=0.3))
+        if hits < ev.min_hits:
+            continue
+        b = _band(dist)
+        ev.visible += 1
+        if b is not None:
+            ev.band_visible[b] += 1
+        if any(Polygon(to_world(o.polygon)).buffer(0.5).intersects(g) for o in obs if len(o.polygon) >= 3):
+            ev.found += 1
+            if b is not None:
+                ev.band_found[b] += 1
+    for o in obs:
+        if o.distance > ev.max_distance or len(o.polygon) < 3:
+            continue
+        pg = Polygon(to_world(o.polygon)).buffer(0.5)
+        good = any(pg.intersects(g) for g in foot)
+        b = _band(o.distance)
+        if good:
+            ev.tp += 1
+        else:
+            ev.fp += 1
+        if b is not None:
+            if good:
+                ev.band_tp[b] += 1
+            else:
+                ev.band_fp[b] += 1
+    rounds = [(g.centroid.x, g.centroid.y) for _, g, r in truth if r]
+    if rounds:
+        C = np.asarray(rounds)
+        for lm in lms:
+            w = to_world([lm.x, lm.y])
+            dd = np.linalg.norm(C - w, axis=1)
+            if dd.min() <= 1.5:
+                ev.landmark_err.append(float(dd.min()))

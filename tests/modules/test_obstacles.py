@@ -1,0 +1,61 @@
+"""Obstacle detection on synthetic range images: a known box gives its polygon and height; the fast mode finds it on the path."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from modules.perception.obstacles import ObstacleConfig, detect_obstacles, path_clear_distance
+from tests.modules._laser_synth import synthetic_scan
+
+
+def test_known_box_gives_its_polygon_and_height() -> None:
+    scan = synthetic_scan([(8.0, 9.0, -1.0, 0.5, 1.2)])
+    obs = detect_obstacles(scan)
+    assert len(obs) == 1
+    o = obs[0]
+    p = np.asarray(o.polygon)
+    cell = ObstacleConfig().cell
+    # the seen faces: front at x = 8 and the roof back to x = 9; both sides
+    assert p[:, 0].min() == pytest.approx(8.0, abs=cell + 1e-6)
+    assert p[:, 0].max() == pytest.approx(9.0, abs=cell + 1e-6)
+    assert p[:, 1].min() == pytest.approx(-1.0, abs=cell + 1e-6)
+    assert p[:, 1].max() == pytest.approx(0.5, abs=cell + 1e-6)
+    assert o.height == pytest.approx(1.2, abs=0.05)
+    assert o.distance == pytest.approx(math.hypot(8.0, 0.0), abs=0.5)
+
+
+def test_flat_ground_and_low_kerb_are_not_obstacles() -> None:
+    assert detect_obstacles(synthetic_scan([])) == []
+    assert detect_obstacles(synthetic_scan([(6.0, 14.0, 3.0, 3.3, 0.15)])) == []  # a 15 cm kerb
+
+
+def test_two_boxes_are_two_obstacles_nearest_first() -> None:
+    obs = detect_obstacles(synthetic_scan([(12.0, 13.0, 2.0, 3.0, 0.8), (6.0, 6.5, -2.0, -1.5, 1.7)]))
+    assert [round(o.height, 1) for o in obs] == [1.7, 0.8]
+    assert obs[0].centroid[1] < 0 < obs[1].centroid[1]
+
+
+def test_fast_mode_sees_only_the_corridor() -> None:
+    scan = synthetic_scan([(10.0, 10.6, 2.5, 3.1, 1.7)])  # off to the left of a straight path
+    straight = np.array([[0.0, 0.0], [20.0, 0.0]])
+    assert path_clear_distance(scan, straight, 1.2) == math.inf
+    veer = np.array([[0.0, 0.0], [5.0, 0.0], [10.0, 2.8], [20.0, 2.8]])  # the path turns into it
+    d = path_clear_distance(scan, veer, 1.2)
+    assert 10.0 < d < 12.5
+
+
+def test_plan_goes_into_the_vehicle_frame_ahead_of_the_vehicle() -> None:
+    from modules.obstacles.detector import plan_in_vehicle
+    from modules.vocabulary import LocalPathPlan, PlanPose
+
+    poses = tuple(PlanPose(x=10.0, y=float(y), yaw=math.pi / 2, speed=2.0) for y in range(0, 40, 2))
+    plan = LocalPathPlan(seq=1, segment_id="s", poses=poses)
+    p = plan_in_vehicle(plan, (10.0, 5.0, math.pi / 2), lookahead=10.0)  # vehicle at y = 5 heading north
+    assert tuple(p[0]) == (0.0, 0.0)
+    assert np.allclose(p[1:, 1], 0.0, atol=1e-9)  # straight ahead
+    assert p[1, 0] == pytest.approx(1.0) and p[-1, 0] <= 12.0 + 1e-9
+    short = plan_in_vehicle(LocalPathPlan(seq=2, segment_id="s", poses=poses[:5]), (10.0, 0.0, math.pi / 2), lookahead=15.0)
+    assert short[-1, 0] == pytest.approx(15.0) and abs(short[-1, 1]) < 1e-9  # a short plan is carried on straight

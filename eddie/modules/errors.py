@@ -1,0 +1,13 @@
+"""Errors of EDDIE's perception/behaviour modules: one root, `EddieModuleError`."""
+
+from __future__ import annotations
+
+__all__ = ["EddieModuleError", "NoRoadPath"]
+
+
+class EddieModuleError(Exception):
+    """Root of every error raised by `eddie.modules`."""
+
+
+class NoRoadPath(EddieModuleError):
+    """Vision road following found no path: no road seen, or the route leaves the road region."""

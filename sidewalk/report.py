@@ -21,7 +21,7 @@ from pydantic import BaseModel, ConfigDict
 from modules.vocabulary import MissionStatus, StepOutcome
 from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
-from sidewalk.run_record import RunRecord
+from sidewalk.run_record import FiredTrigger, RunRecord
 from wire.drive import SimEvent
 
 __all__ = [
@@ -147,6 +147,8 @@ class RunReport(BaseModel):
     blackboard: Optional[BlackboardUsage] = None
     modules: dict[str, ModuleCost] = {}
     exit_codes: dict[str, Optional[int]] = {}
+    #: EDDIE: the triggers fired, sim times [s] counted from submission like every other time here
+    triggers: list[FiredTrigger] = []
 
 
 def _final_status(rec: RunRecord) -> MissionStatus | None:
@@ -350,6 +352,7 @@ def build_report(rec: RunRecord) -> RunReport:
         blackboard=_bb_usage(rec.blackboard),
         modules=_module_costs(rec),
         exit_codes=dict(rec.exit_codes),
+        triggers=[t.model_copy(update={"sim_s": round(t.sim_s - t0, 3)}) for t in rec.triggers],
     )
 
 

@@ -105,6 +105,9 @@ class ModuleRuntime:
 
 async def _connect_blackboard(rt: ModuleRuntime, connect_timeout: float) -> Any:
     from blackboard import BlackboardClient  # the client lives in the blackboard package
+    from modules.vocabulary import register_token_types
+
+    register_token_types()
 
     try:
         return await BlackboardClient.connect(rt.net, source=rt.name, connect_timeout=connect_timeout)

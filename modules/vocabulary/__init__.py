@@ -1,6 +1,8 @@
 """The Sidewalk vocabulary: token types the modules exchange, registered with the blackboard.
 
-Importing this package registers every type (`sidewalk blackboard serve --types modules.vocabulary`).
+Importing this package declares every type without loading `blackboard` (EDDIE imports it too); the
+declarations bind to the blackboard's registry at once when `blackboard` is loaded (`sidewalk blackboard
+serve --types modules.vocabulary`), else by `register_token_types()` where a module connects to it.
 One file per token group: mapdata (map objects), mission (CAPTAIN ↔ MAP NAVIGATOR), route
 (MAP NAVIGATOR ↔ PILOT), perception (PERCEPTION results), driving (PILOT ↔ PERCEPTION/HELM),
 health (heartbeats).
@@ -22,7 +24,7 @@ Who writes what (type name: writer → readers; all coordinates in attrs are wor
 - heartbeat: every module, on `sidewalk/<ns>/heartbeat/<module>` (not a blackboard token)
 """
 
-from modules.vocabulary._base import XY, Cov3, Frozen, Polyline2, Pose, Ring
+from modules.vocabulary._base import XY, Cov3, Frozen, Polyline2, Pose, Ring, register_token_types
 from modules.vocabulary.driving import (
     DrivingUnitDescription, LocalPathConstraints, LocalPathPlan, PlanPose, PositionEstimate, UnitStatus,
 )
@@ -73,5 +75,5 @@ __all__ = [
     "SurfaceType",
     "NAVIGATION_MODES", "DrivingConstraints", "ExitCondition", "NavigationMode", "RoutePlan",
     "RouteSegmentDescription", "SegmentResult",
-    "TOKEN_TYPES",
+    "TOKEN_TYPES", "register_token_types",
 ]

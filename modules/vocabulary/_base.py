@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import math
+import sys
 from typing import Annotated
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
-__all__ = ["Frozen", "XY", "Ring", "Polyline2", "Pose", "Cov3", "finite", "NonNeg"]
+__all__ = ["Frozen", "XY", "Ring", "Polyline2", "Pose", "Cov3", "finite", "NonNeg", "DECLARED_TOKEN_TYPES", "token_type",
+           "register_token_types"]
 
 
 class Frozen(BaseModel):
@@ -72,3 +74,33 @@ class Pose(Frozen):
     x: finite
     y: finite
     yaw: finite = 0.0
+
+
+#: Token type name of every vocabulary model declared so far (bound to the blackboard lazily).
+DECLARED_TOKEN_TYPES: dict[str, type[BaseModel]] = {}
+
+
+def token_type(name: str):  # noqa: ANN201 - a decorator returning its argument
+    """Declare the decorated model as blackboard token type `name` without importing `blackboard`.
+
+    The declaration is bound to the blackboard's default registry at once when `blackboard` is
+    already loaded (the node's `--types modules.vocabulary`), else by `register_token_types()`
+    where a module connects to the blackboard. EDDIE imports the vocabulary without the blackboard.
+    """
+
+    def deco(model):  # noqa: ANN001, ANN202
+        DECLARED_TOKEN_TYPES[name] = model
+        reg = sys.modules.get("blackboard.registry")
+        if reg is not None:
+            reg.default_registry.register(name, model)
+        return model
+
+    return deco
+
+
+def register_token_types(registry=None) -> None:  # noqa: ANN001 - a blackboard.TypeRegistry
+    """Register every declared vocabulary type with `registry` (default: the blackboard's default registry)."""
+    if registry is None:
+        from blackboard.registry import default_registry as registry  # imported only where tokens are posted
+    for name, model in DECLARED_TOKEN_TYPES.items():
+        registry.register(name, model)

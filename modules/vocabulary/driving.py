@@ -13,8 +13,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from blackboard.registry import token_type
-from modules.vocabulary._base import Cov3, Frozen, NonNeg, Polyline2, Pose, Ring, finite
+from modules.vocabulary._base import Cov3, Frozen, NonNeg, Polyline2, Pose, Ring, finite, token_type
 from modules.vocabulary.mapdata import MapObject
 from modules.vocabulary.perception import PerceptionResult
 from modules.vocabulary.route import NavigationMode

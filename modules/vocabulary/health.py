@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import ConfigDict
 
-from blackboard.registry import token_type
+from modules.vocabulary._base import token_type
 from wire.health import Heartbeat as _WireHeartbeat
 from wire.health import ProcessState
 

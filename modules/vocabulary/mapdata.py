@@ -9,7 +9,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import Field, model_validator
 
-from blackboard.registry import token_type
+from modules.vocabulary._base import token_type
 from wire.mapfile import Colour, FlatShape, PostShape, PrismShape, Shape, SlopeShape, StairsShape, TreeShape
 from modules.vocabulary._base import XY, Frozen, NonNeg, Ring, finite
 

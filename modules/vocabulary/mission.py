@@ -11,8 +11,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from blackboard.registry import token_type
-from modules.vocabulary._base import XY, Frozen, NonNeg, finite
+from modules.vocabulary._base import XY, Frozen, NonNeg, finite, token_type
 
 __all__ = [
     "KeepSide", "TriggerAction", "MissionState", "Destination", "StepConstraints", "Trigger", "MissionStart",

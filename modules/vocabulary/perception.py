@@ -11,8 +11,7 @@ from typing import Annotated, Literal, Union
 
 from pydantic import Field, model_validator
 
-from blackboard.registry import token_type
-from modules.vocabulary._base import XY, Cov3, Frozen, NonNeg, Pose, Ring, finite
+from modules.vocabulary._base import XY, Cov3, Frozen, NonNeg, Pose, Ring, finite, token_type
 
 __all__ = [
     "SurfaceType", "SensorMode", "ResultFrame", "DetectedObject", "PointFix", "LineFix", "PositionFix",

@@ -12,8 +12,7 @@ from typing import Annotated, Literal
 
 from pydantic import Field
 
-from blackboard.registry import token_type
-from modules.vocabulary._base import XY, Frozen, NonNeg, Polyline2, finite
+from modules.vocabulary._base import XY, Frozen, NonNeg, Polyline2, finite, token_type
 from modules.vocabulary.mapdata import MapObject
 from modules.vocabulary.mission import KeepSide
 

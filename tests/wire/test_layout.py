@@ -70,7 +70,7 @@ def _error_classes(package: str) -> set[type]:
 #: (package, sub-packages left out: their errors get a root on another branch)
 ERROR_PACKAGES = [
     ("wire", ()), ("blackboard", ()), ("sidewalk", ()), ("vehicle_sim", ()), ("modules", ("modules.perception",)),
-    ("modules.captain", ()), ("modules.map_navigator", ()), ("modules.pilot", ()), ("modules.helm", ()), ("modules.runtime", ()),
+    ("modules.captain", ()), ("modules.map_navigator", ()), ("modules.pilot", ()), ("modules.helm", ()), ("modules.runtime", ()), ("eddie", ()),
     pytest.param("modules.perception", (), marks=pytest.mark.xfail(strict=True, reason="PERCEPTION's errors get their root on its own branch")),
 ]
 

@@ -1,0 +1,55 @@
+"""`python -m eddie.toolkit.echo NAME`: a module that answers `echo` requests and echoes its inbox back to the sender.
+
+A diagnostic for a system's links (is module NAME reachable, how long does a round trip take); the
+toolkit's tests and benchmarks run it as a real process.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from wire.flags import add_network_args, network_from_args
+
+from eddie.errors import BadMessage
+from eddie.toolkit.message import Message, message_type
+from eddie.toolkit.module import Incoming, Module
+from eddie.toolkit.process import run_module
+
+__all__ = ["Echo", "main"]
+
+
+@message_type("toolkit.echo")
+class Echo(Message):
+    """An echo request or reply: a sequence number and opaque bytes."""
+
+    seq: int = 0
+    data: bytes = b""
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run an echo module named by the first argument."""
+    ap = argparse.ArgumentParser(prog="python -m eddie.toolkit.echo", description=__doc__.splitlines()[0])
+    ap.add_argument("name", help="module name")
+    add_network_args(ap)
+    args = ap.parse_args(argv)
+    net = network_from_args(ap, args)
+
+    async def body(m: Module) -> None:
+        async def echo(inc: Incoming) -> Message:
+            return inc.message
+
+        m.serve("echo", echo)
+        m.ready()
+        while True:
+            try:
+                inc = await m.receive()
+            except BadMessage:
+                continue
+            await m.send(inc.sender, inc.message)
+
+    return run_module(args.name, body, net)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,240 @@
+"""An EDDIE module's endpoint: its inbox, services, streams, sim clock, liveliness and heartbeat.
+
+`async with Module(name, net) as m:` opens the process's one Zenoh session (through `wire.aio.Link`),
+listens on the module's inbox, follows the sim clock and beats every `heartbeat_period` wall seconds.
+`m.ready()` declares the liveliness token and prints the READY line a supervisor waits for.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import os
+import socket
+import sys
+import time
+from dataclasses import dataclass
+from typing import Any, Awaitable, Callable, TextIO, TypeVar
+
+from modules.runtime.clock import SimClock
+from modules.runtime.heartbeat import ClockPayloadError, decode_clock
+from modules.runtime.lifecycle import READY_PREFIX
+from wire.aio import Link, QueryAnswer, QueryRequest
+from wire.health import Heartbeat, encode_heartbeat, process_usage
+from wire.keys import EddieKeys, ModuleKeys
+from wire.network import NetworkConfig, check_chunk
+from wire.session import session_stats, traffic
+
+from eddie.errors import BadMessage, LinkError, LinkTimeout, NoSuchModule, ServiceError
+from eddie.toolkit.message import Message, decode_body, decode_envelope, encode_body, encode_envelope
+
+__all__ = ["Module", "Incoming", "ServiceHandler"]
+
+log = logging.getLogger(__name__)
+
+T = TypeVar("T", bound=Message)
+
+
+@dataclass(frozen=True)
+class Incoming:
+    """A message taken from an inbox or a service: its sender, the sender's sim stamp [s], the typed message."""
+
+    sender: str
+    stamp: float | None
+    message: Message
+
+
+#: A service handler: takes the request, returns the reply (or raises an EddieError: an error reply).
+ServiceHandler = Callable[[Incoming], Awaitable[Message]]
+
+
+class Module:
+    """The endpoint of EDDIE module `name` on network `net` (an async context manager)."""
+
+    def __init__(self, name: str, net: NetworkConfig, *, heartbeat_period: float = 1.0, inbox_size: int = 1000,
+                 stdout: TextIO | None = None) -> None:
+        self.name = check_chunk(name, "module name")
+        self.net = net
+        self.keys = EddieKeys(net.namespace)
+        self.module_keys = ModuleKeys(net.namespace)
+        self.clock = SimClock()
+        self.heartbeat_period = heartbeat_period
+        self.link: Link | None = None
+        self._inbox: asyncio.Queue[bytes] = asyncio.Queue(inbox_size)
+        self._stdout = stdout if stdout is not None else sys.stdout
+        self._hb_task: asyncio.Task[None] | None = None
+        self._seq = 0
+        self._ready = False
+        self._host = socket.gethostname()
+        #: inbox messages dropped because the inbox was full
+        self.dropped = 0
+
+    # ---- lifecycle -----------------------------------------------------------------------
+
+    async def __aenter__(self) -> "Module":
+        self.link = Link.open(self.net)
+        try:
+            self.link.subscribe(self.keys.inbox(self.name), self._on_inbox)
+            self.link.subscribe(self.module_keys.sim_clock, self._on_clock)
+            self._beat()
+            self._hb_task = asyncio.get_running_loop().create_task(self._heartbeat_loop())
+        except BaseException:
+            self.link.close()
+            raise
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        await self.close()
+
+    async def close(self) -> None:
+        """Say `stopping` and close the link (idempotent)."""
+        if self._hb_task is not None:
+            self._hb_task.cancel()
+            self._hb_task = None
+        if self.link is not None and not self.link.closed:
+            try:
+                self._beat("stopping")
+            except Exception:  # noqa: BLE001 - closing anyway
+                pass
+            self.link.close()
+
+    async def wait_connected(self, timeout: float | None = None) -> None:
+        """Return once the session reaches a router or peer; wire.ConnectError after `timeout` [s]."""
+        await self._link.wait_connected(timeout, name=self.name)
+
+    def ready(self) -> None:
+        """Declare the module ready: liveliness token, a ready heartbeat, and `SIDEWALK-READY <name>` on stdout."""
+        if self._ready:
+            return
+        self._ready = True
+        self._link.declare_alive(self.module_keys.alive(self.name))
+        self._beat()
+        print(f"{READY_PREFIX} {self.name}", file=self._stdout, flush=True)
+
+    @property
+    def _link(self) -> Link:
+        if self.link is None or self.link.closed:
+            raise LinkError(f"module {self.name!r}: the link is not open (use `async with Module(...)`)")
+        return self.link
+
+    def now(self) -> float | None:
+        """Return the sim time [s], or None before the simulator's first clock tick."""
+        return self.clock.now() if self.clock.running else None
+
+    # ---- point-to-point ------------------------------------------------------------------
+
+    async def send(self, dest: str, msg: Message) -> None:
+        """Put `msg` into module `dest`'s inbox (fire and forget)."""
+        self._link.put(self.keys.inbox(dest), encode_envelope(self.name, msg, self.now()))
+
+    async def receive(self, timeout: float | None = None) -> Incoming:
+        """Return the next message of the inbox (EDDIE's blocking read; `timeout` wall [s]).
+
+        Raise LinkTimeout when nothing arrives in time, BadMessage (naming sender and field) for a payload
+        that is not a valid message: catch it and receive again, the inbox is intact.
+        """
+        try:
+            raw = await asyncio.wait_for(self._inbox.get(), timeout)
+        except asyncio.TimeoutError:
+            raise LinkTimeout(f"module {self.name!r}: no message in its inbox within {timeout:g} s") from None
+        env, msg = decode_envelope(raw, where=f"{self.name}'s inbox")
+        return Incoming(sender=env.sender, stamp=env.stamp, message=msg)
+
+    def pending(self) -> int:
+        """Return the number of messages waiting in the inbox."""
+        return self._inbox.qsize()
+
+    async def request(self, dest: str, service: str, msg: Message, *, timeout: float = 2.0,
+                      reply_type: type[T] | None = None) -> T:
+        """Ask module `dest`'s `service` with `msg`; return the typed reply (timeout wall [s]).
+
+        Raise LinkTimeout / NoSuchModule naming dest and service, ServiceError for an error reply,
+        BadMessage for a reply that does not decode (or is not a `reply_type`).
+        """
+        key = self.keys.service(dest, service)
+        t0 = time.monotonic()
+        replies = await self._link.get(key, encode_envelope(self.name, msg, self.now()), timeout=timeout)
+        if not replies:
+            if time.monotonic() - t0 >= timeout * 0.95:
+                raise LinkTimeout(f"request {dest}/{service}: no reply within {timeout:g} s")
+            raise NoSuchModule(f"request {dest}/{service}: no module answers {key}")
+        r = replies[0]
+        if not r.ok and r.payload == b"Timeout" and time.monotonic() - t0 >= timeout * 0.95:  # Zenoh's own time-out reply
+            raise LinkTimeout(f"request {dest}/{service}: no reply within {timeout:g} s")
+        if not r.ok:
+            raise ServiceError(f"request {dest}/{service}: {r.payload.decode('utf-8', 'replace')}")
+        _env, reply = decode_envelope(r.payload, where=f"{self.name} (reply of {dest}/{service})")
+        if reply_type is not None and not isinstance(reply, reply_type):
+            raise BadMessage(f"reply of {dest}/{service}: expected {reply_type.__name__}, got {type(reply).__name__}",
+                             sender=dest, field="type")
+        return reply  # type: ignore[return-value]
+
+    def serve(self, service: str, handler: ServiceHandler) -> Any:
+        """Answer requests on this module's `service` with `await handler(incoming)` (errors become error replies)."""
+        where = f"{self.name}/{service}"
+
+        async def answer(req: QueryRequest) -> QueryAnswer:
+            try:
+                env, msg = decode_envelope(req.payload, where=where)
+                reply = await handler(Incoming(sender=env.sender, stamp=env.stamp, message=msg))
+            except BadMessage as exc:
+                log.warning("%s: %s", where, exc)
+                return QueryAnswer(ok=False, payload=str(exc).encode())
+            except Exception as exc:  # noqa: BLE001 - an error reply, never a crashed module
+                from eddie.errors import EddieError
+
+                if not isinstance(exc, EddieError):
+                    log.exception("%s: handler failed", where)
+                return QueryAnswer(ok=False, payload=f"{type(exc).__name__}: {exc}".encode())
+            return QueryAnswer(ok=True, payload=encode_envelope(self.name, reply, self.now()))
+
+        return self._link.queryable(self.keys.service(self.name, service), answer)
+
+    # ---- streams -------------------------------------------------------------------------
+
+    def publish(self, stream: str, msg: Message) -> None:
+        """Push `msg` (bare fields, msgpack) on this module's stream `stream` to every subscriber."""
+        self._link.put(self.keys.topic(self.name, stream), encode_body(msg))
+
+    def subscribe(self, module: str, stream: str, model: type[T], on_message: Callable[[T], None]) -> Any:
+        """Call `on_message(msg)` on the loop for every message of `module`'s `stream`; bad samples are logged, skipped."""
+        def on_sample(_key: str, payload: bytes) -> None:
+            try:
+                msg = decode_body(model, payload, sender=module)
+            except BadMessage as exc:
+                log.warning("%s: stream %s/%s: %s", self.name, module, stream, exc)
+                return
+            on_message(msg)  # type: ignore[arg-type]
+
+        return self._link.subscribe(self.keys.topic(module, stream), on_sample)
+
+    # ---- internals -----------------------------------------------------------------------
+
+    def _on_inbox(self, _key: str, payload: bytes) -> None:
+        try:
+            self._inbox.put_nowait(payload)
+        except asyncio.QueueFull:
+            self.dropped += 1
+            log.warning("%s: inbox full, message dropped (%d so far)", self.name, self.dropped)
+
+    def _on_clock(self, _key: str, payload: bytes) -> None:
+        try:
+            self.clock.advance(decode_clock(payload))
+        except ClockPayloadError as exc:
+            log.warning("%s: bad sim clock sample: %s", self.name, exc)
+
+    def _beat(self, state: str | None = None) -> None:
+        hb = Heartbeat(module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(),
+                       period_s=self.heartbeat_period, pid=os.getpid(), host=self._host,
+                       state=state or ("ready" if self._ready else "starting"), zenoh_sessions=session_stats()["open"],
+                       usage=process_usage(traffic()))
+        self._seq += 1
+        self._link.put(self.module_keys.heartbeat(self.name), encode_heartbeat(hb))
+
+    async def _heartbeat_loop(self) -> None:
+        while True:
+            await asyncio.sleep(self.heartbeat_period)  # wall time: a heartbeat tells a wedged process apart
+            try:
+                self._beat()
+            except LinkError:
+                return

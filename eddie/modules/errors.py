@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from eddie.errors import EddieError
+
 __all__ = ["EddieModuleError", "NoRoadPath"]
 
 
-class EddieModuleError(Exception):
+class EddieModuleError(EddieError):
     """Root of every error raised by `eddie.modules`."""
 
 

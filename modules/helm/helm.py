@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from blackboard import Pose2D, Spec
 from blackboard.errors import BlackboardError
-from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError
+from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError, tracker_config_for
 from modules.vocabulary import LocalPathPlan
 from wire.keys import root as keys_root
 from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
@@ -62,13 +62,7 @@ class HelmConfig(BaseModel):
 
 def helm_config_for(vehicle: Literal["navlab", "terregator"], **overrides) -> HelmConfig:
     """Return the HELM preset for `vehicle` (Navlab: 7 m turning radius; Terregator: turns in place)."""
-    if vehicle == "navlab":
-        tr = TrackerConfig(max_curvature=1.0 / 7.0, max_speed=7.5, lookahead_base=3.0, lookahead_gain=1.0,
-                           lookahead_max=10.0, max_accel=0.8, max_decel=1.5, speed_lag=0.4)
-    else:
-        tr = TrackerConfig(max_curvature=2.0, max_speed=1.0, lookahead_base=1.0, lookahead_gain=0.8, max_accel=0.4, speed_lag=0.3,
-                           turn_in_place_angle=math.radians(50.0), max_turn_rate=0.4)
-    base = dict(vehicle=vehicle, tracker=tr)
+    base = dict(vehicle=vehicle, tracker=tracker_config_for(vehicle))
     base.update({k: v for k, v in overrides.items() if v is not None})
     return HelmConfig(**base)
 

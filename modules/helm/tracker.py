@@ -14,7 +14,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from modules.helm.errors import HelmError
 
-__all__ = ["TrackerConfig", "TrackCommand", "PathTracker", "TrackerError"]
+__all__ = ["TrackerConfig", "TrackCommand", "PathTracker", "TrackerError", "tracker_config_for"]
 
 
 class TrackerError(HelmError, ValueError):
@@ -42,6 +42,17 @@ class TrackerConfig(BaseModel):
     )
     max_turn_rate: float = Field(0.5, gt=0.0, description="turn-in-place rate [rad/s]")
     speed_lag: float = Field(0.0, ge=0.0, description="drive's speed response time [s]: braking starts this much earlier")
+
+
+def tracker_config_for(vehicle: str) -> TrackerConfig:
+    """Return the tracker preset for `vehicle` (Navlab: 7 m turning radius; Terregator: turns in place)."""
+    if vehicle == "navlab":
+        return TrackerConfig(max_curvature=1.0 / 7.0, max_speed=7.5, lookahead_base=3.0, lookahead_gain=1.0,
+                             lookahead_max=10.0, max_accel=0.8, max_decel=1.5, speed_lag=0.4)
+    if vehicle == "terregator":
+        return TrackerConfig(max_curvature=2.0, max_speed=1.0, lookahead_base=1.0, lookahead_gain=0.8, max_accel=0.4,
+                             speed_lag=0.3, turn_in_place_angle=math.radians(50.0), max_turn_rate=0.4)
+    raise TrackerError(f"unknown vehicle {vehicle!r} (navlab or terregator)")
 
 
 @dataclass(frozen=True)

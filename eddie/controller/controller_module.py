@@ -1,0 +1,120 @@
+"""The integrated controller as an EDDIE module: on the simulator's drive interface, answering and publishing.
+
+Inbox and service `command`: controller commands (`eddie.messages.controller`); service `position`:
+the dead-reckoned pose now; service `recorded_path`: a stretch of the driven path. Streams: `state`
+every control tick (≥ 10 Hz sim), `path` when the path changes, `events` for every event (also written
+to the process log).
+"""
+
+from __future__ import annotations
+
+import logging
+
+from wire.drive import DriveMessageError, Odometry, decode, encode
+from wire.keys import SimKeys
+
+from eddie.controller.integrated_controller import ControllerConfig, IntegratedController
+from eddie.errors import BadMessage, ControlRefused
+from eddie.messages.controller import (
+    DeadReckon, Nudge, PathCommand, PositionQuery, RecordedPath, RecordedPathQuery, Release, SpeedLimit, Stop,
+)
+from eddie.toolkit.message import Message
+from eddie.toolkit.module import Incoming, Module
+
+__all__ = ["ControllerModule", "COMMANDS"]
+
+log = logging.getLogger(__name__)
+
+#: Messages the controller takes as commands.
+COMMANDS = (PathCommand, DeadReckon, SpeedLimit, Nudge, Stop, Release)
+
+
+class ControllerModule:
+    """Run an `IntegratedController` on module endpoint `m` (named `controller` by convention)."""
+
+    def __init__(self, m: Module, cfg: ControllerConfig) -> None:
+        self.m = m
+        self.cfg = cfg
+        self.core = IntegratedController(cfg)
+        self.sim = SimKeys(m.net.namespace)
+        self.bad_odometry = 0
+
+    def _on_odom(self, _key: str, payload: bytes) -> None:
+        try:
+            self.core.odometry(decode(Odometry, payload))
+        except DriveMessageError as exc:
+            self.bad_odometry += 1
+            log.warning("controller: bad odometry: %s", exc)
+
+    def _now(self) -> float:
+        return self.m.now() or 0.0
+
+    async def _position(self, inc: Incoming) -> Message:
+        if not isinstance(inc.message, PositionQuery):
+            raise BadMessage(f"position from {inc.sender!r}: expected a PositionQuery", sender=inc.sender, field="type")
+        pos = self.core.position()
+        if pos is None:
+            raise ControlRefused("no odometry yet (is the simulator running?)")
+        return pos
+
+    async def _recorded(self, inc: Incoming) -> Message:
+        q = inc.message
+        if not isinstance(q, RecordedPathQuery):
+            raise BadMessage(f"recorded_path from {inc.sender!r}: expected a RecordedPathQuery", sender=inc.sender, field="type")
+        return RecordedPath(points=tuple(self.core.record.stretch(q.odometer_from, q.odometer_to)),
+                            odometer_from=q.odometer_from, odometer_to=q.odometer_to)
+
+    async def _command(self, inc: Incoming) -> Message:
+        if not isinstance(inc.message, COMMANDS):
+            raise BadMessage(f"command from {inc.sender!r}: {type(inc.message).__name__} is not a controller command",
+                             sender=inc.sender, field="type")
+        ack = self.core.command(inc.message, self._now())
+        self._flush()
+        return ack
+
+    def _flush(self) -> None:
+        for ev in self.core.take_events():
+            log.info("controller event %s client=%s %s", ev.kind, ev.client, ev.detail)
+            self.m.publish("events", ev)
+        if self.core.path_changed:
+            self.m.publish("path", self.core.path_message(self._now()))
+
+    async def _inbox(self) -> None:
+        while True:
+            try:
+                inc = await self.m.receive()
+            except BadMessage as exc:
+                log.warning("controller: %s", exc)
+                continue
+            try:
+                await self._command(inc)
+            except BadMessage as exc:
+                log.warning("controller: %s", exc)
+
+    async def run(self) -> None:
+        """Drive until cancelled; always leave the vehicle commanded to stop."""
+        import asyncio
+
+        m = self.m
+        m.link.subscribe(self.sim.odom, self._on_odom)
+        m.serve("position", self._position)
+        m.serve("command", self._command)
+        m.serve("recorded_path", self._recorded)
+        await m.clock.wait_running()
+        inbox = asyncio.ensure_future(self._inbox())
+        m.ready()
+        period = 1.0 / self.cfg.control_hz
+        try:
+            while True:
+                now = m.clock.now()
+                cmd = self.core.tick(now)
+                m.link.put(self.sim.cmd, encode(cmd))
+                m.publish("state", self.core.state(now))
+                self._flush()
+                await m.clock.sleep(period)
+        finally:
+            inbox.cancel()
+            try:
+                m.link.put(self.sim.cmd, encode(self.core.tick(self._now()).model_copy(update={"speed": 0.0, "turn_rate": None})))
+            except Exception as exc:  # noqa: BLE001 - the session may be closing
+                log.warning("controller: final stop not sent: %s", exc)

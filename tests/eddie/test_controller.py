@@ -1,0 +1,103 @@
+"""The integrated controller's core: immediate vs queued, priorities, ramps, nudges, dead reckoning a recorded path."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from modules.helm.tracker import tracker_config_for
+from wire.drive import Odometry
+
+from eddie.controller import ControllerConfig, IntegratedController
+from eddie.messages.controller import DeadReckon, Nudge, PathCommand, Release, SpeedLimit, Stop
+
+
+def _ctl(vehicle: str = "navlab") -> IntegratedController:
+    return IntegratedController(ControllerConfig(tracker=tracker_config_for(vehicle), control_hz=10.0, nudge_tau_s=1.0))
+
+
+def _od(t: float, x: float, y: float = 0.0, yaw: float = 0.0, v: float = 0.0, dist: float | None = None) -> Odometry:
+    return Odometry(stamp=t, x=x, y=y, yaw=yaw, v=v, omega=0.0, distance=x if dist is None else dist)
+
+
+def test_immediate_replaces_and_queued_appends():
+    c = _ctl()
+    c.odometry(_od(0.0, 0.0))
+    a = PathCommand(client="vision", points=((0, 0), (10, 0)), speed=1.0)
+    assert c.command(a, 0.0).accepted
+    assert c.command(PathCommand(client="vision", mode="queued", points=((10, 0), (20, 5)), speed=1.0), 0.1).accepted
+    assert c.path_message(0.1).path == ((0, 0), (10, 0), (20, 5))
+    assert c.command(PathCommand(client="vision", points=((0, 1), (5, 1)), speed=1.0), 0.2).accepted
+    assert c.path_message(0.2).path == ((0, 1), (5, 1))
+    kinds = [e.kind for e in c.take_events()]
+    assert kinds == ["immediate_tracking", "queued_tracking", "immediate_tracking"]
+
+
+def test_a_lower_priority_client_is_refused_while_a_higher_one_holds_control():
+    c = _ctl()
+    c.odometry(_od(0.0, 0.0))
+    line = ((0.0, 0.0), (10.0, 0.0))
+    assert c.command(PathCommand(client="vision", priority=1, points=line), 0.0).accepted
+    assert c.command(PathCommand(client="obstacles", priority=5, points=line), 0.1).accepted
+    ack = c.command(PathCommand(client="vision", priority=1, points=line), 0.2)
+    assert not ack.accepted and ack.holder == "obstacles" and "priority 5" in ack.reason
+    assert not c.command(Release(client="vision"), 0.3).accepted
+    assert c.command(Release(client="obstacles"), 0.4).accepted
+    assert c.command(PathCommand(client="vision", priority=1, points=line), 0.5).accepted
+    assert c.state(0.5).client == "vision"
+    assert c.command(Stop(client="bumper", priority=0, reason="soft bumper"), 0.6).accepted  # anyone may stop
+    assert c.state(0.6).mode == "stopped" and c.path is None
+    assert any(e.kind == "refused" and e.client == "vision" for e in c.take_events())
+
+
+def test_speed_ramps_up_and_down_within_the_limits():
+    c = _ctl("navlab")
+    tr = c.cfg.tracker
+    c.odometry(_od(0.0, 0.0))
+    c.command(PathCommand(client="v", points=((0, 0), (200, 0)), speed=5.0), 0.0)
+    speeds = []
+    for i in range(1, 80):
+        speeds.append(c.tick(i * 0.1).speed)
+    assert max(speeds) > 4.0
+    rises = [b - a for a, b in zip(speeds, speeds[1:])]
+    assert max(rises) <= tr.max_accel * 0.1 + 1e-9
+    c.command(PathCommand(client="v", points=((0, 0), (200, 0)), speed=1.0), 8.0)
+    slow = [c.tick(7.9 + i * 0.1).speed for i in range(1, 40)]
+    drops = [a - b for a, b in zip([speeds[-1]] + slow, slow)]
+    assert max(drops) <= tr.max_decel * 0.1 + 1e-9 and slow[-1] == pytest.approx(1.0)
+    c.command(SpeedLimit(client="v", speed=0.5), 12.0)
+    capped = [c.tick(11.8 + i * 0.1).speed for i in range(1, 30)]
+    assert capped[-1] == pytest.approx(0.5) and capped[0] > 0.5  # the cap too is reached smoothly
+
+
+def test_nudges_from_several_sources_add_up_and_decay():
+    c = _ctl("navlab")
+    c.odometry(_od(0.0, 0.0))
+    c.command(PathCommand(client="v", points=((0, 0), (200, 0)), speed=2.0), 0.0)
+    for i in range(1, 60):
+        c.tick(i * 0.1)
+    base = c.tick(6.0)
+    c.command(Nudge(source="joystick", dv=-0.5, dk=0.02), 6.0)
+    c.command(Nudge(source="bumper", dv=-0.3), 6.0)
+    n = c.tick(6.0)
+    assert n.speed == pytest.approx(base.speed - 0.8, abs=1e-6)
+    assert n.curvature == pytest.approx(base.curvature + 0.02, abs=1e-6)
+    later = c.tick(6.0 + 1.0)  # one time constant: e^-1 of the offsets remain
+    assert later.speed == pytest.approx(base.speed - 0.8 * math.exp(-1.0), abs=0.05)
+    gone = c.tick(6.0 + 20.0)
+    assert gone.speed == pytest.approx(base.speed, abs=1e-3) and not c.nudge.active
+
+
+def test_dead_reckoning_follows_a_stretch_of_the_recorded_path():
+    c = _ctl("terregator")
+    for i in range(0, 101):  # drive a quarter circle of radius 5 m (recorded as it goes)
+        th = i / 100 * math.pi / 2
+        c.odometry(_od(i * 0.1, 5 * math.sin(th), 5 - 5 * math.cos(th), th, dist=5 * th))
+    ack = c.command(DeadReckon(client="map", odometer_from=5 * math.pi / 2, odometer_to=0.0, speed=0.5), 10.0)
+    assert ack.accepted and c.state(10.0).mode == "dead_reckon"
+    path = c.path_message(10.0).path
+    assert len(path) > 20
+    assert math.dist(path[0], (5.0, 5.0)) < 0.3 and math.dist(path[-1], (0.0, 0.0)) < 0.3
+    refused = c.command(DeadReckon(client="map", odometer_from=100.0, odometer_to=120.0), 10.1)
+    assert not refused.accepted and "no recorded path" in refused.reason

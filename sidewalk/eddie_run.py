@@ -52,7 +52,7 @@ EDDIE_PERCEPTION_MODULES = ("obstacle_stop", "landmark_matching", "road_followin
 
 def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, rtf: float, seed: int, watchdog_s: float,
                 start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
-                annotated_map: Path, perception: bool, record: bool = True,
+                map_file: Path, annotated_map: Path, perception: bool, record: bool = True,
                 monitor_port: Optional[int] = None) -> list[ProcessPlan]:
     """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard."""
     zflags = ("--ns", ns, "--connect", endpoint)
@@ -69,11 +69,11 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
         ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--annotated-map", str(annotated_map), *zflags)),
     ]
     if perception:
-        plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--seed", str(seed), *zflags))
-                  for name in EDDIE_PERCEPTION_MODULES]
+        plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),
+                                     "--seed", str(seed), *zflags)) for name in EDDIE_PERCEPTION_MODULES]
     plans.append(ProcessPlan("mission_service", (
-        "-m", "sidewalk", "up", "mission_service", "--annotated-map", str(annotated_map), "--vehicle", vehicle,
-        "--perception", "on" if perception else "off", *zflags)))
+        "-m", "sidewalk", "up", "mission_service", "--map", str(map_file), "--annotated-map", str(annotated_map),
+        "--vehicle", vehicle, f"--start-pose={sx},{sy},{syaw}", "--perception", "on" if perception else "off", *zflags)))
     return plans
 
 

@@ -24,9 +24,12 @@ from collections import deque
 
 import numpy as np
 
-from eddie.messages.controller import ControllerState, PathCommand, Stop
-from eddie.messages.navigator import WorldFromLocal
+from eddie.messages.controller import PathCommand, Stop
+from eddie.messages.modules import MissionRoute
 from eddie.modules.mission_progress import MissionProgress, MissionRouteError, step_goals
+from eddie.modules.args import parse_pose
+from eddie.modules.sensing import Belief
+from eddie.toolkit.module import Incoming
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 from modules.captain.missionfile import MissionFileError, parse_mission
@@ -37,7 +40,7 @@ from modules.runtime.args import setup_logging
 from wire.aio import QueryAnswer, QueryRequest
 from wire.flags import add_network_args, network_from_args
 from wire.keys import MissionKeys
-from wire.se2 import compose, inverse, transform_points
+from wire.se2 import inverse, transform_points
 
 __all__ = ["MissionService", "main", "build_parser"]
 
@@ -56,8 +59,8 @@ class MissionService:
         self.map = map_data
         self.vehicle = vehicle
         self.perception = perception
-        self.world_from_local = np.asarray(world_from_local, dtype=np.float64)
-        self.local: np.ndarray | None = None
+        self.belief = Belief(m, world_from_local)
+        self.running: MissionProgress | None = None
         self.tick_s = tick_s
         self.speed_mps = speed_mps
         self.keys = MissionKeys(m.net.namespace)
@@ -67,18 +70,32 @@ class MissionService:
 
     # ---- what the modules believe --------------------------------------------------------
 
-    def _on_state(self, st: ControllerState) -> None:
-        self.local = np.array([st.x, st.y, st.yaw])
-
-    def _on_transform(self, t: WorldFromLocal) -> None:
-        self.world_from_local = np.array([t.x, t.y, t.yaw])
-
     def believed(self) -> tuple[float, float] | None:
         """Return the believed position (x, y) [m] in `world`: world←local ∘ the controller's local pose."""
-        if self.local is None:
-            return None
-        p = compose(self.world_from_local, self.local)
-        return float(p[0]), float(p[1])
+        p = self.belief.world()
+        return None if p is None else (float(p[0]), float(p[1]))
+
+    def _route_points(self, prog: MissionProgress) -> tuple[list[tuple[float, float]], list[float]]:
+        """Return the mission's whole route (x, y) [m] in `world` and the speed [m/s] from each point on."""
+        pts: list[tuple[float, float]] = []
+        speeds: list[float] = []
+        for g in prog.goals:
+            v = min(g.speed_mps or self.speed_mps, self.speed_mps)
+            for p in g.route:
+                if pts and math.dist(pts[-1], p) < 0.05:
+                    continue
+                pts.append((float(p[0]), float(p[1])))
+                speeds.append(v)
+        return pts, speeds
+
+    async def on_route(self, _inc: Incoming) -> MissionRoute:
+        """Answer `route`: the running mission's route in `world` (vision road following plans along it)."""
+        prog = self.running
+        if prog is None:
+            return MissionRoute()
+        pts, speeds = self._route_points(prog)
+        return MissionRoute(mission_id=prog.status.mission_id, points=tuple(pts), speeds=tuple(speeds),
+                            state="finished" if prog.status.terminal else "running")
 
     # ---- the CAPTAIN's keys --------------------------------------------------------------
 
@@ -96,7 +113,7 @@ class MissionService:
             return QueryAnswer(as_json=True, ok=False, payload=rejection_from(exc).to_bytes())
         if not mission.mission_id or mission.mission_id in self.missions:
             mission = mission.model_copy(update={"mission_id": new_mission_id(mission.name)})
-        start = self.believed() or (float(self.world_from_local[0]), float(self.world_from_local[1]))
+        start = self.believed() or (float(self.belief.world_from_local[0]), float(self.belief.world_from_local[1]))
         try:
             goals = step_goals(self.map, start, mission, vehicle=self.vehicle)
         except MissionRouteError as exc:
@@ -149,19 +166,11 @@ class MissionService:
 
     async def _drive(self, prog: MissionProgress) -> None:
         """Send the whole route, in `local`, to the controller (no vision: dead reckoning on the map)."""
-        local_from_world = inverse(self.world_from_local)
-        pts: list[tuple[float, float]] = []
-        speeds: list[float] = []
-        for g in prog.goals:
-            route = transform_points(local_from_world, np.asarray(g.route))
-            v = min(g.speed_mps or self.speed_mps, self.speed_mps)
-            for p in route:
-                if pts and math.dist(pts[-1], p) < 0.05:
-                    continue
-                pts.append((float(p[0]), float(p[1])))
-                speeds.append(v)
+        pts, speeds = self._route_points(prog)
+        local = transform_points(inverse(self.belief.world_from_local), np.asarray(pts))
         await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
-                                                    points=tuple(pts), speed=self.speed_mps, speeds=tuple(speeds)))
+                                                    points=tuple((float(x), float(y)) for x, y in local),
+                                                    speed=self.speed_mps, speeds=tuple(speeds)))
 
     async def run(self) -> None:
         """Declare the keys, then sequence missions one at a time until cancelled."""
@@ -169,8 +178,7 @@ class MissionService:
         link.queryable(self.keys.submit, self.on_submit)
         link.queryable(self.keys.status("*"), self.on_status)
         link.queryable(self.keys.cancel, self.on_cancel)
-        self.m.subscribe("controller", "state", ControllerState, self._on_state)
-        self.m.subscribe("navigator", "world_from_local", WorldFromLocal, self._on_transform)
+        self.m.serve("route", self.on_route)
         self.m.ready()
         await self.m.clock.wait_running()
         while True:
@@ -180,6 +188,7 @@ class MissionService:
             prog = self.missions[self.queue.popleft()]
             if prog.status.terminal:
                 continue
+            self.running = prog
             prog.start(self._now())
             self._publish(prog)
             if not self.perception:
@@ -211,12 +220,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     setup_logging()
     net = network_from_args(parser, args)
-    try:
-        x, y, yaw = (float(v) for v in args.start_pose.split(","))
-    except ValueError:
-        parser.error(f"--start-pose: {args.start_pose!r} is not X,Y,YAW")
-    if not all(math.isfinite(v) for v in (x, y, yaw)):
-        parser.error("--start-pose: values must be finite")
+    x, y, yaw = parse_pose(parser, args.start_pose)
     if not (args.speed > 0 and math.isfinite(args.speed)):
         parser.error("--speed: must be > 0 [m/s]")
     try:

@@ -70,7 +70,8 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
     ]
     if perception:
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),
-                                     "--seed", str(seed), *zflags)) for name in EDDIE_PERCEPTION_MODULES]
+                                     f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags))
+                  for name in EDDIE_PERCEPTION_MODULES]
     plans.append(ProcessPlan("mission_service", (
         "-m", "sidewalk", "up", "mission_service", "--map", str(map_file), "--annotated-map", str(annotated_map),
         "--vehicle", vehicle, f"--start-pose={sx},{sy},{syaw}", "--perception", "on" if perception else "off", *zflags)))

@@ -19,12 +19,13 @@ import sys
 import numpy as np
 
 from eddie.messages.controller import PathCommand
-from eddie.messages.modules import MissionRoute, ModuleSwitch, RouteQuery
+from eddie.messages.modules import MissionRoute, RouteQuery
 from eddie.errors import EddieError
 from eddie.modules.args import parse_pose
 from eddie.modules.errors import NoRoadPath
 from eddie.modules.road_following import RoadFollowingConfig, plan_road_path, route_to_local
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
+from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 from modules.map_navigator import MapData, load_map
@@ -51,16 +52,11 @@ class RoadFollowing:
         self.m = m
         self.map = map_data
         self.cfg = cfg
-        self.awake = awake
+        self.switch = Switch(awake)
         self.belief = Belief(m, start)
         self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=cfg.speed_mps)
         self.planner = LocalPathPlanner(pilot_config_for(vehicle).planner, seed=seed)
         self.route: MissionRoute | None = None
-
-    def _take(self, msg: object) -> None:
-        if isinstance(msg, ModuleSwitch):
-            self.awake = msg.on
-            log.info("road following %s (%s)", "awake" if msg.on else "asleep", msg.reason)
 
     async def _route(self) -> MissionRoute | None:
         try:
@@ -101,19 +97,7 @@ class RoadFollowing:
 
     async def run(self) -> None:
         """Sleep until woken, then run cycles while awake; the inbox switches it."""
-        self.m.ready()
-        await self.m.clock.wait_running()
-        while True:
-            try:
-                while self.m.pending():
-                    self._take((await self.m.receive(timeout=0.1)).message)
-                if not self.awake:
-                    self._take((await self.m.receive()).message)
-                    continue
-                log.debug("%s", await self.cycle())
-            except EddieError as exc:  # a bad message, a capture that failed: log it, go on
-                log.warning("road following: %s", exc)
-                await self.m.clock.sleep(0.5)
+        await run_switched(self.m, self.switch, self.cycle, period_s=0.2)
 
 
 def build_parser() -> argparse.ArgumentParser:

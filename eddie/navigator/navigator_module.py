@@ -1,0 +1,97 @@
+"""The navigator as an EDDIE module: fixes in its inbox, world←local delivered as each subscriber chose.
+
+Delivery (`deliver`, chosen at start-up from the system configuration): `push` publishes world←local
+on stream `world_from_local` on every update (and once a second of sim time for late subscribers);
+`request` answers it on service `world_from_local`. It follows the controller's `state` stream for
+the motion in `local`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+
+from eddie.errors import BadMessage
+from eddie.messages.controller import ControllerState
+from eddie.messages.navigator import LineFixMessage, PointFixMessage, WorldFromLocal, WorldFromLocalQuery
+from eddie.navigator.navigator import Navigator
+from eddie.toolkit.message import Message
+from eddie.toolkit.module import Incoming, Module
+
+__all__ = ["NavigatorModule", "DELIVERY_MODES"]
+
+log = logging.getLogger(__name__)
+
+#: The ways world←local reaches a subscriber.
+DELIVERY_MODES = ("push", "request")
+
+
+class NavigatorModule:
+    """Run a `Navigator` on endpoint `m`, following module `controller`, delivering by `deliver` (push / request)."""
+
+    def __init__(self, m: Module, nav: Navigator, *, deliver: frozenset[str] = frozenset(DELIVERY_MODES),
+                 controller: str = "controller", republish_s: float = 1.0) -> None:
+        bad = set(deliver) - set(DELIVERY_MODES)
+        if bad:
+            raise ValueError(f"deliver: unknown mode {sorted(bad)[0]!r} (push or request)")
+        self.m = m
+        self.nav = nav
+        self.deliver = deliver
+        self.controller = controller
+        self.republish_s = republish_s
+        self._started = asyncio.Event()
+
+    def _on_state(self, st: ControllerState) -> None:
+        first = not self.nav.started
+        self.nav.on_local(st.stamp, st.x, st.y, st.yaw)
+        if first:
+            self._started.set()
+            self._push()
+
+    def _push(self) -> None:
+        w = self.nav.world_from_local()
+        if w is not None and "push" in self.deliver:
+            self.m.publish("world_from_local", w)
+
+    async def _answer(self, inc: Incoming) -> Message:
+        if not isinstance(inc.message, WorldFromLocalQuery):
+            raise BadMessage(f"world_from_local from {inc.sender!r}: expected a WorldFromLocalQuery", sender=inc.sender,
+                             field="type")
+        w = self.nav.world_from_local()
+        if w is None:
+            raise BadMessage("world←local is not known yet (no controller state)", sender=inc.sender, field="stamp")
+        return w
+
+    async def run(self) -> None:
+        """Follow the controller, take fixes, deliver world←local until cancelled."""
+        m = self.m
+        m.subscribe(self.controller, "state", ControllerState, self._on_state)
+        if "request" in self.deliver:
+            m.serve("world_from_local", self._answer)
+        await self._started.wait()
+        m.ready()
+        republish = asyncio.ensure_future(self._republish())
+        try:
+            while True:
+                try:
+                    inc = await m.receive()
+                except BadMessage as exc:
+                    log.warning("navigator: %s", exc)
+                    continue
+                if not isinstance(inc.message, (PointFixMessage, LineFixMessage)):
+                    log.warning("navigator: %s from %s is not a fix; ignored", type(inc.message).__name__, inc.sender)
+                    continue
+                try:
+                    w: WorldFromLocal = self.nav.fix(inc.message, m.now() or inc.message.stamp)
+                except BadMessage as exc:
+                    log.warning("navigator: %s", exc)
+                    continue
+                log.info("navigator: fix from %s: world←local (%.2f, %.2f, %.3f)", inc.sender, w.x, w.y, w.yaw)
+                self._push()
+        finally:
+            republish.cancel()
+
+    async def _republish(self) -> None:
+        while True:
+            await self.m.clock.sleep(self.republish_s)
+            self._push()

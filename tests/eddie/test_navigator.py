@@ -1,0 +1,114 @@
+"""The navigator: fixes move world←local toward the truth from an off start; push vs request delivery per subscriber."""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+from wire.drive import TruthPose, decode
+from wire.keys import SimKeys
+from wire.network import NetworkConfig
+from wire.ports import free_port
+from wire.se2 import compose
+
+from eddie.errors import NoSuchModule, ServiceError
+from eddie.messages.controller import Position, PositionQuery
+from eddie.messages.navigator import LineFixMessage, LocalPose, PointFixMessage, WorldFromLocal, WorldFromLocalQuery
+from eddie.navigator import Navigator
+from eddie.toolkit import Module
+from tests.modules._procs import spawn, stop
+
+
+def test_a_line_fix_corrects_only_across_the_line_using_the_buffered_local_pose():
+    nav = Navigator((2.0, 1.0, 0.0), sigma_xy=1.0)
+    for i in range(11):  # the vehicle drives 1 m along local x; truth: world = local + (0, 0)
+        nav.on_local(i * 0.1, i * 0.1, 0.0, 0.0)
+    # true world pose now is (1.0, 0.0); the estimate is off by (2, 1). A line fix along y = 0 (taken at 0.5 s).
+    w = nav.fix(LineFixMessage(stamp=0.5, x=0.0, y=0.0, angle=0.0, sigma_cross=0.05, source="lines"), now=1.0)
+    est = compose(np.array([w.x, w.y, w.yaw]), np.array([1.0, 0.0, 0.0]))
+    assert abs(est[1]) < 0.1  # across the line: corrected
+    assert abs(est[0] - 3.0) < 0.3  # along it: unobserved, still off
+    try:
+        nav.fix(LineFixMessage(stamp=50.0, x=0.0, y=0.0, angle=0.0, source="late"), now=1.0)
+    except Exception as exc:  # noqa: BLE001
+        assert "no local pose" in str(exc) and "late" in str(exc)
+    else:
+        raise AssertionError("a fix outside the buffer must be refused")
+
+
+async def _retry(fn, timeout: float = 30.0):
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout
+    while True:
+        try:
+            return await fn()
+        except (NoSuchModule, ServiceError):
+            if loop.time() > deadline:
+                raise
+            await asyncio.sleep(0.1)
+
+
+async def test_fixes_pull_world_from_local_to_the_truth_pushed_or_on_request():
+    ns = f"nav{os.getpid()}"
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    procs: list[subprocess.Popen] = []
+    conn = ["--ns", ns, "--connect", ep]
+    try:
+        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
+                            "--rtf", "2", "--seed", "7", "--ns", ns, "--mode", "router", "--listen", ep], "ready sim"))
+        procs.append(spawn([sys.executable, "-m", "eddie.controller", "--vehicle", "terregator", *conn], "SIDEWALK-READY controller"))
+        async with Module("landmarks", NetworkConfig(namespace=ns, connect=(ep,))) as me:
+            await me.wait_connected(10.0)
+            truth: list[TruthPose] = []
+            me.link.subscribe(SimKeys(ns).truth, lambda _k, p: truth.append(decode(TruthPose, p)))
+            while not truth:
+                await asyncio.sleep(0.05)
+            t0 = truth[-1]
+            off = f"{t0.x + 1.5},{t0.y - 1.0},{t0.yaw + 0.08}"
+            procs.append(spawn([sys.executable, "-m", "eddie.navigator", "--start-pose", off, "--deliver", "world_from_local=push",
+                                *conn], "SIDEWALK-READY navigator"))
+            procs.append(spawn([sys.executable, "-m", "eddie.navigator", "--name", "navr", "--start-pose", off,
+                                "--deliver", "world_from_local=request", *conn], "SIDEWALK-READY navr"))
+            pushed: list[WorldFromLocal] = []
+            pushed_r: list[WorldFromLocal] = []
+            me.subscribe("navigator", "world_from_local", WorldFromLocal, pushed.append)
+            me.subscribe("navr", "world_from_local", WorldFromLocal, pushed_r.append)
+            pos = await _retry(lambda: me.request("controller", "position", PositionQuery(), reply_type=Position))
+            local = np.array([pos.x, pos.y, pos.yaw])
+
+            def err(w: WorldFromLocal) -> float:
+                est = compose(np.array([w.x, w.y, w.yaw]), local)
+                return math.dist(est[:2], (truth[-1].x, truth[-1].y))
+
+            w0 = await _retry(lambda: me.request("navr", "world_from_local", WorldFromLocalQuery(), reply_type=WorldFromLocal))
+            assert err(w0) > 1.5 and w0.fixes_used == 0
+            tp = truth[-1]
+            for _ in range(3):
+                fix = PointFixMessage(stamp=pos.stamp, x=tp.x, y=tp.y, yaw=tp.yaw, sigma_xy=0.1, sigma_yaw=0.02,
+                                      local=LocalPose(x=pos.x, y=pos.y, yaw=pos.yaw), source="landmarks")
+                await me.send("navigator", fix)
+                await me.send("navr", fix)
+            async with asyncio.timeout(30):
+                while not (pushed and pushed[-1].fixes_used == 3):
+                    await asyncio.sleep(0.05)
+                while True:
+                    w = await me.request("navr", "world_from_local", WorldFromLocalQuery(), reply_type=WorldFromLocal)
+                    if w.fixes_used == 3:
+                        break
+                    await asyncio.sleep(0.05)
+            assert err(pushed[-1]) < 0.3 and err(w) < 0.3
+            assert not pushed_r  # the request-only navigator pushes nothing
+            try:
+                await me.request("navigator", "world_from_local", WorldFromLocalQuery(), timeout=1.0)
+            except NoSuchModule:
+                pass
+            else:
+                raise AssertionError("the push-only navigator must not answer requests")
+    finally:
+        for p in reversed(procs):
+            stop(p)

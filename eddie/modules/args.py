@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import argparse
-import math
+
+from eddie.navigator.__main__ import parse_pose as _parse_pose
 
 __all__ = ["parse_pose"]
 
@@ -11,9 +12,7 @@ __all__ = ["parse_pose"]
 def parse_pose(parser: argparse.ArgumentParser, text: str, flag: str = "--start-pose") -> tuple[float, float, float]:
     """Return X,Y,YAW ([m], [m], [rad]) parsed from `text`, or exit through `parser.error` naming the flag."""
     try:
-        x, y, yaw = (float(v) for v in text.split(","))
-    except ValueError:
-        parser.error(f"{flag}: {text!r} is not X,Y,YAW")
-    if not all(math.isfinite(v) for v in (x, y, yaw)):
-        parser.error(f"{flag}: values must be finite")
-    return x, y, yaw
+        return _parse_pose(text)
+    except ValueError as exc:
+        parser.error(f"{flag}: {exc}")
+        raise  # parser.error exits

@@ -21,7 +21,7 @@ from eddie.modules.errors import NoRoadPath
 from modules.pilot import LocalPathPlanner, PlanningError
 from wire.se2 import transform_points
 
-__all__ = ["RoadFollowingConfig", "RoadPath", "region_in_local", "route_goal", "plan_road_path", "route_to_local"]
+__all__ = ["RoadFollowingConfig", "RoadPath", "region_in_local", "route_goal", "plan_road_path", "route_to_local", "route_ahead"]
 
 
 class RoadFollowingConfig(BaseModel):
@@ -34,6 +34,7 @@ class RoadFollowingConfig(BaseModel):
     approach_half_width_m: float = Field(0.8, gt=0.0, description="half width of the corridor from the vehicle to the road seen [m]")
     min_path_m: float = Field(1.5, gt=0.0, description="a goal closer than this along the route is no path [m]")
     speed_mps: float = Field(1.0, gt=0.0, description="speed the path is driven at [m/s]")
+    blind_speed_mps: float = Field(0.5, gt=0.0, description="speed along the route when vision sees no road [m/s] (the seed's intersections)")
 
 
 class RoadPath(BaseModel):
@@ -106,6 +107,14 @@ def plan_road_path(planner: LocalPathPlanner, start_local: tuple[float, float, f
         raise NoRoadPath(f"no path through the road seen: {exc}") from None
     poses = tuple((float(p[0]), float(p[1]), float(p[2])) for p in planned.poses)
     return RoadPath(poses=poses, speed_mps=cfg.speed_mps, sensed_at=sensed_at)
+
+
+def route_ahead(route_local: np.ndarray, start_xy: np.ndarray, length_m: float, step_m: float = 0.5) -> np.ndarray:
+    """Return the route (M, 2) [m] from the point nearest `start_xy` on for `length_m` [m]: the path to dead-reckon when vision sees no road."""
+    line = LineString(np.asarray(route_local, dtype=np.float64))
+    s0 = line.project(Point(float(start_xy[0]), float(start_xy[1])))
+    s = np.append(np.arange(s0, min(s0 + length_m, line.length), step_m), min(s0 + length_m, line.length))
+    return np.array([[line.interpolate(v).x, line.interpolate(v).y] for v in s])
 
 
 def route_to_local(route_world: np.ndarray, local_from_world: tuple[float, float, float]) -> np.ndarray:

@@ -23,7 +23,7 @@ from eddie.messages.modules import MissionRoute, RouteQuery
 from eddie.errors import EddieError
 from eddie.modules.args import parse_pose
 from eddie.modules.errors import NoRoadPath
-from eddie.modules.road_following import RoadFollowingConfig, plan_road_path, route_to_local
+from eddie.modules.road_following import RoadFollowingConfig, plan_road_path, route_ahead, route_to_local
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
 from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.module import Module
@@ -80,16 +80,23 @@ class RoadFollowing:
         img = colored_range_image(frame)
         objs = objects_in_view(self.map, tuple(prior))
         out = self.pipeline.process(img, objs, tuple(prior), error_allowance=0.5)
-        if out.navigable is None:
-            return f"no road seen ({out.failure or 'nothing found'})"
         route = route_to_local(np.asarray(self.route.points), tuple(inverse(self.belief.world_from_local)))
         speed = min(self.route.speeds) if self.route.speeds else self.cfg.speed_mps
         now = self.belief.local
         try:
+            if out.navigable is None:
+                raise NoRoadPath(f"no road seen ({out.failure or 'nothing found'})")
             path = plan_road_path(self.planner, tuple(now), out.navigable, tuple(at_capture), route, frame.stamp,
                                   self.cfg.model_copy(update={"speed_mps": speed}))
         except NoRoadPath as exc:
-            return str(exc)
+            # vision lost the road (an intersection, a turn): dead-reckon slowly along the route until it sees it again
+            ahead = route_ahead(route, now[:2], self.cfg.lookahead_m)
+            if len(ahead) < 2:
+                return f"{exc}; at the route's end"
+            await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
+                                                        points=tuple((float(x), float(y)) for x, y in ahead),
+                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
+            return f"{exc}; dead reckoning along the route"
         await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                     points=tuple((p[0], p[1]) for p in path.poses), speed=path.speed_mps,
                                                     sensed_at=path.sensed_at))

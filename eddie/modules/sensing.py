@@ -31,7 +31,7 @@ class CaptureError(EddieModuleError):
     """The simulator's capture service did not answer, or answered with something that is not a frame."""
 
 
-async def capture_frame(m: Module, *, timeout: float = 5.0) -> SensorFrame:
+async def capture_frame(m: Module, *, timeout: float = 15.0) -> SensorFrame:
     """Ask the simulator for one laser + camera frame (no truth); raise CaptureError."""
     key = SimKeys(m.net.namespace).capture
     replies = await m.link.get(key, payload=json.dumps({"laser": True, "camera": True}).encode(), timeout=timeout)

@@ -87,3 +87,12 @@ def test_landmark_matching_fixes_the_position_across_the_walk(src: FrameSource) 
     assert fix is not None, why
     assert abs(fix.x - ON_WALK[0]) < 0.15 < abs(prior[0] - ON_WALK[0])  # across the walk the fix is exact
     assert fix.stamp == img.stamp and len(fix.covariance) == 9
+
+
+def test_route_ahead_is_the_route_from_the_vehicle_on() -> None:
+    from eddie.modules.road_following import route_ahead
+
+    route = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]])
+    ahead = route_ahead(route, np.array([4.0, 0.3]), 8.0)
+    assert ahead[0] == pytest.approx([4.0, 0.0]) and ahead[-1] == pytest.approx([10.0, 2.0])
+    assert len(route_ahead(route, np.array([10.0, 10.0]), 8.0)) < 2 + 1  # at the end: nothing left to drive

@@ -59,8 +59,8 @@ class TriggerView(Message):
     stamp: float
     x: float
     y: float
-    annotation: str
-    kind: str
+    annotation_id: str
+    trigger_type: str
     destination: str
     text: str = ""
 
@@ -88,4 +88,4 @@ def subscribe_eddie(link: Link, keys: EddieKeys, pose: Any, triggers: list[Fired
         TransformView, f"{n_mod}/{n_stream}", lambda m: pose.set_world_from_local((m.x, m.y, m.yaw))))
     link.subscribe(keys.topic(t_mod, t_stream), _reader(
         TriggerView, f"{t_mod}/{t_stream}", lambda m: triggers.append(FiredTrigger(
-            sim_s=m.stamp, x=m.x, y=m.y, annotation=m.annotation, kind=m.kind, destination=m.destination, text=m.text))))
+            sim_s=m.stamp, x=m.x, y=m.y, annotation=m.annotation_id, kind=m.trigger_type, destination=m.destination, text=m.text))))

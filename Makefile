@@ -35,6 +35,7 @@ bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench blackboard --json
 	$(VENV)/bin/sidewalk bench sim --json
 	$(VENV)/bin/sidewalk bench record --json
+	$(VENV)/bin/sidewalk bench eddie --json
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache

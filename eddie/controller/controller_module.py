@@ -24,6 +24,9 @@ from eddie.toolkit.module import Incoming, Module
 __all__ = ["ControllerModule", "COMMANDS"]
 
 log = logging.getLogger(__name__)
+#: The controller's event log (INFO, written whatever SIDEWALK_LOG says: the log of events is part of the controller).
+event_log = logging.getLogger("eddie.controller.events")
+event_log.setLevel(logging.INFO)
 
 #: Messages the controller takes as commands.
 COMMANDS = (PathCommand, DeadReckon, SpeedLimit, Nudge, Stop, Release)
@@ -74,7 +77,7 @@ class ControllerModule:
 
     def _flush(self) -> None:
         for ev in self.core.take_events():
-            log.info("controller event %s client=%s %s", ev.kind, ev.client, ev.detail)
+            event_log.info("t=%.2f %s client=%s %s", ev.stamp, ev.kind, ev.client, ev.detail)
             self.m.publish("events", ev)
         if self.core.path_changed:
             self.m.publish("path", self.core.path_message(self._now()))

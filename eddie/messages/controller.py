@@ -8,12 +8,11 @@ and `ControllerEvent` are its streams `state`, `path`, `events`.
 
 from __future__ import annotations
 
-import math
-from typing import Annotated, Literal
+from typing import Literal
 
-from pydantic import AfterValidator, Field, model_validator
+from pydantic import Field, model_validator
 
-from eddie.toolkit.message import Message, message_type
+from eddie.toolkit.message import Finite, Message, message_type
 
 __all__ = [
     "XY", "CommandMode", "ControllerMode", "PathCommand", "DeadReckon", "SpeedLimit", "Nudge", "Stop", "Release",
@@ -22,13 +21,7 @@ __all__ = [
 ]
 
 
-def _finite(v: float) -> float:
-    if not math.isfinite(v):
-        raise ValueError(f"must be a finite number, got {v!r}")
-    return v
-
-
-_F = Annotated[float, AfterValidator(_finite)]
+_F = Finite
 #: A point (x [m], y [m]) in `local`.
 XY = tuple[_F, _F]
 #: `immediate` replaces the current path; `queued` is appended to it.

@@ -7,23 +7,14 @@ pose from its own short buffer of the controller's `state` stream.
 
 from __future__ import annotations
 
-import math
-from typing import Annotated
+from pydantic import Field
 
-from pydantic import AfterValidator, Field
-
-from eddie.toolkit.message import Message, message_type
+from eddie.toolkit.message import Finite, Message, message_type
 
 __all__ = ["LocalPose", "PointFixMessage", "LineFixMessage", "WorldFromLocal", "WorldFromLocalQuery"]
 
 
-def _finite(v: float) -> float:
-    if not math.isfinite(v):
-        raise ValueError(f"must be a finite number, got {v!r}")
-    return v
-
-
-_F = Annotated[float, AfterValidator(_finite)]
+_F = Finite
 
 
 class LocalPose(Message):

@@ -10,17 +10,27 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any, Callable, TypeVar
+from typing import Annotated, Any, Callable, TypeVar
 
 import msgpack
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 
 from eddie.errors import BadMessage, UnknownMessageType
 
 __all__ = [
-    "Message", "Envelope", "message_type", "message_model", "message_name", "registered_types",
+    "Finite", "Message", "Envelope", "message_type", "message_model", "message_name", "registered_types",
     "encode_envelope", "decode_envelope", "encode_body", "decode_body", "open_envelope",
 ]
+
+
+def _finite(v: float) -> float:
+    if not math.isfinite(v):
+        raise ValueError(f"must be a finite number, got {v!r}")
+    return v
+
+
+#: A finite float (NaN and ±inf rejected: messages travel as JSON too).
+Finite = Annotated[float, AfterValidator(_finite)]
 
 
 class Message(BaseModel):
@@ -93,16 +103,20 @@ def _load(raw: bytes, what: str, sender: str) -> Any:
                          sender=sender) from None
 
 
-def _validate(cls: type[Message], data: Any, sender: str) -> Message:
-    if not isinstance(data, dict):
-        raise BadMessage(f"{cls.__name__} from {sender!r}: body must be a map of fields, got {type(data).__name__}",
-                         sender=sender)
+def _checked(cls: type[BaseModel], data: Any, what: str, sender: str) -> Any:
     try:
         return cls.model_validate(data)
     except ValidationError as exc:
         e = exc.errors()[0]
         field = ".".join(str(x) for x in e["loc"]) or "<root>"
-        raise BadMessage(f"{cls.__name__} from {sender!r}: field {field}: {e['msg']}", sender=sender, field=field) from None
+        raise BadMessage(f"{what} from {sender!r}: field {field}: {e['msg']}", sender=sender, field=field) from None
+
+
+def _validate(cls: type[Message], data: Any, sender: str) -> Message:
+    if not isinstance(data, dict):
+        raise BadMessage(f"{cls.__name__} from {sender!r}: body must be a map of fields, got {type(data).__name__}",
+                         sender=sender)
+    return _checked(cls, data, cls.__name__, sender)
 
 
 def encode_body(msg: BaseModel, *, as_json: bool = False) -> bytes:
@@ -131,13 +145,7 @@ def open_envelope(payload: bytes, *, where: str = "inbox") -> Envelope:
     data = _load(bytes(payload), f"message to {where}", "?")
     if not isinstance(data, dict):
         raise BadMessage(f"message to {where}: an envelope must be a map, got {type(data).__name__}")
-    sender = str(data.get("sender") or "?")
-    try:
-        return Envelope.model_validate(data)
-    except ValidationError as exc:
-        e = exc.errors()[0]
-        field = ".".join(str(x) for x in e["loc"]) or "<root>"
-        raise BadMessage(f"message to {where} from {sender!r}: envelope field {field}: {e['msg']}", sender=sender, field=field) from None
+    return _checked(Envelope, data, f"envelope of a message to {where}", str(data.get("sender") or "?"))
 
 
 def decode_envelope(payload: bytes, *, where: str = "inbox") -> tuple[Envelope, Message]:

@@ -60,3 +60,15 @@ def bench_record(
     if rtf <= 0:
         raise typer.BadParameter(f"--rtf must be > 0, got {rtf}")
     _emit(mod.run(mission=mission or mod.DEFAULT_MISSION, rtf=rtf, without=without), as_json)
+
+
+@bench_app.command("eddie")
+def bench_eddie(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    samples: Annotated[int, typer.Option(help="Position queries (and floor gets) measured")] = 2000,
+) -> None:
+    """EDDIE's controller position queries beside the raw-Zenoh get floor (and the trigger latency hook)."""
+    if samples < 10:
+        raise typer.BadParameter(f"--samples must be ≥ 10, got {samples}")
+    mod = importlib.import_module("bench.eddie")
+    _emit(mod.run(samples=samples), as_json)

@@ -2,10 +2,30 @@
 
 from __future__ import annotations
 
+import asyncio
+from typing import Awaitable, Callable, TypeVar
+
 from wire.network import NetworkConfig
 from wire.ports import free_port
 
-__all__ = ["net_pair"]
+from eddie.errors import NoSuchModule, ServiceError
+
+__all__ = ["net_pair", "retry"]
+
+T = TypeVar("T")
+
+
+async def retry(ask: Callable[[], Awaitable[T]], timeout: float = 30.0) -> T:
+    """Return `await ask()` once the service it asks is up (NoSuchModule / ServiceError until then; wall [s])."""
+    loop = asyncio.get_running_loop()
+    deadline = loop.time() + timeout
+    while True:
+        try:
+            return await ask()
+        except (NoSuchModule, ServiceError):
+            if loop.time() > deadline:
+                raise
+            await asyncio.sleep(0.1)
 
 
 def net_pair(ns: str) -> tuple[NetworkConfig, NetworkConfig, str]:

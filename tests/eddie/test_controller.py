@@ -101,3 +101,13 @@ def test_dead_reckoning_follows_a_stretch_of_the_recorded_path():
     assert math.dist(path[0], (5.0, 5.0)) < 0.3 and math.dist(path[-1], (0.0, 0.0)) < 0.3
     refused = c.command(DeadReckon(client="map", odometer_from=100.0, odometer_to=120.0), 10.1)
     assert not refused.accepted and "no recorded path" in refused.reason
+
+
+def test_drive_commands_carry_the_sensed_at_of_the_path_they_track():
+    c = _ctl()
+    c.odometry(_od(0.0, 0.0))
+    assert c.tick(0.0).sensed_at is None
+    c.command(PathCommand(client="vision", points=((0, 0), (10, 0)), speed=1.0, sensed_at=0.4), 0.5)
+    assert c.tick(0.6).sensed_at == 0.4
+    c.command(DeadReckon(client="map", points=((0, 0), (10, 0))), 0.7)
+    assert c.tick(0.8).sensed_at is None

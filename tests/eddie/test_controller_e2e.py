@@ -15,20 +15,12 @@ from eddie.messages.controller import (
     CommandAck, ControllerPath, ControllerState, DeadReckon, PathCommand, Position, PositionQuery,
 )
 from eddie.toolkit import Module
-from eddie.errors import NoSuchModule, ServiceError
+from tests.eddie._net import retry
 from tests.modules._procs import spawn, stop
 
 
-async def _ask(me: Module, service: str, msg, reply_type, timeout: float = 30.0):
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while True:
-        try:
-            return await me.request("controller", service, msg, timeout=2.0, reply_type=reply_type)
-        except (NoSuchModule, ServiceError):
-            if loop.time() > deadline:
-                raise
-            await asyncio.sleep(0.1)
+async def _ask(me: Module, service: str, msg, reply_type):
+    return await retry(lambda: me.request("controller", service, msg, timeout=2.0, reply_type=reply_type))
 
 
 async def test_controller_drives_a_path_then_dead_reckons_back_along_its_record():
@@ -37,9 +29,9 @@ async def test_controller_drives_a_path_then_dead_reckons_back_along_its_record(
     procs: list[subprocess.Popen] = []
     try:
         procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
-                            "--rtf", "4", "--seed", "5", "--ns", ns, "--mode", "router", "--listen", ep], "ready sim"))
+                            "--rtf", "4", "--seed", "5", "--ns", ns, "--mode", "router", "--listen", ep], "ready sim", timeout=180))
         procs.append(spawn([sys.executable, "-m", "eddie.controller", "--vehicle", "terregator", "--ns", ns, "--connect", ep],
-                           "SIDEWALK-READY controller"))
+                           "SIDEWALK-READY controller", timeout=180))
         async with Module("tester", NetworkConfig(namespace=ns, connect=(ep,))) as me:
             await me.wait_connected(10.0)
             states: list[ControllerState] = []

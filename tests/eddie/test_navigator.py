@@ -16,11 +16,12 @@ from wire.network import NetworkConfig
 from wire.ports import free_port
 from wire.se2 import compose
 
-from eddie.errors import NoSuchModule, ServiceError
+from eddie.errors import NoSuchModule
 from eddie.messages.controller import Position, PositionQuery
 from eddie.messages.navigator import LineFixMessage, LocalPose, PointFixMessage, WorldFromLocal, WorldFromLocalQuery
 from eddie.navigator import Navigator
 from eddie.toolkit import Module
+from tests.eddie._net import retry
 from tests.modules._procs import spawn, stop
 
 
@@ -41,18 +42,6 @@ def test_a_line_fix_corrects_only_across_the_line_using_the_buffered_local_pose(
         raise AssertionError("a fix outside the buffer must be refused")
 
 
-async def _retry(fn, timeout: float = 30.0):
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while True:
-        try:
-            return await fn()
-        except (NoSuchModule, ServiceError):
-            if loop.time() > deadline:
-                raise
-            await asyncio.sleep(0.1)
-
-
 async def test_fixes_pull_world_from_local_to_the_truth_pushed_or_on_request():
     ns = f"nav{os.getpid()}"
     ep = f"tcp/127.0.0.1:{free_port()}"
@@ -60,8 +49,8 @@ async def test_fixes_pull_world_from_local_to_the_truth_pushed_or_on_request():
     conn = ["--ns", ns, "--connect", ep]
     try:
         procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
-                            "--rtf", "2", "--seed", "7", "--ns", ns, "--mode", "router", "--listen", ep], "ready sim"))
-        procs.append(spawn([sys.executable, "-m", "eddie.controller", "--vehicle", "terregator", *conn], "SIDEWALK-READY controller"))
+                            "--rtf", "2", "--seed", "7", "--ns", ns, "--mode", "router", "--listen", ep], "ready sim", timeout=180))
+        procs.append(spawn([sys.executable, "-m", "eddie.controller", "--vehicle", "terregator", *conn], "SIDEWALK-READY controller", timeout=180))
         async with Module("landmarks", NetworkConfig(namespace=ns, connect=(ep,))) as me:
             await me.wait_connected(10.0)
             truth: list[TruthPose] = []
@@ -71,21 +60,21 @@ async def test_fixes_pull_world_from_local_to_the_truth_pushed_or_on_request():
             t0 = truth[-1]
             off = f"{t0.x + 1.5},{t0.y - 1.0},{t0.yaw + 0.08}"
             procs.append(spawn([sys.executable, "-m", "eddie.navigator", "--start-pose", off, "--deliver", "world_from_local=push",
-                                *conn], "SIDEWALK-READY navigator"))
+                                *conn], "SIDEWALK-READY navigator", timeout=180))
             procs.append(spawn([sys.executable, "-m", "eddie.navigator", "--name", "navr", "--start-pose", off,
-                                "--deliver", "world_from_local=request", *conn], "SIDEWALK-READY navr"))
+                                "--deliver", "world_from_local=request", *conn], "SIDEWALK-READY navr", timeout=180))
             pushed: list[WorldFromLocal] = []
             pushed_r: list[WorldFromLocal] = []
             me.subscribe("navigator", "world_from_local", WorldFromLocal, pushed.append)
             me.subscribe("navr", "world_from_local", WorldFromLocal, pushed_r.append)
-            pos = await _retry(lambda: me.request("controller", "position", PositionQuery(), reply_type=Position))
+            pos = await retry(lambda: me.request("controller", "position", PositionQuery(), reply_type=Position))
             local = np.array([pos.x, pos.y, pos.yaw])
 
             def err(w: WorldFromLocal) -> float:
                 est = compose(np.array([w.x, w.y, w.yaw]), local)
                 return math.dist(est[:2], (truth[-1].x, truth[-1].y))
 
-            w0 = await _retry(lambda: me.request("navr", "world_from_local", WorldFromLocalQuery(), reply_type=WorldFromLocal))
+            w0 = await retry(lambda: me.request("navr", "world_from_local", WorldFromLocalQuery(), reply_type=WorldFromLocal))
             assert err(w0) > 1.5 and w0.fixes_used == 0
             tp = truth[-1]
             for _ in range(3):

@@ -18,7 +18,7 @@ import sys
 
 import numpy as np
 
-from eddie.messages.controller import PathCommand
+from eddie.messages.controller import DeadReckon, PathCommand
 from eddie.messages.modules import MissionRoute, RouteQuery
 from eddie.errors import EddieError
 from eddie.modules.args import parse_pose
@@ -26,6 +26,7 @@ from eddie.modules.errors import NoRoadPath
 from eddie.modules.road_following import RoadFollowingConfig, plan_road_path, route_ahead, route_to_local
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
 from eddie.modules.switched import Switch, run_switched
+from eddie.toolkit.message import Message, message_name
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 from modules.map_navigator import MapData, load_map
@@ -34,7 +35,7 @@ from modules.perception.module import SENSORS
 from modules.pilot import LocalPathPlanner, pilot_config_for
 from modules.runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
-from wire.se2 import inverse
+from wire.se2 import inverse, transform_points
 
 __all__ = ["RoadFollowing", "main", "build_parser"]
 
@@ -81,7 +82,7 @@ class RoadFollowing:
         objs = objects_in_view(self.map, tuple(prior))
         out = self.pipeline.process(img, objs, tuple(prior), error_allowance=0.5)
         route = route_to_local(np.asarray(self.route.points), tuple(inverse(self.belief.world_from_local)))
-        speed = min(self.route.speeds) if self.route.speeds else self.cfg.speed_mps
+        speed = min(self.cfg.speed_mps, min(self.route.speeds)) if self.route.speeds else self.cfg.speed_mps
         now = self.belief.local
         try:
             if out.navigable is None:
@@ -102,9 +103,20 @@ class RoadFollowing:
                                                     sensed_at=path.sensed_at))
         return f"path of {len(path.poses)} poses sent"
 
+    async def on_trigger(self, data: Message) -> None:
+        """Act on a trigger's data: dead-reckon through an intersection along its points, or cap the speed."""
+        kind = message_name(data)
+        if kind == "map_manager.dead_reckon_through":
+            local = transform_points(inverse(self.belief.world_from_local), np.asarray(data.points))  # type: ignore[attr-defined]
+            await self.m.send("controller", DeadReckon(client=CLIENT, priority=PRIORITY, mode="immediate",
+                                                       points=tuple((float(x), float(y)) for x, y in local),
+                                                       speed=float(data.speed)))  # type: ignore[attr-defined]
+        elif kind == "map_manager.set_speed":
+            self.cfg = self.cfg.model_copy(update={"speed_mps": max(float(data.speed), 0.1)})  # type: ignore[attr-defined]
+
     async def run(self) -> None:
-        """Sleep until woken, then run cycles while awake; the inbox switches it."""
-        await run_switched(self.m, self.switch, self.cycle, period_s=0.2)
+        """Sleep until woken, then run cycles while awake; the inbox and the triggers switch it."""
+        await run_switched(self.m, self.switch, self.cycle, period_s=0.2, on_data=self.on_trigger)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -22,7 +22,7 @@ class ObstacleStopConfig(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     stop_distance_m: float = Field(4.0, gt=0.0, description="look this far ahead of the vehicle origin [m]")
-    near_m: float = Field(0.5, ge=0.0, description="ignore returns closer than this (the vehicle itself) [m]")
+    near_m: float = Field(1.0, ge=0.0, description="ignore returns closer than this (the vehicle itself, its sensor mast) [m]")
     half_width_m: float = Field(1.2, gt=0.0, description="half the swept width [m]")
     min_height_m: float = Field(0.25, gt=0.0, description="a return this high above the ground is an obstacle [m]")
     max_height_m: float = Field(2.5, gt=0.0, description="returns above this clear the vehicle (branches) [m]")

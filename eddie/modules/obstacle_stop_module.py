@@ -5,8 +5,8 @@
 Seed: Navlab 1990 §2.5 — fast obstacle detection, started and stopped by triggers ("stop / start
 fast obstacle detection"). Awake, each cycle reads a range image (the simulator's capture service,
 no truth), and when enough returns stand in the corridor ahead it sends `Stop` to the controller as
-the highest-priority client; once the corridor is clear again it releases control, so the driving
-module's next path is taken. Each verdict goes out on its stream `seen`.
+the highest-priority client and holds control (a speed cap of 0); once the corridor is clear again
+it lifts the cap and releases control, so the driving module's next path is taken. Each verdict goes out on its stream `seen`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import argparse
 import logging
 import sys
 
-from eddie.messages.controller import Release, Stop
+from eddie.messages.controller import Release, SpeedLimit, Stop
 from eddie.messages.modules import ObstacleSeen
 from eddie.modules.obstacle_stop import ObstacleStopConfig, obstacle_ahead
 from eddie.modules.sensing import capture_frame
@@ -52,9 +52,12 @@ class ObstacleStop:
             self.stopped = True
             await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY,
                                                  reason=f"obstacle {seen.distance_m:.1f} m ahead ({seen.points} returns)"))
+            # hold control (a speed cap of 0 at the top priority) so no driving module's path moves it on
+            await self.m.send("controller", SpeedLimit(client=CLIENT, priority=PRIORITY, speed=0.0))
             return "stopped"
         if not seen.blocked and self.stopped:
             self.stopped = False
+            await self.m.send("controller", SpeedLimit(client=CLIENT, priority=PRIORITY, speed=None))
             await self.m.send("controller", Release(client=CLIENT))
             return "released"
         return "blocked" if seen.blocked else "clear"

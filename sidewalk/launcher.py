@@ -15,7 +15,7 @@ import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Callable, Literal, Optional
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -86,6 +86,8 @@ class RunConfig(BaseModel):
     obstacles: Optional[bool] = None  # run the OBSTACLE DETECTOR (default: when there are actors)
     map_file: Optional[Path] = None  # the map the robot gets (e.g. from `sidewalk mapbuild`); default: the shipped one
     # ---- end laser ----
+    #: which architecture runs the mission: the CODGER blackboard system or EDDIE (no blackboard)
+    arch: Literal["codger", "eddie"] = "codger"
 
 
 @dataclass
@@ -311,7 +313,7 @@ def prepare_out(out: Path) -> None:
     """Create the output directory and remove what an earlier run left there."""
     out.mkdir(parents=True, exist_ok=True)
     for stale in ("blackboard.db", "blackboard.db-wal", "blackboard.db-shm", "report.json", "trajectory.png", "map.geojson",
-                  RECORD_FILE, RECORDING_NAME):
+                  RECORD_FILE, RECORDING_NAME, "annotated_map.geojson"):
         (out / stale).unlink(missing_ok=True)
     for old_log in (out / "logs").glob("*.log"):
         old_log.unlink()
@@ -339,7 +341,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
     rest = system.rest.get(mission_id)
     kept_from, kept_to = submitted_sim - RECORD_LEAD_S, (math.inf if rest is None else max(rest, ended_sim) + RECORD_LEAD_S)
     return RunRecord(
-        architecture="codger", mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
+        architecture=cfg.arch, mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
         perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
         rtf_requested=cfg.rtf, destinations=setup.destinations, lane_offsets=setup.lane_offsets,
         submitted_wall_s=round(submitted_wall, 6), submitted_sim_s=submitted_sim,
@@ -350,6 +352,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
         events=tuple(e for e in rec.events if kept_from <= e.stamp <= kept_to),
         statuses=tuple(statuses), plans=tuple(system.routes.get(mission_id, ())), processes=rec.process_costs(),
         blackboard=system.bb_stats, exit_codes=exit_codes, actors=cfg.actors,
+        triggers=tuple(t for t in getattr(system, "triggers", ()) if kept_from <= t.sim_s <= kept_to),
     )
 
 
@@ -359,7 +362,19 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
     out = Path(cfg.out)
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)
+    if cfg.arch == "eddie":
+        if cfg.secure is not None:
+            raise LaunchError("--secure: EDDIE's processes do not take --secure yet; run --arch eddie without it (or --arch codger)")
+        from sidewalk.eddie_run import EddieSystemRun, compile_annotated_map, eddie_plans
+
+        amap = compile_annotated_map(setup, out)
+        system: SystemRun = EddieSystemRun(eddie_plans(
+            out=out, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
+            watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
+            map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
+        ), ns=ns, endpoint=endpoint, log_dir=out / "logs")
+    else:
+        system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)
     progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)
     stop_reason = ""
     gave_up_at: tuple[float, float] | None = None

@@ -6,6 +6,7 @@ import asyncio
 import contextlib
 import logging
 from dataclasses import dataclass, field
+from typing import Awaitable, Callable, Optional
 
 import numpy as np
 
@@ -16,7 +17,10 @@ from wire.drive import SimClock, SimEvent, TruthPose, WireError, decode
 from wire.health import HeartbeatError, decode_heartbeat
 from wire.keys import ModuleKeys, SimKeys
 
-__all__ = ["Recorder", "Track"]
+__all__ = ["Recorder", "Track", "EstimateSource"]
+
+#: Where the robot believes it is at a sim stamp [s]: (x [m], y [m], yaw [rad]) in `world`, None if it cannot say.
+EstimateSource = Callable[[float], Awaitable[Optional[tuple[float, float, float]]]]
 
 log = logging.getLogger(__name__)
 
@@ -39,9 +43,12 @@ class Recorder:
     the newest usage of each process incarnation (name, pid).
     """
 
-    def __init__(self, link: Link, bb: BlackboardClient, ns: str, *, estimate_period_s: float = 0.5) -> None:
+    def __init__(self, link: Link, bb: BlackboardClient | None, ns: str, *, estimate_period_s: float = 0.5,
+                 estimator: EstimateSource | None = None) -> None:
+        """Record in namespace `ns`; the estimate comes from `estimator` (EDDIE), else from the blackboard `bb` (CODGER)."""
         self.link = link
         self.bb = bb
+        self.estimator = estimator or self._blackboard_pose
         self.keys = SimKeys(ns)
         self.module_keys = ModuleKeys(ns)
         self.truth = Track()
@@ -111,12 +118,20 @@ class Recorder:
         try:
             # a little in the past: the HELM's poses trail the simulator's truth by a publish period
             at = max(0.0, stamp - 0.25)
-            pose = await self.bb.lookup_pose(parent="world", child="vehicle", stamp=at)
-            self.estimate.rows.append((at, pose.x, pose.y, pose.yaw))
+            pose = await self.estimator(at)
+            if pose is not None:
+                self.estimate.rows.append((at, *pose))
         except (BlackboardError, asyncio.TimeoutError, TimeoutError) as exc:
             log.debug("no estimate at %.2f: %s", stamp, exc)
         finally:
             self._estimating = False
+
+    async def _blackboard_pose(self, at: float) -> tuple[float, float, float] | None:
+        """Return the blackboard's world ← vehicle pose at `at` [s] sim (CODGER)."""
+        if self.bb is None:
+            return None
+        pose = await self.bb.lookup_pose(parent="world", child="vehicle", stamp=at)
+        return pose.x, pose.y, pose.yaw
 
     def _on_event(self, _key: str, payload: bytes) -> None:
         try:

@@ -21,7 +21,7 @@ from pydantic import BaseModel, ConfigDict
 from modules.vocabulary import MissionStatus, StepOutcome
 from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
-from sidewalk.run_record import RunRecord
+from sidewalk.run_record import FiredTrigger, RunRecord
 from sidewalk.stops import StopSummary, stop_summary
 from wire.drive import SimEvent
 
@@ -149,6 +149,8 @@ class RunReport(BaseModel):
     modules: dict[str, ModuleCost] = {}
     exit_codes: dict[str, Optional[int]] = {}
     stops: Optional[StopSummary] = None  # issue 12: stops on the way, time stopped, closest approach to actors
+    #: EDDIE: the triggers fired, sim times [s] counted from submission like every other time here
+    triggers: list[FiredTrigger] = []
 
 
 def _final_status(rec: RunRecord) -> MissionStatus | None:
@@ -353,6 +355,7 @@ def build_report(rec: RunRecord) -> RunReport:
         modules=_module_costs(rec),
         exit_codes=dict(rec.exit_codes),
         stops=stop_summary(truth, actors=rec.actors, world_name=rec.world, vehicle=rec.vehicle),
+        triggers=[t.model_copy(update={"sim_s": round(t.sim_s - t0, 3)}) for t in rec.triggers],
     )
 
 

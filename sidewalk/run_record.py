@@ -21,7 +21,7 @@ from sidewalk.map_error import MapErrorSummary
 from wire.drive import SimEvent
 from wire.health import ProcessUsage
 
-__all__ = ["RunRecord", "StampedStatus", "RecordedPlan", "ProcessCost", "Architecture", "RunRecordError",
+__all__ = ["RunRecord", "StampedStatus", "RecordedPlan", "ProcessCost", "FiredTrigger", "Architecture", "RunRecordError",
            "save_record", "load_record"]
 
 #: The architectures a run can be recorded under.
@@ -65,6 +65,23 @@ class ProcessCost(BaseModel):
     usage: ProcessUsage
 
 
+class FiredTrigger(BaseModel):
+    """One trigger the EDDIE annotated map manager fired: at `sim_s` [s] sim, where the robot believed it was (x, y [m] `world`).
+
+    `annotation` names the trigger annotation, `kind` its trigger type, `destination` the module it was sent to.
+    """
+
+    model_config = _FROZEN
+
+    sim_s: float
+    x: float
+    y: float
+    annotation: str
+    kind: str
+    destination: str
+    text: str = ""
+
+
 class RunRecord(BaseModel):
     """Everything measured during one run, for `build_report`.
 
@@ -106,6 +123,8 @@ class RunRecord(BaseModel):
     blackboard: Optional[dict[str, int | float]] = None
     exit_codes: dict[str, Optional[int]] = {}
     actors: Optional[str] = None  # issue 12: objects not on the map (file or preset) the run had
+    #: EDDIE: every trigger fired during the run, in order (CODGER: none)
+    triggers: tuple[FiredTrigger, ...] = ()
 
 
 def save_record(record: RunRecord, path: Path) -> Path:

@@ -24,6 +24,14 @@ UP_TARGETS: dict[str, tuple[str, str]] = {
     "helm": ("modules.helm.__main__", "main"),
     "perception": ("modules.perception.__main__", "main"),
     "obstacles": ("modules.obstacles.__main__", "main"),
+    # EDDIE (issue 9): the integrated controller, the navigator, the annotated map manager and EDDIE's modules
+    "controller": ("eddie.controller.__main__", "main"),
+    "navigator": ("eddie.navigator.__main__", "main"),
+    "map_manager": ("eddie.map_manager.__main__", "main"),
+    "mission_service": ("eddie.modules.mission_service", "main"),
+    "road_following": ("eddie.modules.road_following_module", "main"),
+    "landmark_matching": ("eddie.modules.landmark_matching_module", "main"),
+    "obstacle_stop": ("eddie.modules.obstacle_stop_module", "main"),
 }
 
 
@@ -72,6 +80,7 @@ def run(
     max_sim_time: Annotated[float, typer.Option(help="Give up after this much sim time [s]")] = 3600.0,
     max_wall_time: Annotated[float, typer.Option(help="Give up after this much wall time [s]")] = 1800.0,
     ns: Annotated[Optional[str], typer.Option("--ns", help="Namespace (default: a fresh one per run)")] = None,
+    arch: Annotated[str, typer.Option("--arch", help="codger (the blackboard system) or eddie (EDDIE: controller, navigator, annotated maps; no blackboard)")] = "codger",
     # ---- monitor and recording (issue 11) ----
     monitor: Annotated[bool, typer.Option("--monitor", help="Serve the NAVIGATION MONITOR page for the run (prints its URL)")] = False,
     monitor_port: Annotated[int, typer.Option("--monitor-port", help="HTTP port of the monitor page")] = 8080,
@@ -82,7 +91,7 @@ def run(
     obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors)")] = None,
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
 ) -> None:
-    """Run a mission: blackboard, simulator and every module as OS processes on loopback Zenoh; writes run.mcap."""
+    """Run a mission as OS processes on loopback Zenoh (CODGER: blackboard and modules; --arch eddie: EDDIE, no blackboard); writes run.mcap."""
     from rich.console import Console
     from rich.progress import BarColumn, Progress as RichProgress, TextColumn, TimeElapsedColumn
 
@@ -92,6 +101,8 @@ def run(
 
     if vehicle is not None and vehicle not in ("terregator", "navlab"):
         raise typer.BadParameter(f"{vehicle!r} is not terregator or navlab", param_hint="--vehicle")
+    if arch not in ("codger", "eddie"):
+        raise typer.BadParameter(f"{arch!r} is not codger or eddie", param_hint="--arch")
     if not 0 < monitor_port < 65536:  # issue 11
         raise typer.BadParameter(f"must be 1-65535, got {monitor_port}", param_hint="--monitor-port")
     pe_m, pe_deg = _parse_pose_error(pose_error)
@@ -100,7 +111,7 @@ def run(
     try:
         cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
                         perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
-                        max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns,
+                        max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns, arch=arch,
                         record=not no_record, monitor_port=monitor_port if monitor else None,  # issue 11
                         secure=secure, actors=actors, obstacles=obstacles, map_file=map_file)  # issue 12
     except ValidationError as exc:
@@ -170,7 +181,7 @@ def run(
     raise typer.Exit(0 if report.success else 1)
 
 
-def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, blackboard, sim, captain, map_navigator, pilot, helm or perception")]) -> None:
+def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, blackboard, sim, captain, map_navigator, pilot, helm, perception; EDDIE: controller, navigator, map_manager, mission_service, road_following, landmark_matching, obstacle_stop")]) -> None:
     """Run one part of the system on this host; the rest of the arguments go to it (try `up pilot --help`)."""
     name = module.replace("-", "_")
     argv = list(ctx.args)
@@ -187,7 +198,13 @@ def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, b
         known = ", ".join(["router", "blackboard", "sim", *UP_TARGETS])
         raise typer.BadParameter(f"unknown module {module!r}; known: {known}", param_hint="MODULE")
     modname, fn = UP_TARGETS[name]
-    main: Callable[[list[str]], int] = getattr(importlib.import_module(modname), fn)
+    try:
+        target = importlib.import_module(modname)
+    except ModuleNotFoundError as exc:
+        if not modname.startswith(exc.name or "\0"):
+            raise
+        raise typer.BadParameter(f"module {module!r} is not part of this installation ({modname} is missing)", param_hint="MODULE") from None
+    main: Callable[[list[str]], int] = getattr(target, fn)
     raise typer.Exit(main(argv) or 0)
 
 

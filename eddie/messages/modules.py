@@ -1,0 +1,49 @@
+"""Messages of EDDIE's perception/behaviour modules and the mission service (seed: Navlab 1990 §2.5, ch. 3).
+
+`ModuleSwitch` is what a trigger tells a module (wake, sleep, change mode); the mission service
+answers `route` with the mission's `MissionRoute` (the route the compiled triggers lie along).
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from pydantic import Field
+
+from eddie.toolkit.message import Message, message_type
+
+__all__ = ["ModuleSwitch", "RouteQuery", "MissionRoute", "ObstacleSeen"]
+
+
+@message_type("modules.switch")
+class ModuleSwitch(Message):
+    """Wake (`on`) or put to sleep a module, optionally in a `mode` (e.g. vision "through_intersection"); `reason` for the log."""
+
+    on: bool
+    mode: str = ""
+    reason: str = ""
+
+
+@message_type("modules.route_query")
+class RouteQuery(Message):
+    """Ask the mission service for the running mission's route."""
+
+
+@message_type("modules.route")
+class MissionRoute(Message):
+    """The running mission's route: `points` (x, y) [m] in `world`, the speed [m/s] from each point on; empty: no mission."""
+
+    mission_id: str = ""
+    points: tuple[tuple[float, float], ...] = ()
+    speeds: tuple[float, ...] = ()
+    state: Literal["none", "running", "finished"] = "none"
+
+
+@message_type("modules.obstacle_seen")
+class ObstacleSeen(Message):
+    """Obstacle stop's verdict on one range image at `stamp` [s] sim: blocked, nearest return ahead [m]."""
+
+    stamp: float
+    blocked: bool
+    distance_m: float | None = None
+    points: int = Field(0, ge=0)

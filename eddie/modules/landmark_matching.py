@@ -1,0 +1,48 @@
+"""Landmark matching's core: a position fix (`world` ← `vehicle`) from the landmarks the map predicts.
+
+Seed: Navlab 1990 §2.5 — landmark matching runs between triggers "start / stop landmark matching"
+and sends position fixes to the navigator. It is PERCEPTION's object finder and position
+calibrator (`modules.perception.PerceptionPipeline`) on one frame, given the landmarks the annotated
+map lists near the vehicle and the prior pose `world` ← `vehicle` (navigator ∘ controller).
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from modules.perception import ColoredRangeImage, PerceptionPipeline
+from modules.vocabulary import MapObject
+
+__all__ = ["LandmarkFix", "landmark_fix"]
+
+
+class LandmarkFix(BaseModel):
+    """A fix: the vehicle's pose in `world` (x, y [m], yaw [rad]) at capture `stamp` [s] sim, its covariance (3×3, row-major).
+
+    `kind` "point" fixes the position; "line" leaves it free along `line_direction` [rad] (`world`).
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    stamp: float
+    x: float
+    y: float
+    yaw: float
+    covariance: tuple[float, ...] = Field(min_length=9, max_length=9)
+    kind: str
+    line_direction: float = 0.0
+    yaw_known: bool = True
+    n_used: int = 0
+
+
+def landmark_fix(pipeline: PerceptionPipeline, img: ColoredRangeImage, landmarks: tuple[MapObject, ...],
+                 prior_world: tuple[float, float, float], *, error_allowance_m: float = 0.5) -> tuple[LandmarkFix | None, str]:
+    """Return (the fix, "") or (None, why not) for one frame, matching `landmarks` around the prior pose (`world`)."""
+    out = pipeline.process(img, landmarks, prior_world, error_allowance=max(error_allowance_m, 0.2))
+    cal = out.calibration
+    if cal is None:
+        return None, out.fix_note or out.failure or "no fix"
+    x, y, yaw = cal.pose
+    return LandmarkFix(stamp=float(img.stamp), x=float(x), y=float(y), yaw=float(yaw),
+                       covariance=tuple(float(v) for v in cal.covariance.reshape(-1)), kind=cal.kind,
+                       line_direction=float(cal.line_direction), yaw_known=bool(cal.yaw_known), n_used=int(cal.n_used)), ""

@@ -1,0 +1,119 @@
+"""The EDDIE mission service's core: each step's route and goal, and the step outcomes judged from the believed pose.
+
+EDDIE has no CAPTAIN on a blackboard: the mission is compiled into annotations, and the vehicle
+drives the route the triggers shape. The mission service only keeps the mission's status (the
+CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit` reads the same
+states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
+controller `local` pose): reached within `reach_m` of the step's goal → succeeded; no progress for
+`stall_s` [s] sim → failed. Routes come from the MAP NAVIGATOR's route selection on the robot's map,
+one step after the other from the previous goal, as the mission compiler lays them out.
+"""
+
+from __future__ import annotations
+
+import math
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from eddie.modules.errors import EddieModuleError
+from modules.captain.sequencer import MissionRun, Next
+from modules.map_navigator import MapData, RouteError, RouteOptions, select_route
+from modules.vocabulary import Mission, MissionStatus, MissionStep, StepResult
+
+__all__ = ["StepGoal", "MissionRouteError", "step_goals", "MissionProgress"]
+
+
+class MissionRouteError(EddieModuleError, ValueError):
+    """A mission step has no route on the robot's map (the message names the step)."""
+
+
+class StepGoal(BaseModel):
+    """One step's route (N, 2) [m] in `world` and its goal (x, y) [m] in `world`."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    step_index: int = Field(ge=0)
+    route: tuple[tuple[float, float], ...] = Field(min_length=2)
+    goal: tuple[float, float]
+    speed_mps: float | None = None
+    #: how close [m] to the goal counts as reached (the step's tolerance)
+    reach_m: float = Field(1.0, gt=0.0)
+
+
+def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Mission, *, vehicle: str = "terregator") -> list[StepGoal]:
+    """Return every step's route and goal, each from the previous goal (the first from `start_xy`, `world` [m])."""
+    out: list[StepGoal] = []
+    at = start_xy
+    for i, step in enumerate(mission.steps):
+        try:
+            route = select_route(map_data, at, step.destination, step.constraints, RouteOptions(vehicle=vehicle))
+        except RouteError as exc:
+            raise MissionRouteError(f"step {i + 1} ({step.name}): {exc}") from None
+        line = route.polyline()
+        if len(line) < 2:
+            line = (at, route.goal_xy)
+        out.append(StepGoal(step_index=i, route=tuple(line), goal=route.goal_xy, speed_mps=step.constraints.speed_limit,
+                            reach_m=step.tolerance))
+        at = route.goal_xy
+    return out
+
+
+class MissionProgress:
+    """Sequence one mission's steps by the believed pose; pure (the caller publishes `status` when it changes)."""
+
+    def __init__(self, mission: Mission, goals: list[StepGoal], *, submitted_at: float | None = None,
+                 margin_m: float = 0.3, stall_s: float = 60.0, progress_m: float = 0.5) -> None:
+        """Judge steps by `goals`: reached `margin_m` [m] inside a goal's reach (the robot's belief is not truth); failed after `stall_s` [s] sim without `progress_m` [m] of progress."""
+        if len(goals) != len(mission.steps):
+            raise ValueError(f"{len(goals)} goals for {len(mission.steps)} steps")
+        self.run = MissionRun(mission, submitted_at=submitted_at)
+        self.goals = goals
+        self.margin_m, self.stall_s, self.progress_m = margin_m, stall_s, progress_m
+        self._best = math.inf
+        self._best_at = 0.0
+        self._wait_until: float | None = None
+
+    @property
+    def status(self) -> MissionStatus:
+        """Return the mission status (the CAPTAIN's form)."""
+        return self.run.status
+
+    def start(self, now: float) -> MissionStep:
+        """Start at sim time `now` [s]; return the first step."""
+        self._best, self._best_at = math.inf, now
+        return self.run.start(now)
+
+    def _apply(self, nxt: Next, now: float) -> bool:
+        if nxt.kind == "wait":
+            self._wait_until = nxt.until
+        elif nxt.kind == "step":
+            self._best, self._best_at = math.inf, now
+        return True
+
+    def update(self, now: float, world_xy: tuple[float, float] | None) -> bool:
+        """Take the believed position (`world` [m], None: not known) at sim time `now` [s]; return whether the status changed."""
+        if self.run.finished or self.run.current_step is None:
+            return False
+        i = self.run.current_step
+        mid = self.run.mission.mission_id
+        if self._wait_until is not None:
+            if now < self._wait_until:
+                return False
+            self._wait_until = None
+            return self._apply(self.run.wait_over(now), now)
+        if world_xy is not None:
+            gx, gy = self.goals[i].goal
+            d = math.hypot(world_xy[0] - gx, world_xy[1] - gy)
+            if d <= max(self.goals[i].reach_m - self.margin_m, 0.2):
+                return self._apply(self.run.step_finished(StepResult(
+                    mission_id=mid, step_index=i, success=True, reason=f"reached within {d:.2f} m of the goal"), now), now)
+            if d < self._best - self.progress_m:
+                self._best, self._best_at = d, now
+        if now - self._best_at > self.stall_s:
+            why = f"no progress towards the goal for {self.stall_s:.0f} s"
+            return self._apply(self.run.step_finished(StepResult(mission_id=mid, step_index=i, success=False, reason=why), now), now)
+        return False
+
+    def cancel(self, now: float, reason: str = "cancelled by request") -> None:
+        """Cancel the mission at sim time `now` [s]."""
+        self.run.cancel(now, reason)

@@ -1,0 +1,239 @@
+"""EDDIE's mission service: takes missions on the CAPTAIN's keys, keeps their status, and (without vision) drives the route.
+
+`python -m eddie.modules.mission_service --map FILE --vehicle V --start-pose X,Y,YAW [--perception on|off]`
+
+EDDIE (seed: Navlab 1990 ch. 3) has no CAPTAIN on a blackboard: a mission is compiled into trigger
+annotations on the annotated map, and the modules the triggers wake drive it. This small module is
+what `sidewalk submit` talks to: it answers the CAPTAIN's mission submit / status / cancel keys with
+the CAPTAIN's wire forms and publishes every status change on the mission events stream, so tools
+work unchanged for both architectures. Each step's outcome is judged from the believed pose (see
+`eddie.modules.mission_progress`). With `--perception off` it drives: it sends the whole route,
+moved into `local` by the navigator's `world` ← `local`, to the controller as one path (the seed's
+dead reckoning along a known route), with each step's speed limit; with perception on, vision road
+following drives and this module only keeps the status.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import logging
+import math
+import sys
+from collections import deque
+
+import numpy as np
+
+from eddie.messages.controller import PathCommand, Stop
+from eddie.messages.modules import MissionRoute
+from eddie.modules.mission_progress import MissionProgress, MissionRouteError, step_goals
+from eddie.modules.args import parse_pose
+from eddie.modules.sensing import Belief
+from eddie.toolkit.module import Incoming
+from eddie.toolkit.module import Module
+from eddie.toolkit.process import run_module
+from modules.captain.missionfile import MissionFileError, parse_mission
+from modules.captain.service import new_mission_id
+from modules.captain.wire import Rejection, SubmitAccepted, WireError, parse_cancel, rejection_from
+from modules.map_navigator import MapData, load_map
+from modules.runtime.args import setup_logging
+from wire.aio import QueryAnswer, QueryRequest
+from wire.flags import add_network_args, network_from_args
+from wire.keys import MissionKeys
+from wire.se2 import inverse, transform_points
+
+__all__ = ["MissionService", "main", "build_parser"]
+
+log = logging.getLogger("eddie.modules.mission_service")
+
+#: the client name and priority the mission service drives the controller with (vision road following: higher)
+CLIENT, PRIORITY = "mission_service", 1
+
+
+class MissionService:
+    """Missions in, statuses out, on the CAPTAIN's keys; one mission at a time, the others queued."""
+
+    def __init__(self, m: Module, map_data: MapData, *, vehicle: str, perception: bool,
+                 world_from_local: tuple[float, float, float], tick_s: float = 0.2, speed_mps: float = 1.0) -> None:
+        self.m = m
+        self.map = map_data
+        self.vehicle = vehicle
+        self.perception = perception
+        self.belief = Belief(m, world_from_local)
+        self.running: MissionProgress | None = None
+        self.tick_s = tick_s
+        self.speed_mps = speed_mps
+        self.keys = MissionKeys(m.net.namespace)
+        self.missions: dict[str, MissionProgress] = {}
+        self.queue: deque[str] = deque()
+        self._wake = asyncio.Event()
+
+    # ---- what the modules believe --------------------------------------------------------
+
+    def believed(self) -> tuple[float, float] | None:
+        """Return the believed position (x, y) [m] in `world`: world←local ∘ the controller's local pose."""
+        p = self.belief.world()
+        return None if p is None else (float(p[0]), float(p[1]))
+
+    def _route_points(self, prog: MissionProgress) -> tuple[list[tuple[float, float]], list[float]]:
+        """Return the mission's whole route (x, y) [m] in `world` and the speed [m/s] from each point on."""
+        pts: list[tuple[float, float]] = []
+        speeds: list[float] = []
+        for g in prog.goals:
+            v = min(g.speed_mps or self.speed_mps, self.speed_mps)
+            for p in g.route:
+                if pts and math.dist(pts[-1], p) < 0.05:
+                    continue
+                pts.append((float(p[0]), float(p[1])))
+                speeds.append(v)
+        return pts, speeds
+
+    async def on_route(self, _inc: Incoming) -> MissionRoute:
+        """Answer `route`: the running mission's route in `world` (vision road following plans along it)."""
+        prog = self.running
+        if prog is None:
+            return MissionRoute()
+        pts, speeds = self._route_points(prog)
+        return MissionRoute(mission_id=prog.status.mission_id, points=tuple(pts), speeds=tuple(speeds),
+                            state="finished" if prog.status.terminal else "running")
+
+    # ---- the CAPTAIN's keys --------------------------------------------------------------
+
+    def _now(self) -> float:
+        return self.m.now() or 0.0
+
+    def _publish(self, prog: MissionProgress) -> None:
+        self.m.link.put(self.keys.events, prog.status.model_dump_json().encode(), as_json=True)
+
+    async def on_submit(self, req: QueryRequest) -> QueryAnswer:
+        """Answer a submission: YAML or JSON text → the accepted mission's id, or a rejection naming lines and fields."""
+        try:
+            mission = parse_mission(req.payload, source="submitted mission")
+        except MissionFileError as exc:
+            return QueryAnswer(as_json=True, ok=False, payload=rejection_from(exc).to_bytes())
+        if not mission.mission_id or mission.mission_id in self.missions:
+            mission = mission.model_copy(update={"mission_id": new_mission_id(mission.name)})
+        start = self.believed() or (float(self.belief.world_from_local[0]), float(self.belief.world_from_local[1]))
+        try:
+            goals = step_goals(self.map, start, mission, vehicle=self.vehicle)
+        except MissionRouteError as exc:
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="no_route", message=str(exc)).to_bytes())
+        prog = MissionProgress(mission, goals, submitted_at=self._now())
+        ahead = len(self.queue) + sum(1 for p in self.missions.values() if p.status.state == "running")
+        self.missions[mission.mission_id] = prog
+        self.queue.append(mission.mission_id)
+        self._publish(prog)
+        self._wake.set()
+        log.info("accepted mission %s (%s, %d steps)", mission.mission_id, mission.name, len(mission.steps))
+        acc = SubmitAccepted(mission_id=mission.mission_id, name=mission.name, steps=len(mission.steps), queued_behind=ahead)
+        return QueryAnswer(as_json=True, ok=True, payload=acc.model_dump_json().encode())
+
+    async def on_status(self, req: QueryRequest) -> QueryAnswer:
+        """Answer `…/mission/status/<id>` (or `*`) with MissionStatus JSON."""
+        mid = req.key.rsplit("/", 1)[-1]
+        if mid in ("*", "**"):
+            return QueryAnswer(as_json=True, ok=True, replies=tuple(
+                (self.keys.status(k), p.status.model_dump_json().encode()) for k, p in self.missions.items()))
+        prog = self.missions.get(mid)
+        if prog is None:
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(
+                error="unknown_mission", message=f"no mission {mid!r} known to this mission service").to_bytes())
+        return QueryAnswer(as_json=True, ok=True, payload=prog.status.model_dump_json().encode(), key=self.keys.status(mid))
+
+    async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
+        """Answer a cancel request: stop the vehicle if the mission runs, and return its status."""
+        try:
+            creq = parse_cancel(req.payload)
+        except WireError as exc:
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
+        prog = self.missions.get(creq.mission_id)
+        if prog is None:
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(
+                error="unknown_mission", message=f"no mission {creq.mission_id!r} known to this mission service").to_bytes())
+        if prog.status.terminal:
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(
+                error="finished", message=f"mission {creq.mission_id} already {prog.status.state}").to_bytes())
+        was_running = prog.status.state == "running"
+        prog.cancel(self._now(), creq.reason)
+        if creq.mission_id in self.queue:
+            self.queue.remove(creq.mission_id)
+        if was_running:
+            await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=creq.reason))
+        self._publish(prog)
+        return QueryAnswer(as_json=True, ok=True, payload=prog.status.model_dump_json().encode())
+
+    # ---- running -------------------------------------------------------------------------
+
+    async def _drive(self, prog: MissionProgress) -> None:
+        """Send the whole route, in `local`, to the controller (no vision: dead reckoning on the map)."""
+        pts, speeds = self._route_points(prog)
+        local = transform_points(inverse(self.belief.world_from_local), np.asarray(pts))
+        await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
+                                                    points=tuple((float(x), float(y)) for x, y in local),
+                                                    speed=self.speed_mps, speeds=tuple(speeds)))
+
+    async def run(self) -> None:
+        """Declare the keys, then sequence missions one at a time until cancelled."""
+        link = self.m.link
+        link.queryable(self.keys.submit, self.on_submit)
+        link.queryable(self.keys.status("*"), self.on_status)
+        link.queryable(self.keys.cancel, self.on_cancel)
+        self.m.serve("route", self.on_route)
+        self.m.ready()
+        await self.m.clock.wait_running()
+        while True:
+            while not self.queue:
+                self._wake.clear()
+                await self._wake.wait()
+            prog = self.missions[self.queue.popleft()]
+            if prog.status.terminal:
+                continue
+            self.running = prog
+            prog.start(self._now())
+            self._publish(prog)
+            if not self.perception:
+                await self._drive(prog)
+            while not prog.status.terminal:
+                await self.m.clock.sleep(self.tick_s)
+                if prog.update(self._now(), self.believed()):
+                    self._publish(prog)
+            if not self.perception:
+                await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=f"mission {prog.status.state}"))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the mission service's argument parser (network flags included)."""
+    p = argparse.ArgumentParser(prog="python -m eddie.modules.mission_service", description=__doc__.splitlines()[0])
+    p.add_argument("--map", required=True, help="the robot's map file (routes are planned on it)")
+    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
+    p.add_argument("--start-pose", required=True, help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
+    p.add_argument("--perception", choices=["on", "off"], default="on", help="off: drive the route by dead reckoning")
+    p.add_argument("--speed", type=float, default=1.0, help="route speed without a step's limit [m/s]")
+    p.add_argument("--annotated-map", default=None, help="the run's annotated map (for the record; the map manager loads it)")
+    add_network_args(p)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse flags and run the mission service until SIGINT/SIGTERM; return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    setup_logging()
+    net = network_from_args(parser, args)
+    x, y, yaw = parse_pose(parser, args.start_pose)
+    if not (args.speed > 0 and math.isfinite(args.speed)):
+        parser.error("--speed: must be > 0 [m/s]")
+    try:
+        map_data = load_map(args.map)
+    except (FileNotFoundError, ValueError) as exc:
+        parser.error(f"--map: {exc}")
+
+    async def body(m: Module) -> None:
+        await MissionService(m, map_data, vehicle=args.vehicle, perception=args.perception == "on",
+                             world_from_local=(x, y, yaw), speed_mps=args.speed).run()
+
+    return run_module("mission_service", body, net)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,153 @@
+"""Vision road following as an EDDIE process: sees the road, plans in `local`, sends paths to the controller.
+
+`python -m eddie.modules.road_following_module --vehicle V --map FILE --start-pose X,Y,YAW [--seed N]`
+
+It sleeps until a trigger wakes it (`ModuleSwitch(on=True)` in its inbox: "resume vision after
+intersection", "use vision through intersection") and goes back to sleep on `ModuleSwitch(on=False)`
+("dead reckon through intersection"). Awake, each cycle: capture a frame (laser + camera, no
+truth), note the controller's `local` pose then, segment with PERCEPTION's pipeline on the map
+objects in view, move the road into `local`, plan with the PILOT's planner along the mission's
+route (asked from the mission service) and send the path `immediate` with `sensed_at` = the capture stamp.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+
+import numpy as np
+
+from eddie.messages.controller import DeadReckon, PathCommand
+from eddie.messages.modules import MissionRoute, RouteQuery
+from eddie.errors import EddieError
+from eddie.modules.args import parse_pose
+from eddie.modules.errors import NoRoadPath
+from eddie.modules.road_following import RoadFollowingConfig, plan_road_path, route_ahead, route_to_local
+from eddie.modules.sensing import Belief, capture_frame, objects_in_view
+from eddie.modules.switched import Switch, run_switched
+from eddie.toolkit.message import Message, message_name
+from eddie.toolkit.module import Module
+from eddie.toolkit.process import run_module
+from modules.map_navigator import MapData, load_map
+from modules.perception import PerceptionPipeline, ResolutionTable, colored_range_image
+from modules.perception.module import SENSORS
+from modules.pilot import LocalPathPlanner, pilot_config_for
+from modules.runtime.args import setup_logging
+from wire.flags import add_network_args, network_from_args
+from wire.se2 import inverse, transform_points
+
+__all__ = ["RoadFollowing", "main", "build_parser"]
+
+log = logging.getLogger("eddie.modules.road_following")
+
+#: the controller client name and priority of vision (above the mission service's dead reckoning)
+CLIENT, PRIORITY = "road_following", 2
+
+
+class RoadFollowing:
+    """The vision road following loop on one module endpoint."""
+
+    def __init__(self, m: Module, map_data: MapData, *, vehicle: str, seed: int, start: tuple[float, float, float],
+                 awake: bool = True, cfg: RoadFollowingConfig = RoadFollowingConfig()) -> None:
+        self.m = m
+        self.map = map_data
+        self.cfg = cfg
+        self.switch = Switch(awake)
+        self.belief = Belief(m, start)
+        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=cfg.speed_mps)
+        self.planner = LocalPathPlanner(pilot_config_for(vehicle).planner, seed=seed)
+        self.route: MissionRoute | None = None
+
+    async def _route(self) -> MissionRoute | None:
+        try:
+            r = await self.m.request("mission_service", "route", RouteQuery(), timeout=2.0, reply_type=MissionRoute)
+        except EddieError as exc:
+            log.debug("no route: %s", exc)
+            return None
+        return r if r.state == "running" and len(r.points) >= 2 else None
+
+    async def cycle(self) -> str:
+        """Run one cycle; return what happened (for the log)."""
+        if self.route is None:
+            self.route = await self._route()
+            if self.route is None:
+                return "no mission route"
+        frame = await capture_frame(self.m)
+        at_capture = self.belief.local
+        if at_capture is None:
+            return "no controller pose yet"
+        prior = self.belief.world()
+        img = colored_range_image(frame)
+        objs = objects_in_view(self.map, tuple(prior))
+        out = self.pipeline.process(img, objs, tuple(prior), error_allowance=0.5)
+        route = route_to_local(np.asarray(self.route.points), tuple(inverse(self.belief.world_from_local)))
+        speed = min(self.cfg.speed_mps, min(self.route.speeds)) if self.route.speeds else self.cfg.speed_mps
+        now = self.belief.local
+        try:
+            if out.navigable is None:
+                raise NoRoadPath(f"no road seen ({out.failure or 'nothing found'})")
+            path = plan_road_path(self.planner, tuple(now), out.navigable, tuple(at_capture), route, frame.stamp,
+                                  self.cfg.model_copy(update={"speed_mps": speed}))
+        except NoRoadPath as exc:
+            # vision lost the road (an intersection, a turn): dead-reckon slowly along the route until it sees it again
+            ahead = route_ahead(route, now[:2], self.cfg.lookahead_m)
+            if len(ahead) < 2:
+                return f"{exc}; at the route's end"
+            await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
+                                                        points=tuple((float(x), float(y)) for x, y in ahead),
+                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
+            return f"{exc}; dead reckoning along the route"
+        await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
+                                                    points=tuple((p[0], p[1]) for p in path.poses), speed=path.speed_mps,
+                                                    sensed_at=path.sensed_at))
+        return f"path of {len(path.poses)} poses sent"
+
+    async def on_trigger(self, data: Message) -> None:
+        """Act on a trigger's data: dead-reckon through an intersection along its points, or cap the speed."""
+        kind = message_name(data)
+        if kind == "map_manager.dead_reckon_through":
+            local = transform_points(inverse(self.belief.world_from_local), np.asarray(data.points))  # type: ignore[attr-defined]
+            await self.m.send("controller", DeadReckon(client=CLIENT, priority=PRIORITY, mode="immediate",
+                                                       points=tuple((float(x), float(y)) for x, y in local),
+                                                       speed=float(data.speed)))  # type: ignore[attr-defined]
+        elif kind == "map_manager.set_speed":
+            self.cfg = self.cfg.model_copy(update={"speed_mps": max(float(data.speed), 0.1)})  # type: ignore[attr-defined]
+
+    async def run(self) -> None:
+        """Sleep until woken, then run cycles while awake; the inbox and the triggers switch it."""
+        await run_switched(self.m, self.switch, self.cycle, period_s=0.2, on_data=self.on_trigger)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the module's argument parser (network flags included)."""
+    p = argparse.ArgumentParser(prog="python -m eddie.modules.road_following_module", description=__doc__.splitlines()[0])
+    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
+    p.add_argument("--map", required=True, help="the robot's map file (the objects PERCEPTION looks for)")
+    p.add_argument("--start-pose", default="0,0,0", help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--asleep", action="store_true", help="start asleep (a trigger wakes it)")
+    add_network_args(p)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse flags and run vision road following until SIGINT/SIGTERM; return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    setup_logging()
+    net = network_from_args(parser, args)
+    start = parse_pose(parser, args.start_pose)
+    try:
+        map_data = load_map(args.map)
+    except (FileNotFoundError, ValueError) as exc:
+        parser.error(f"--map: {exc}")
+
+    async def body(m: Module) -> None:
+        await RoadFollowing(m, map_data, vehicle=args.vehicle, seed=args.seed, start=start, awake=not args.asleep).run()
+
+    return run_module("road_following", body, net)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,84 @@
+"""What every EDDIE perception module needs: a sensor frame from the simulator, the believed pose, the map objects in view.
+
+A frame comes from the simulator's capture service like PERCEPTION's (laser and camera, never the
+truth labels). The believed pose is the controller's dead-reckoned `local` pose (stream `state`)
+and the navigator's `world` ← `local` (stream `world_from_local`; until it speaks, the start pose
+the module was given).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+from shapely.geometry import Point, Polygon
+
+from eddie.messages.controller import ControllerState
+from eddie.messages.navigator import WorldFromLocal
+from eddie.modules.errors import EddieModuleError
+from eddie.toolkit.module import Module
+from modules.map_navigator import MapData, map_object
+from modules.perception.sensor_frame import SensorFrame, SensorFrameError, decode_sensor_frame
+from modules.vocabulary import MapObject
+from wire.keys import SimKeys
+from wire.se2 import compose
+
+__all__ = ["CaptureError", "capture_frame", "Belief", "objects_in_view"]
+
+
+class CaptureError(EddieModuleError):
+    """The simulator's capture service did not answer, or answered with something that is not a frame."""
+
+
+async def capture_frame(m: Module, *, timeout: float = 15.0) -> SensorFrame:
+    """Ask the simulator for one laser + camera frame (no truth); raise CaptureError."""
+    key = SimKeys(m.net.namespace).capture
+    replies = await m.link.get(key, payload=json.dumps({"laser": True, "camera": True}).encode(), timeout=timeout)
+    for r in replies:
+        if r.ok:
+            try:
+                return decode_sensor_frame(r.payload)
+            except SensorFrameError as exc:
+                raise CaptureError(f"{key}: {exc}") from None
+    if replies:
+        raise CaptureError(f"{key}: {replies[0].payload.decode(errors='replace')[:200]}")
+    raise CaptureError(f"no simulator answered {key} within {timeout:.1f} s")
+
+
+class Belief:
+    """The newest controller `local` pose and navigator `world` ← `local`, kept from their streams."""
+
+    def __init__(self, m: Module, world_from_local: tuple[float, float, float]) -> None:
+        """Subscribe on `m`; `world_from_local` (x, y [m], yaw [rad]) holds until the navigator speaks."""
+        self.world_from_local = np.asarray(world_from_local, dtype=np.float64)
+        self.local: np.ndarray | None = None
+        self.local_stamp: float | None = None
+        self.speed = 0.0
+        self.fixes_used = 0
+        m.subscribe("controller", "state", ControllerState, self._on_state)
+        m.subscribe("navigator", "world_from_local", WorldFromLocal, self._on_transform)
+
+    def _on_state(self, st: ControllerState) -> None:
+        self.local, self.local_stamp, self.speed = np.array([st.x, st.y, st.yaw]), st.stamp, st.v
+
+    def _on_transform(self, t: WorldFromLocal) -> None:
+        self.world_from_local, self.fixes_used = np.array([t.x, t.y, t.yaw]), t.fixes_used
+
+    def world(self) -> np.ndarray | None:
+        """Return the believed pose (3,) in `world` (None before the controller spoke)."""
+        return None if self.local is None else compose(self.world_from_local, self.local)
+
+
+def objects_in_view(map_data: MapData, pose: tuple[float, float, float], reach: float = 24.0) -> tuple[MapObject, ...]:
+    """Return the map objects whose footprint meets the sensor's reach ahead of `pose` (`world`)."""
+    x, y, yaw = pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    fan = Polygon([(x + c * a - s * b, y + s * a + c * b) for a, b in
+                   [(0.0, -1.0), (reach, -reach * 0.9), (reach, reach * 0.9), (0.0, 1.0)]])
+    out = []
+    for o in map_data.world.objects:
+        g = Polygon(o.polygon) if o.polygon is not None else Point(o.center).buffer(o.radius or 0.1)
+        if g.intersects(fan):
+            out.append(map_object(o))
+    return tuple(out)

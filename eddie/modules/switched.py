@@ -1,0 +1,104 @@
+"""The life of a triggered EDDIE module: asleep until a trigger wakes it, then one cycle after another.
+
+What wakes or switches a module: a `ModuleSwitch` in its inbox, or a trigger the annotated map
+manager delivers (`map_manager.trigger`, its data an envelope of one of the seed's trigger types):
+resume vision, use vision through an intersection (wake), dead reckon through an intersection
+(sleep), start / stop landmark matching, start / stop fast obstacle detection (`on`), switch
+perception modules (mode). Any other trigger data is kept in `Switch.last` for the module to act on.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Awaitable, Callable
+
+import base64
+
+from eddie.errors import EddieError
+from eddie.messages.modules import ModuleSwitch
+from eddie.toolkit.message import Message, decode_envelope, message_name
+from eddie.toolkit.module import Module
+
+__all__ = ["Switch", "run_switched"]
+
+log = logging.getLogger(__name__)
+
+
+#: trigger data type → (awake, mode); None: the data's own `on` field says
+_TRIGGER_SWITCHES: dict[str, tuple[bool | None, str]] = {
+    "map_manager.resume_vision": (True, ""),
+    "map_manager.vision_through_intersection": (True, "through_intersection"),
+    "map_manager.dead_reckon_through": (False, "dead_reckon"),
+    "map_manager.landmark_matching": (None, ""),
+    "map_manager.obstacle_detection": (None, ""),
+}
+
+
+def trigger_data(msg: Message) -> Message | None:
+    """Return the typed message in a delivered trigger's data (None: not a trigger, or data that does not decode)."""
+    raw = getattr(msg, "data_base64", None)
+    if raw is None or message_name(msg) != "map_manager.trigger":
+        return None
+    try:
+        return decode_envelope(base64.b64decode(raw), where="trigger data")[1]
+    except (EddieError, ValueError) as exc:
+        log.warning("trigger %s: %s", getattr(msg, "annotation_id", "?"), exc)
+        return None
+
+
+class Switch:
+    """Whether the module is awake, in which mode, and the newest trigger data it was sent."""
+
+    def __init__(self, awake: bool) -> None:
+        self.awake = awake
+        self.mode = ""
+        self.last: Message | None = None
+
+    def _set(self, name: str, on: bool, mode: str, why: str) -> None:
+        self.awake, self.mode = on, mode
+        log.info("%s %s%s (%s)", name, "awake" if on else "asleep", f" [{mode}]" if mode else "", why)
+
+    def take(self, name: str, msg: Message) -> None:
+        """Apply an inbox message: a `ModuleSwitch`, or a trigger; anything else is ignored."""
+        if isinstance(msg, ModuleSwitch):
+            self._set(name, msg.on, msg.mode, msg.reason)
+            return
+        data = trigger_data(msg)
+        if data is None:
+            return
+        self.last = data
+        kind = message_name(data)
+        why = f"trigger {getattr(msg, 'annotation_id', '?')} {kind}"
+        if kind in _TRIGGER_SWITCHES:
+            on, mode = _TRIGGER_SWITCHES[kind]
+            self._set(name, bool(getattr(data, "on", True)) if on is None else on, mode, why)
+        elif kind == "map_manager.switch_perception":
+            self._set(name, True, str(getattr(data, "module", "")), why)
+
+
+async def run_switched(m: Module, switch: Switch, cycle: Callable[[], Awaitable[str]], *, period_s: float,
+                       on_data: Callable[[Message], Awaitable[None]] | None = None) -> None:
+    """Say ready, then forever: read the inbox, sleep while asleep, else run `cycle` every `period_s` [s] sim.
+
+    `on_data` is called with each trigger's data after the switch took it (a module's own action).
+    """
+    m.ready()
+    await m.clock.wait_running()
+
+    async def take(timeout: float | None) -> None:
+        switch.last = None
+        switch.take(m.name, (await m.receive(timeout=timeout)).message)
+        if switch.last is not None and on_data is not None:
+            await on_data(switch.last)
+
+    while True:
+        try:
+            while m.pending():
+                await take(0.1)
+            if not switch.awake:
+                await take(None)
+                continue
+            log.debug("%s: %s", m.name, await cycle())
+        except EddieError as exc:  # a bad message, a capture that failed: log it, go on
+            log.warning("%s: %s", m.name, exc)
+        await m.clock.sleep(period_s)

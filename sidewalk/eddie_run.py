@@ -1,0 +1,192 @@
+"""`sidewalk run --arch eddie`: the same mission on the same world, run by EDDIE's modules, with no blackboard.
+
+The run uses the CODGER run's router, simulator, recorder and monitor processes and the same
+`prepare_run` / `record_run` / `build_report`; what differs is the process plan and the observer:
+
+- the mission compiles into an annotated map (`eddie.missions`, along the MAP NAVIGATOR's route)
+  written as `annotated_map.geojson` into the run's out dir, which the map manager loads at start;
+- the processes are the controller, the navigator (told the start belief as `world` ← `local`), the
+  map manager, the mission service (`eddie.modules.mission_service`: answers the CAPTAIN's mission
+  submit / status / cancel keys and publishes the mission events, so `sidewalk submit` works
+  unchanged) and, unless `--no-perception`, vision road following, landmark matching and obstacle stop;
+- the observer follows the mission on the mission events stream (not a blackboard monitor), takes
+  the estimated pose as navigator `world` ← `local` ∘ controller `local` pose, and records every
+  trigger the map manager fires (sim time, believed position) for the report.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, Optional
+
+from pydantic import ValidationError
+
+from modules.runtime import Link
+from modules.vocabulary import MissionStatus
+from sidewalk.observers import observer_plans
+from sidewalk.eddie_observe import subscribe_eddie
+from sidewalk.recorder import Recorder
+from sidewalk.run_record import FiredTrigger, StampedStatus
+from sidewalk.supervisor import ProcessPlan
+from sidewalk.system import SystemRun
+from wire.keys import EddieKeys, MissionKeys
+from wire.se2 import compose
+
+if TYPE_CHECKING:
+    from sidewalk.launcher import RunSetup
+
+log = logging.getLogger(__name__)
+
+__all__ = ["EDDIE_MODULES", "EDDIE_PERCEPTION_MODULES", "ANNOTATED_MAP_NAME", "eddie_plans", "EddieSystemRun",
+           "PoseComposer", "compile_annotated_map"]
+
+#: The annotated map's file name in a run's output directory.
+ANNOTATED_MAP_NAME = "annotated_map.geojson"
+
+#: EDDIE's always-on modules in start order (the consumers before the producers).
+EDDIE_MODULES = ("controller", "navigator", "map_manager", "mission_service")
+
+#: The perception modules, started unless `--no-perception` (each sleeps until a trigger wakes it).
+EDDIE_PERCEPTION_MODULES = ("obstacle_stop", "landmark_matching", "road_following")
+
+
+def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, rtf: float, seed: int, watchdog_s: float,
+                start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
+                map_file: Path, annotated_map: Optional[Path], perception: bool, record: bool = True,
+                monitor_port: Optional[int] = None) -> list[ProcessPlan]:
+    """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard."""
+    zflags = ("--ns", ns, "--connect", endpoint)
+    sx, sy, syaw = start_belief
+    sim_start = () if start_truth is None else (
+        f"--start={start_truth[0]},{start_truth[1]},{math.degrees(start_truth[2])}",)
+    plans = [
+        ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint)),
+        *observer_plans(out, zflags, record=record, monitor_port=monitor_port, arch="eddie"),
+        ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", world, "--vehicle", vehicle, *sim_start,
+                            "--rtf", str(rtf), "--seed", str(seed), "--watchdog", str(watchdog_s), *zflags)),
+        ProcessPlan("controller", ("-m", "sidewalk", "up", "controller", "--vehicle", vehicle, *zflags)),
+        ProcessPlan("navigator", ("-m", "sidewalk", "up", "navigator", f"--start-pose={sx},{sy},{syaw}", *zflags)),
+    ]
+    if annotated_map is not None:
+        plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--annotated-map", str(annotated_map), *zflags)))
+    if perception:
+        plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),
+                                     f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags))
+                  for name in EDDIE_PERCEPTION_MODULES]
+    plans.append(ProcessPlan("mission_service", (
+        "-m", "sidewalk", "up", "mission_service", "--map", str(map_file),
+        *(() if annotated_map is None else ("--annotated-map", str(annotated_map))), "--vehicle", vehicle, f"--start-pose={sx},{sy},{syaw}", "--perception", "on" if perception else "off", *zflags)))
+    return plans
+
+
+class PoseComposer:
+    """Keep the newest navigator `world` ← `local` and controller `local` pose; answer the `world` pose.
+
+    The estimate of an EDDIE run is what its modules believe: world←local (navigator) ∘ the
+    dead-reckoned local pose (controller); nothing keeps a history, so a sample is the newest of each.
+    """
+
+    def __init__(self) -> None:
+        self.world_from_local: tuple[float, float, float] | None = None
+        self.local: tuple[float, float, float] | None = None
+        self.local_stamp: float | None = None
+
+    def set_world_from_local(self, pose: tuple[float, float, float]) -> None:
+        """Take a new navigator transform (x [m], y [m], yaw [rad])."""
+        self.world_from_local = pose
+
+    def set_local(self, stamp: float, pose: tuple[float, float, float]) -> None:
+        """Take a new controller pose in `local` at `stamp` [s] sim."""
+        self.local_stamp, self.local = stamp, pose
+
+    def world(self) -> tuple[float, float, float] | None:
+        """Return the believed pose in `world` (None before both parts were heard)."""
+        if self.world_from_local is None or self.local is None:
+            return None
+        x, y, yaw = compose(self.world_from_local, self.local)
+        return float(x), float(y), float(yaw)
+
+    async def at(self, _stamp: float) -> tuple[float, float, float] | None:
+        """Return the newest believed pose (the recorder's estimate source)."""
+        return self.world()
+
+
+class EddieSystemRun(SystemRun):
+    """Start EDDIE's processes, then watch the run from outside like an operator — without a blackboard.
+
+    It keeps what `record_run` reads (`submitted`, `statuses`, `routes`, `rest`, `bb_stats` stays
+    None, `recorder`) and `triggers`, every trigger fired; statuses come from the mission events stream.
+    """
+
+    def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path) -> None:
+        super().__init__(plans, ns=ns, endpoint=endpoint, log_dir=log_dir)
+        self.pose = PoseComposer()
+        self.triggers: list[FiredTrigger] = []
+        self._status_q: asyncio.Queue[MissionStatus] = asyncio.Queue()
+
+    async def start(self, *, on_starting: Callable[[str], None] | None = None, ready_timeout: float = 60.0) -> None:
+        """Start every process in order, then subscribe to the mission events, the pose parts and the triggers."""
+        for plan in self.plans.values():
+            if on_starting:
+                on_starting(plan.name)
+            await self.sup.start(plan, ready_timeout=ready_timeout)
+        self.link = Link.open(self.net)
+        self.recorder = Recorder(self.link, None, self.ns, estimator=self.pose.at)
+        self.recorder.start()
+        self.link.subscribe(MissionKeys(self.ns).events, self._on_status)
+        subscribe_eddie(self.link, EddieKeys(self.ns), self.pose, self.triggers)
+
+    def _on_status(self, _key: str, payload: bytes) -> None:
+        try:
+            st = MissionStatus.model_validate_json(payload)
+        except ValidationError:
+            return
+        wall, sim = self.stamps()
+        self.statuses.setdefault(st.mission_id, []).append(StampedStatus(wall_s=wall, sim_s=sim, status=st))
+        self._status_q.put_nowait(st)
+
+    async def next_status(self, mission_id: str, timeout: float) -> Optional[MissionStatus]:
+        """Return the next status of `mission_id` published within `timeout` wall [s], else None."""
+        loop = asyncio.get_running_loop()
+        end = loop.time() + timeout
+        while (left := end - loop.time()) > 0:
+            try:
+                st = await asyncio.wait_for(self._status_q.get(), left)
+            except (asyncio.TimeoutError, TimeoutError):
+                return None
+            if st.mission_id == mission_id:
+                return st
+        return None
+
+    async def finish(self, mission_id: str) -> None:
+        """Wait until the vehicle has come to rest (call once the mission ended, before `close()`); no route plans here."""
+        assert self.recorder is not None
+        self.rest[mission_id] = await self.recorder.wait_rest()
+        self.routes[mission_id] = []
+
+
+def compile_annotated_map(setup: "RunSetup", out: Path) -> Optional[Path]:
+    """Compile the run's mission into trigger annotations along the MAP NAVIGATOR's route; write and return the file.
+
+    The compiler is `eddie.missions` (it plans the route on the map the robot gets, `setup.map_file`,
+    from the start belief); the file is `out`/annotated_map.geojson, which a person can open in QGIS.
+    Until the annotated map manager is part of the tree (`eddie.missions`, `eddie.map_manager`),
+    return None: the run goes without annotations and fires no triggers (its log says so).
+    """
+    from sidewalk.launcher import LaunchError
+
+    try:
+        from eddie.missions import MissionCompileError, compile_mission_file
+    except ImportError:
+        log.warning("--arch eddie: no annotated map manager in this tree (eddie.missions): running without triggers")
+        return None
+    path = Path(out) / ANNOTATED_MAP_NAME
+    try:
+        compile_mission_file(setup.mission_file, map_file=setup.map_file, vehicle=setup.vehicle,
+                             start=setup.start_belief, out=path)
+    except MissionCompileError as exc:
+        raise LaunchError(f"--arch eddie: {setup.mission_file}: {exc}") from None
+    return path

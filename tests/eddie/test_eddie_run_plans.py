@@ -1,0 +1,86 @@
+"""`sidewalk run --arch eddie`'s parts without a running system: the process plan, the belief composition, triggers in the report."""
+
+from __future__ import annotations
+
+import gzip
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from eddie.toolkit.message import encode_body
+from sidewalk.cli import app
+from sidewalk.eddie_observe import LocalPoseView, TransformView, TriggerView, subscribe_eddie
+from sidewalk.eddie_run import EDDIE_PERCEPTION_MODULES, PoseComposer, eddie_plans
+from sidewalk.report import build_report
+from sidewalk.run_record import FiredTrigger, RunRecord
+from wire.se2 import compose
+
+DATA = Path(__file__).resolve().parents[1] / "sidewalk" / "data"
+
+
+def _plans(perception: bool, annotated: Path | None = Path("/tmp/x/annotated_map.geojson")):
+    return eddie_plans(out=Path("/tmp/x"), ns="t1", endpoint="tcp/127.0.0.1:7447", world="campus", vehicle="terregator",
+                       rtf=8.0, seed=3, watchdog_s=1.0, start_truth=None, start_belief=(1.0, -2.0, 0.5),
+                       map_file=Path("worlds/campus.map.geojson"), annotated_map=annotated, perception=perception)
+
+
+def test_the_eddie_plan_has_no_blackboard_and_the_perception_modules_only_with_perception() -> None:
+    names = [p.name for p in _plans(True)]
+    assert "blackboard" not in names and not any(n in names for n in ("captain", "pilot", "helm", "map_navigator"))
+    assert names[:3] == ["router", "recorder", "sim"]
+    assert {"controller", "navigator", "map_manager", "mission_service", *EDDIE_PERCEPTION_MODULES} <= set(names)
+    blind = [p.name for p in _plans(False)]
+    assert not set(EDDIE_PERCEPTION_MODULES) & set(blind)
+    ms = next(p for p in _plans(False) if p.name == "mission_service")
+    assert "--perception" in ms.args and ms.args[ms.args.index("--perception") + 1] == "off"
+    nav = next(p for p in _plans(False) if p.name == "navigator")
+    assert "--start-pose=1.0,-2.0,0.5" in nav.args  # the start belief is the navigator's first world←local
+    assert "map_manager" not in [p.name for p in _plans(False, annotated=None)]
+
+
+def test_the_belief_is_world_from_local_composed_with_the_local_pose() -> None:
+    pc = PoseComposer()
+    assert pc.world() is None
+    pc.set_local(3.0, (2.0, 0.0, math.pi / 2))
+    assert pc.world() is None  # no transform yet
+    pc.set_world_from_local((10.0, 5.0, math.pi / 2))
+    x, y, yaw = pc.world()
+    want = compose(np.array([10.0, 5.0, math.pi / 2]), np.array([2.0, 0.0, math.pi / 2]))
+    assert (x, y, yaw) == pytest.approx(tuple(want))
+    assert (x, y) == pytest.approx((10.0, 7.0))
+
+
+def test_the_observer_views_read_the_streams_bare_fields_and_ignore_the_rest() -> None:
+    from eddie.messages.controller import ControllerState
+    from eddie.messages.navigator import WorldFromLocal
+    from eddie.toolkit.message import decode_body
+
+    st = ControllerState(stamp=4.0, x=1.0, y=2.0, yaw=0.3, v=0.8, curvature=0.0, client="road_following", mode="tracking")
+    view = decode_body(LocalPoseView, encode_body(st))
+    assert (view.stamp, view.x, view.y, view.yaw) == (4.0, 1.0, 2.0, 0.3)
+    w = decode_body(TransformView, encode_body(WorldFromLocal(stamp=1.0, x=5.0, y=6.0, yaw=0.1, fixes_used=2)))
+    assert (w.x, w.y, w.yaw) == (5.0, 6.0, 0.1)
+    assert callable(subscribe_eddie) and TriggerView.model_fields["destination"].is_required()
+
+
+def test_triggers_fired_reach_the_report_with_times_from_submission() -> None:
+    rec = RunRecord.model_validate_json(gzip.decompress((DATA / "two-hop.run_record.json.gz").read_bytes()))
+    t0 = rec.submitted_sim_s
+    fired = (FiredTrigger(sim_s=t0 + 12.5, x=3.0, y=-20.0, annotation="a7", kind="set_speed", destination="controller",
+                          text="3.0 m/s on the straight"),
+             FiredTrigger(sim_s=t0 + 30.0, x=3.0, y=-5.0, annotation="a8", kind="dead_reckon", destination="road_following"))
+    rep = build_report(rec.model_copy(update={"architecture": "eddie", "triggers": fired}))
+    assert rep.architecture == "eddie"
+    assert [(t.sim_s, t.kind, t.destination) for t in rep.triggers] == [(12.5, "set_speed", "controller"),
+                                                                          (30.0, "dead_reckon", "road_following")]
+    assert build_report(rec).triggers == []  # a CODGER record has none
+
+
+def test_the_cli_refuses_an_unknown_architecture_and_lists_eddie_modules_for_up() -> None:
+    r = CliRunner().invoke(app, ["run", "--arch", "blackboard2"])
+    assert r.exit_code == 2 and "--arch" in r.output
+    r = CliRunner().invoke(app, ["up", "no_such_module"])
+    assert r.exit_code == 2 and "mission_service" in r.output and "road_following" in r.output

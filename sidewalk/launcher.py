@@ -365,6 +365,8 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
     if cfg.arch == "eddie":
         if cfg.secure is not None:
             raise LaunchError("--secure: EDDIE's processes do not take --secure yet; run --arch eddie without it (or --arch codger)")
+        if cfg.actors is not None:
+            raise LaunchError("--actors: EDDIE's simulator plan does not place actors yet; run --arch eddie without it (or --arch codger)")
         from sidewalk.eddie_run import EddieSystemRun, compile_annotated_map, eddie_plans
 
         amap = compile_annotated_map(setup, out)

@@ -21,7 +21,7 @@ from pydantic import BaseModel, ConfigDict
 from modules.vocabulary import MissionStatus, StepOutcome
 from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
-from sidewalk.run_record import RunRecord
+from sidewalk.run_record import FaultEvent, RunRecord
 from wire.drive import SimEvent
 
 __all__ = [
@@ -147,6 +147,10 @@ class RunReport(BaseModel):
     blackboard: Optional[BlackboardUsage] = None
     modules: dict[str, ModuleCost] = {}
     exit_codes: dict[str, Optional[int]] = {}
+    #: issue 10: faults injected (`--fault`), the speed cap (`--max-speed`) [m/s], the mean true speed [m/s] over the mission
+    faults: list[FaultEvent] = []
+    max_speed: Optional[float] = None
+    mean_speed_m_s: Optional[float] = None
 
 
 def _final_status(rec: RunRecord) -> MissionStatus | None:
@@ -350,6 +354,9 @@ def build_report(rec: RunRecord) -> RunReport:
         blackboard=_bb_usage(rec.blackboard),
         modules=_module_costs(rec),
         exit_codes=dict(rec.exit_codes),
+        faults=list(rec.faults),
+        max_speed=rec.max_speed,
+        mean_speed_m_s=round(path_length(truth[:, 1:3]) / sim_span, 3) if sim_span > 0 else None,
     )
 
 

@@ -21,7 +21,7 @@ from sidewalk.map_error import MapErrorSummary
 from wire.drive import SimEvent
 from wire.health import ProcessUsage
 
-__all__ = ["RunRecord", "StampedStatus", "RecordedPlan", "ProcessCost", "Architecture", "RunRecordError",
+__all__ = ["RunRecord", "StampedStatus", "RecordedPlan", "ProcessCost", "FaultEvent", "Architecture", "RunRecordError",
            "save_record", "load_record"]
 
 #: The architectures a run can be recorded under.
@@ -65,6 +65,23 @@ class ProcessCost(BaseModel):
     usage: ProcessUsage
 
 
+class FaultEvent(BaseModel):
+    """A fault injected into the run (`sidewalk run --fault`): what, into which process, when [s] sim.
+
+    `restored_sim_s` is when the injector undid it (the process was ready again, or continued);
+    None: nothing to undo. `injected` False: the run had no part to inject it into (`detail` says why).
+    """
+
+    model_config = _FROZEN
+
+    name: str
+    target: str = ""
+    injected: bool
+    at_sim_s: float
+    restored_sim_s: Optional[float] = None
+    detail: str = ""
+
+
 class RunRecord(BaseModel):
     """Everything measured during one run, for `build_report`.
 
@@ -105,6 +122,9 @@ class RunRecord(BaseModel):
     processes: tuple[ProcessCost, ...] = ()
     blackboard: Optional[dict[str, int | float]] = None
     exit_codes: dict[str, Optional[int]] = {}
+    #: faults injected by `--fault` (issue 10), and the speed cap given by `--max-speed` [m/s] (None: the vehicle's)
+    faults: tuple[FaultEvent, ...] = ()
+    max_speed: Optional[float] = None
 
 
 def save_record(record: RunRecord, path: Path) -> Path:

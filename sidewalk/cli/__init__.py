@@ -31,6 +31,7 @@ _SUBAPPS = [
 _COMMANDS = [
     ("sidewalk.cli._run", "register"),
     ("sidewalk.cli._monitor", "register"),
+    ("sidewalk.cli._compare", "register"),
 ]
 
 

@@ -29,6 +29,9 @@ __all__ = ["CompareConfig", "RunEntry", "SweepPoint", "Comparison", "run_compari
 #: Where in the mission a fault is injected: this fraction of the baseline's median mission time.
 FAULT_AT = 0.4
 
+#: A fault or sweep run gives up after this many times the baseline's wall and sim time (+ 60 s).
+BUDGET = 2.5
+
 #: The source tree whose glue is counted.
 SOURCE_ROOT = Path(__file__).resolve().parents[2]
 
@@ -124,14 +127,26 @@ def mission_world(mission: str) -> Optional[str]:
         raise CompareError(f"--missions: {exc}") from None
 
 
+def _budgets(measured: Sequence[RunMeasures], arch: str, mission: str, cfg: CompareConfig) -> dict[str, float]:
+    """Return the wall and sim budgets [s] of a fault or sweep run: a multiple of the baseline's (a stuck run gives up)."""
+    mine = [m for m in measured if m.architecture == arch and m.mission == mission]
+    if not mine:
+        return {}
+    wall = float(np.median([m.wall_time_s for m in mine]))
+    sim = float(np.median([m.mission_time_s for m in mine]))
+    return {"max_wall_time_s": min(cfg.max_wall_time_s, BUDGET * wall + 60.0), "max_sim_time_s": BUDGET * sim + 60.0}
+
+
 def _cells(cfg: CompareConfig, archs: Sequence[str], seeds: Sequence[int], *, tag: str = "",
-           fault: FaultSpec | None = None, speed: float | None = None, mission: str | None = None) -> list[GridRun]:
+           fault: FaultSpec | None = None, speed: float | None = None, mission: str | None = None,
+           measured: Sequence[RunMeasures] = ()) -> list[GridRun]:
     out = []
     for m in ([mission] if mission else cfg.missions):
         for s in seeds:
             for a in archs:
-                out.append(GridRun(architecture=a, mission=m, world=mission_world(m), seed=s, rtf=cfg.rtf, fault=fault, max_speed=speed,
-                                   out=cfg.out / "runs" / a / m / f"seed{s}{tag}", max_wall_time_s=cfg.max_wall_time_s))
+                budget = {"max_wall_time_s": cfg.max_wall_time_s, **_budgets(measured, a, m, cfg)}
+                out.append(GridRun(architecture=a, mission=m, world=mission_world(m), seed=s, rtf=cfg.rtf, fault=fault,
+                                   max_speed=speed, out=cfg.out / "runs" / a / m / f"seed{s}{tag}", **budget))
     return out
 
 
@@ -156,7 +171,8 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
             for a in archs:
                 base = [x.mission_time_s for x in measured if x.architecture == a and x.mission == m]
                 at = round(FAULT_AT * float(np.median(base)), 1) if base else 30.0
-                fault_cells += _cells(cfg, [a], cfg.seeds[:1], tag=f"-{f}", fault=FaultSpec(name=f, at_s=at), mission=m)  # type: ignore[arg-type]
+                fault_cells += _cells(cfg, [a], cfg.seeds[:1], tag=f"-{f}", fault=FaultSpec(name=f, at_s=at), mission=m,  # type: ignore[arg-type]
+                                      measured=measured)
     fault_entries = [_entry(r) for r in await run_grid(fault_cells, **kw)]
     outcomes = []
     for e in fault_entries:
@@ -182,7 +198,7 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
     for v in sorted(cfg.speeds):
         if not alive:
             break
-        res = [_entry(r) for r in await run_grid(_cells(cfg, alive, cfg.seeds, tag=f"-v{v:g}", speed=v), **kw)]
+        res = [_entry(r) for r in await run_grid(_cells(cfg, alive, cfg.seeds, tag=f"-v{v:g}", speed=v, measured=measured), **kw)]
         sweep_entries += res
         for a in list(alive):
             mine = [e for e in res if e.architecture == a]

@@ -3,9 +3,10 @@
 `kill-perception` SIGKILLs the perception module and starts it again; `kill-central` does the same
 to the central piece (CODGER: the blackboard node; EDDIE: the map manager); `wedge` SIGSTOPs the
 module that plans the vehicle's local paths for `WEDGE_S` [s] sim, then SIGCONTs it;
-`position-jump` moves the position estimate by `JUMP_M` [m] (CODGER: world←local posted on the
-blackboard from the launcher's own client, as a position fix would move it; EDDIE: unavailable
-until its navigator takes fixes from outside). A fault whose target the run lacks is recorded as not
+`position-jump` moves the position estimate by `JUMP_M` [m] (CODGER: the launcher's own blackboard
+client posts a perception result for a driving unit PERCEPTION has not answered yet, carrying a
+tight point fix `JUMP_M` to the left of the PILOT's estimate — the PILOT takes it like any fix;
+EDDIE: unavailable until its navigator takes fixes from outside). A fault whose target the run lacks is recorded as not
 injected, with the reason — never faked.
 """
 
@@ -36,7 +37,7 @@ JUMP_M = 2.0
 
 #: architecture → fault → the process it hits (None: the architecture has no such part yet).
 TARGETS: dict[str, dict[str, Optional[str]]] = {
-    "codger": {"kill-perception": "perception", "kill-central": "blackboard", "wedge": "pilot", "position-jump": "blackboard"},
+    "codger": {"kill-perception": "perception", "kill-central": "blackboard", "wedge": "pilot", "position-jump": "pilot"},
     "eddie": {"kill-perception": "vision", "kill-central": "map_manager", "wedge": "vision", "position-jump": None},
 }
 
@@ -98,12 +99,29 @@ async def inject_fault(system, spec: FaultSpec, arch: str) -> FaultEvent:  # noq
             proc.send_signal(signal.SIGCONT)
         return FaultEvent(name=spec.name, target=target, injected=True, at_sim_s=at, restored_sim_s=system.stamps()[1],
                           detail=f"{target} SIGSTOPped for {WEDGE_S:g} s sim, then SIGCONTed")
-    # position-jump (CODGER): world←local moved JUMP_M to the vehicle's left, posted like the PILOT's correction
-    from wire.se2 import Pose2D
+    # position-jump (CODGER): a fix JUMP_M to the left of the PILOT's estimate, for a driving unit PERCEPTION has not answered yet
+    return await _codger_jump(system, at)
 
-    wl = await system.bb.lookup_pose(parent="world", child="local", stamp=None)
-    heading = (await system.bb.lookup_pose(parent="world", child="vehicle", stamp=None)).yaw
-    moved = Pose2D(x=wl.x - JUMP_M * math.sin(heading), y=wl.y + JUMP_M * math.cos(heading), yaw=wl.yaw)
-    await system.bb.post_pose(parent="world", child="local", pose=moved, stamp=at, hold=None)
-    return FaultEvent(name=spec.name, target="world←local", injected=True, at_sim_s=at, restored_sim_s=None,
-                      detail=f"world←local posted {JUMP_M:g} m off on the blackboard")
+
+async def _codger_jump(system, at: float) -> FaultEvent:  # noqa: ANN001 - SystemRun
+    """Post a perception result with a point fix `JUMP_M` [m] left of the PILOT's estimate (world) for the newest open unit."""
+    from blackboard import Spec
+    from modules.vocabulary import PerceptionResult, PointFix, Pose
+
+    bb = system.bb
+    answered = {t.attrs.unit_id for t in await bb.retrieve(Spec(type="perception_result"))}
+    units = sorted((t for t in await bb.retrieve(Spec(type="driving_unit")) if t.attrs.unit_id not in answered),
+                   key=lambda t: t.stamp)
+    if not units:
+        return FaultEvent(name="position-jump", injected=False, at_sim_s=at, detail="no driving unit was waiting for PERCEPTION")
+    unit = units[-1].attrs
+    est = await bb.lookup_pose(parent="world", child="vehicle", stamp=None)
+    x = est.x - JUMP_M * math.sin(est.yaw)
+    y = est.y + JUMP_M * math.cos(est.yaw)
+    now = system.stamps()[1]
+    fix = PointFix(pose=Pose(x=x, y=y, yaw=est.yaw), covariance=(0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 1e-4))
+    res = PerceptionResult(unit_id=unit.unit_id, segment_id=unit.segment_id, status="perceived", captured_at=now,
+                           sensor="colour", frame="world", fix=fix)
+    await bb.post(res, frame="world", geometry=None, stamp=now)
+    return FaultEvent(name="position-jump", target="pilot", injected=True, at_sim_s=now, restored_sim_s=None,
+                      detail=f"a fix {JUMP_M:g} m left of the estimate ({est.x:.2f}, {est.y:.2f}) posted for unit {unit.unit_id}")

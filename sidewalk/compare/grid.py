@@ -38,6 +38,7 @@ class GridRun(BaseModel):
     fault: Optional[FaultSpec] = None
     max_speed: Optional[float] = None
     max_wall_time_s: float = 900.0
+    max_sim_time_s: Optional[float] = None
 
     @property
     def label(self) -> str:
@@ -49,6 +50,8 @@ class GridRun(BaseModel):
         """Return the command line (after the interpreter); `arch_flag`: the run command takes --arch."""
         args = ["-m", "sidewalk", "run", "--mission", self.mission, "--seed", str(self.seed), "--rtf", f"{self.rtf:g}",
                 "--out", str(self.out), "--max-wall-time", f"{self.max_wall_time_s:g}"]
+        if self.max_sim_time_s is not None:
+            args += ["--max-sim-time", f"{self.max_sim_time_s:g}"]
         if self.world:
             args += ["--world", self.world]
         if arch_flag:

@@ -2,7 +2,7 @@
 
 `kill-perception` SIGKILLs the perception module and starts it again; `kill-central` does the same
 to the central piece (CODGER: the blackboard node; EDDIE: the map manager); `wedge` SIGSTOPs the
-module that plans the vehicle's local paths for `WEDGE_S` [s] sim, then SIGCONTs it;
+module that plans the vehicle's local paths (CODGER: the PILOT; EDDIE: road following) for `WEDGE_S` [s] sim, then SIGCONTs it;
 `position-jump` moves the position estimate by `JUMP_M` [m] (CODGER: the launcher's own blackboard
 client posts a perception result for a driving unit PERCEPTION has not answered yet, carrying a
 tight point fix `JUMP_M` to the left of the PILOT's estimate — the PILOT takes it like any fix;
@@ -38,7 +38,7 @@ JUMP_M = 2.0
 #: architecture → fault → the process it hits (None: the architecture has no such part yet).
 TARGETS: dict[str, dict[str, Optional[str]]] = {
     "codger": {"kill-perception": "perception", "kill-central": "blackboard", "wedge": "pilot", "position-jump": "pilot"},
-    "eddie": {"kill-perception": "vision", "kill-central": "map_manager", "wedge": "vision", "position-jump": None},
+    "eddie": {"kill-perception": "road_following", "kill-central": "map_manager", "wedge": "road_following", "position-jump": None},
 }
 
 

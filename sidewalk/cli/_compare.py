@@ -43,6 +43,7 @@ def compare(
     out: Annotated[Path, typer.Option(help="Output directory (compare.json, compare.md, *.png, runs/)")] = Path("runs/compare"),
     jobs: Annotated[int, typer.Option(help="Runs at a time (1 on a 2-core machine: runs measure time)")] = 1,
     max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s)")] = 900.0,
+    resume: Annotated[bool, typer.Option("--resume", help="Reuse runs in --out whose report is of the same cell (architecture, mission, seed, fault, speed cap)")] = False,
 ) -> None:
     """Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables and plots."""
     from rich.console import Console
@@ -81,7 +82,7 @@ def compare(
     available, arch_flag = available_architectures()
     cfg = CompareConfig(missions=mission_list, seeds=tuple(range(seeds)), rtf=rtf, architectures=archs, faults=fault_list,
                         speeds=_speeds(speed_sweep) if speed_sweep else (), out=out, jobs=jobs, arch_flag=arch_flag,
-                        max_wall_time_s=max_wall_time)
+                        max_wall_time_s=max_wall_time, resume=resume)
     skipped = [a for a in archs if a not in available]
     if skipped:
         console.print(f"[yellow]not available in `sidewalk run`: {', '.join(skipped)} — compared without it[/yellow]")

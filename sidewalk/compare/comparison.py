@@ -51,6 +51,7 @@ class CompareConfig(BaseModel):
     jobs: int = Field(default=1, ge=1)
     arch_flag: bool = False
     max_wall_time_s: float = Field(default=900.0, gt=0.0)
+    resume: bool = False
 
 
 class RunEntry(BaseModel):
@@ -161,7 +162,7 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
     n_sweep = len(cfg.speeds) * len(cfg.missions) * len(cfg.seeds) * len(archs)
     if total:
         total(len(grid) + n_fault + n_sweep)
-    kw = dict(jobs=cfg.jobs, arch_flag=cfg.arch_flag, python=python, on_start=on_start, on_done=on_done)
+    kw = dict(jobs=cfg.jobs, arch_flag=cfg.arch_flag, python=python, on_start=on_start, on_done=on_done, resume=cfg.resume)
     entries = [_entry(r) for r in await run_grid(grid, **kw)]
     measured = [e.measures for e in entries if e.measures is not None]
 

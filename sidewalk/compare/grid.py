@@ -9,6 +9,7 @@ output directory is `<out>/runs/<arch>/<mission>/seed<S>[-<fault>|-v<speed>]`.
 from __future__ import annotations
 
 import asyncio
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -82,8 +83,22 @@ def available_architectures(python: str = sys.executable) -> tuple[list[str], bo
     return [a for a in ARCHITECTURES if a in text] or ["codger"], True
 
 
-async def _one(run: GridRun, python: str, arch_flag: bool) -> GridResult:
+def _finished(run: GridRun) -> Optional[int]:
+    """Return the exit code of a finished run of this very cell in its directory (None: there is none)."""
+    try:
+        rep = json.loads((run.out / "report.json").read_text())
+    except (OSError, ValueError):
+        return None
+    same = (rep.get("architecture") == run.architecture and rep.get("mission") == Path(run.mission).stem
+            and rep.get("seed") == run.seed and rep.get("max_speed") == run.max_speed
+            and [f.get("name") for f in rep.get("faults", [])] == ([run.fault.name] if run.fault else []))
+    return (0 if rep.get("success") else 1) if same else None
+
+
+async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool) -> GridResult:
     run.out.mkdir(parents=True, exist_ok=True)
+    if resume and (code := _finished(run)) is not None:
+        return GridResult(run=run, exit_code=code, has_report=True)
     (run.out / "report.json").unlink(missing_ok=True)  # a report left by an earlier comparison is not this run's
     with open(run.out / "compare-run.log", "wb") as log:
         proc = await asyncio.create_subprocess_exec(python, *run.argv(arch_flag=arch_flag), stdin=asyncio.subprocess.DEVNULL,
@@ -93,16 +108,17 @@ async def _one(run: GridRun, python: str, arch_flag: bool) -> GridResult:
 
 
 async def run_grid(runs: Sequence[GridRun], *, jobs: int = 1, arch_flag: bool = False, python: str = sys.executable,
+                   resume: bool = False,
                    on_start: Callable[[GridRun], None] | None = None,
                    on_done: Callable[[GridResult], None] | None = None) -> list[GridResult]:
-    """Run the cells, at most `jobs` at a time; return their results in the cells' order."""
+    """Run the cells, at most `jobs` at a time (`resume`: reuse a finished run of the same command); return their results in order."""
     gate = asyncio.Semaphore(max(1, jobs))
 
     async def guarded(r: GridRun) -> GridResult:
         async with gate:
             if on_start:
                 on_start(r)
-            res = await _one(r, python, arch_flag)
+            res = await _one(r, python, arch_flag, resume)
             if on_done:
                 on_done(res)
             return res

@@ -6,7 +6,7 @@ from typing import Optional
 
 import numpy as np
 
-from sidewalk.compare.comparison import FAULT_AT, Comparison
+from sidewalk.compare.comparison import FAULT_AT, SPEED_CAPPED, Comparison
 from sidewalk.compare.fault_outcome import BEFORE_S, HELD_S, SLOWER, WORSE_M
 from sidewalk.compare.faults import JUMP_M, WEDGE_S
 from sidewalk.compare.glue import TRANSPORT
@@ -116,7 +116,8 @@ def render_markdown(c: Comparison, command: str = "") -> str:
         out += _table(["fault", "arch", "mission", "at [s sim]", "verdict", "recovery [s sim]", "how / why"], rows) + [""]
     if cfg.speeds:
         out += ["## Speed sweep", "", "The PILOT's speed cap (`sidewalk run --max-speed`) raised step by step; an architecture "
-                "stops at the first cap where a seed fails.", ""]
+                "stops at the first cap where a seed fails. Swept: " + ", ".join(a for a in archs if a in SPEED_CAPPED)
+                + "; EDDIE's modules take no speed cap yet, so it is not swept.", ""]
         rows = [[p.architecture, f"{p.max_speed:g}", f"{p.successes}/{p.runs}", _num(p.mean_speed_m_s), _num(p.mission_time_s)]
                 for p in c.speed_sweep]
         out += _table(["arch", "cap [m/s]", "successes", "mean speed [m/s]", "mission time [s]"], rows) + [""]

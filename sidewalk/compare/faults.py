@@ -6,7 +6,7 @@ module that plans the vehicle's local paths (CODGER: the PILOT; EDDIE: road foll
 `position-jump` moves the position estimate by `JUMP_M` [m] (CODGER: the launcher's own blackboard
 client posts a perception result for a driving unit PERCEPTION has not answered yet, carrying a
 tight point fix `JUMP_M` to the left of the PILOT's estimate — the PILOT takes it like any fix;
-EDDIE: unavailable until its navigator takes fixes from outside). A fault whose target the run lacks is recorded as not
+EDDIE: the same tight point fix sent to the navigator's inbox, as landmark matching sends fixes). A fault whose target the run lacks is recorded as not
 injected, with the reason — never faked.
 """
 
@@ -38,7 +38,7 @@ JUMP_M = 2.0
 #: architecture → fault → the process it hits (None: the architecture has no such part yet).
 TARGETS: dict[str, dict[str, Optional[str]]] = {
     "codger": {"kill-perception": "perception", "kill-central": "blackboard", "wedge": "pilot", "position-jump": "pilot"},
-    "eddie": {"kill-perception": "road_following", "kill-central": "map_manager", "wedge": "road_following", "position-jump": None},
+    "eddie": {"kill-perception": "road_following", "kill-central": "map_manager", "wedge": "road_following", "position-jump": "navigator"},
 }
 
 
@@ -99,8 +99,37 @@ async def inject_fault(system, spec: FaultSpec, arch: str) -> FaultEvent:  # noq
             proc.send_signal(signal.SIGCONT)
         return FaultEvent(name=spec.name, target=target, injected=True, at_sim_s=at, restored_sim_s=system.stamps()[1],
                           detail=f"{target} SIGSTOPped for {WEDGE_S:g} s sim, then SIGCONTed")
+    if arch == "eddie":
+        return await _eddie_jump(system, at)
     # position-jump (CODGER): a fix JUMP_M to the left of the PILOT's estimate, for a driving unit PERCEPTION has not answered yet
     return await _codger_jump(system, at)
+
+
+async def _eddie_jump(system, at: float) -> FaultEvent:  # noqa: ANN001 - the EDDIE system run
+    """Send EDDIE's navigator a tight point fix `JUMP_M` [m] left of its estimate (world), as landmark matching sends fixes."""
+    from eddie.messages.controller import Position, PositionQuery
+    from eddie.messages.navigator import LocalPose, PointFixMessage, WorldFromLocal, WorldFromLocalQuery
+    from eddie.toolkit import Module
+
+    async with Module("fault_injector", system.net) as m:
+        loop = asyncio.get_running_loop()
+        end = loop.time() + 10.0
+        while True:
+            try:
+                pos = await m.request("controller", "position", PositionQuery(), reply_type=Position, timeout=3.0)
+                wl = await m.request("navigator", "world_from_local", WorldFromLocalQuery(), reply_type=WorldFromLocal, timeout=3.0)
+                break
+            except Exception as exc:  # a fresh session may not see the services yet: ask again until the deadline
+                if loop.time() > end:
+                    return FaultEvent(name="position-jump", injected=False, at_sim_s=at, detail=f"no position to jump from: {exc}")
+                await asyncio.sleep(0.2)
+        c, s = math.cos(wl.yaw), math.sin(wl.yaw)
+        x, y, yaw = wl.x + c * pos.x - s * pos.y, wl.y + s * pos.x + c * pos.y, wl.yaw + pos.yaw
+        fx, fy = x - JUMP_M * math.sin(yaw), y + JUMP_M * math.cos(yaw)
+        await m.send("navigator", PointFixMessage(stamp=pos.stamp, x=fx, y=fy, yaw=yaw, sigma_xy=0.1, sigma_yaw=0.01,
+                                                  local=LocalPose(x=pos.x, y=pos.y, yaw=pos.yaw), source="fault-injector"))
+    return FaultEvent(name="position-jump", target="navigator", injected=True, at_sim_s=pos.stamp, restored_sim_s=None,
+                      detail=f"a fix {JUMP_M:g} m left of the estimate ({x:.2f}, {y:.2f}) sent to the navigator")
 
 
 async def _codger_jump(system, at: float) -> FaultEvent:  # noqa: ANN001 - SystemRun

@@ -135,3 +135,30 @@ def test_the_codger_glue_count_covers_the_blackboard_and_module_mains():
     assert "blackboard/client.py" in g.glue_by_file and "modules/pilot/pilot.py" in g.glue_by_file
     assert "modules/pilot/kalman.py" not in g.glue_by_file  # an algorithm
     assert g.glue_lines > 0 and g.algorithm_lines > 0 and not math.isnan(g.glue_lines)
+
+
+def test_compare_md_holds_every_table_and_names_what_did_not_run(record, tmp_path):
+    from sidewalk.compare.comparison import SOURCE_ROOT, CompareConfig, Comparison, RunEntry
+    from sidewalk.compare.fault_outcome import FaultOutcome
+    from sidewalk.compare.plots import plot_comparison
+    from sidewalk.compare.tables import render_markdown
+
+    rep = build_report(record)
+    m = measure_run(rep)
+    runs = [RunEntry(architecture="codger", mission=rep.mission, seed=s, out=str(tmp_path), exit_code=1,
+                     report=rep.model_dump(mode="json"), measures=m.model_copy(update={"seed": s})) for s in (0, 1)]
+    runs.append(RunEntry(architecture="codger", mission=rep.mission, seed=2, out=str(tmp_path), exit_code=2, error="no report (exit 2)"))
+    c = Comparison(config=CompareConfig(missions=(rep.mission,), seeds=(0, 1, 2), faults=("wedge",)), available=["codger"],
+                   requested=["codger", "eddie"], runs=runs, summary={s.architecture: s for s in summarise([r.measures for r in runs[:2]])},
+                   per_mission=summarise([r.measures for r in runs[:2]], mission=rep.mission),
+                   faults=[FaultOutcome(architecture="codger", mission=rep.mission, seed=0, fault="wedge", injected=True,
+                                        verdict="degraded", how="slower", at_s=40.0, recovery_s=3.5)],
+                   glue=[count_glue(SOURCE_ROOT, "codger"), count_glue(SOURCE_ROOT, "eddie")])
+    md = render_markdown(c, "sidewalk compare --seeds 3")
+    for heading in ("## Outcome", "## Accuracy", "## Reaction", "## Cost", "## Runs", "## Faults", "## Lines of glue"):
+        assert heading in md
+    assert "Not run: eddie" in md and "no report" in md
+    assert "| wedge | codger |" in md and "degraded" in md
+    assert "| success rate (truth) | 0% |" in md
+    files = plot_comparison(c, tmp_path)
+    assert [f.name for f in files] == ["measures.png"] and files[0].stat().st_size > 10_000

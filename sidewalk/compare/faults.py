@@ -35,6 +35,9 @@ WEDGE_S = 5.0
 #: How far the position jump moves the estimate [m].
 JUMP_M = 2.0
 
+#: How long [s] wall the CODGER jump waits for a driving unit PERCEPTION has not answered yet.
+OPEN_UNIT_WAIT_S = 30.0
+
 #: architecture → fault → the process it hits (None: the architecture has no such part yet).
 TARGETS: dict[str, dict[str, Optional[str]]] = {
     "codger": {"kill-perception": "perception", "kill-central": "blackboard", "wedge": "pilot", "position-jump": "pilot"},
@@ -138,11 +141,18 @@ async def _codger_jump(system, at: float) -> FaultEvent:  # noqa: ANN001 - Syste
     from modules.vocabulary import PerceptionResult, PointFix, Pose
 
     bb = system.bb
-    answered = {t.attrs.unit_id for t in await bb.retrieve(Spec(type="perception_result"))}
-    units = sorted((t for t in await bb.retrieve(Spec(type="driving_unit")) if t.attrs.unit_id not in answered),
-                   key=lambda t: t.stamp)
-    if not units:
-        return FaultEvent(name="position-jump", injected=False, at_sim_s=at, detail="no driving unit was waiting for PERCEPTION")
+    loop = asyncio.get_running_loop()
+    end = loop.time() + OPEN_UNIT_WAIT_S
+    while True:  # the PILOT posts units ahead of the vehicle: wait for one PERCEPTION has not answered yet
+        answered = {t.attrs.unit_id for t in await bb.retrieve(Spec(type="perception_result"))}
+        units = sorted((t for t in await bb.retrieve(Spec(type="driving_unit")) if t.attrs.unit_id not in answered),
+                       key=lambda t: t.stamp)
+        if units:
+            break
+        if loop.time() > end:
+            return FaultEvent(name="position-jump", injected=False, at_sim_s=at,
+                              detail=f"no driving unit was waiting for PERCEPTION within {OPEN_UNIT_WAIT_S:g} s")
+        await asyncio.sleep(0.05)
     unit = units[-1].attrs
     est = await bb.lookup_pose(parent="world", child="vehicle", stamp=None)
     x = est.x - JUMP_M * math.sin(est.yaw)

@@ -24,12 +24,13 @@ from shapely import LineString, Point
 from sidewalk.observers import RECORDING_NAME, observer_plans  # issue 11: monitor and recording
 
 from sidewalk.errors import SidewalkError
+from sidewalk.compare.faults import FaultSpec, inject_fault  # issue 10: fault injection
 
 from modules.captain.missionfile import MissionFileError, load_mission
 from modules.vocabulary import Destination, Mission, MissionStepSpec
 from sidewalk.map_error import MapErrorSummary, measure_map_error
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
-from sidewalk.run_record import RecordedPlan, RunRecord, save_record
+from sidewalk.run_record import FaultEvent, RecordedPlan, RunRecord, save_record
 from sidewalk.supervisor import ProcessPlan, ProcessStartError
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
@@ -88,6 +89,9 @@ class RunConfig(BaseModel):
     # ---- end laser ----
     #: which architecture runs the mission: the CODGER blackboard system or EDDIE (no blackboard)
     arch: Literal["codger", "eddie"] = "codger"
+    # ---- issue 10: faults injected at a sim time after submission, and a speed cap for the PILOT ----
+    faults: tuple[FaultSpec, ...] = ()
+    max_speed: Optional[float] = Field(default=None, gt=0.0)
 
 
 @dataclass
@@ -301,7 +305,8 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
     plans += [
         ProcessPlan("pilot", ("-m", "sidewalk", "up", "pilot", "--vehicle", vehicle,
                               "--perception", "on" if cfg.perception else "off",
-                              f"--start-pose={sx},{sy},{syaw}", "--seed", str(cfg.seed), *zflags)),
+                              f"--start-pose={sx},{sy},{syaw}", "--seed", str(cfg.seed),
+                              *(() if cfg.max_speed is None else ("--max-speed", str(cfg.max_speed))), *zflags)),
         ProcessPlan("map_navigator", ("-m", "sidewalk", "up", "map_navigator", "--map", str(setup.map_file),
                                       "--vehicle", vehicle, "--pilot-grace", str(cfg.pilot_grace_s), *zflags)),
         ProcessPlan("captain", ("-m", "sidewalk", "up", "captain", *zflags)),
@@ -320,7 +325,8 @@ def prepare_out(out: Path) -> None:
 
 
 def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: str, exit_codes: dict[str, Optional[int]],
-               *, stop_reason: str = "", gave_up_at: tuple[float, float] | None = None) -> RunRecord:
+               *, stop_reason: str = "", gave_up_at: tuple[float, float] | None = None,
+               faults: tuple[FaultEvent, ...] = ()) -> RunRecord:
     """Return the record of a run observed by `system` (after `finish` and `close`).
 
     The run ends when the mission's terminal status was received, else when the launcher gave up
@@ -353,6 +359,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
         statuses=tuple(statuses), plans=tuple(system.routes.get(mission_id, ())), processes=rec.process_costs(),
         blackboard=system.bb_stats, exit_codes=exit_codes, actors=cfg.actors,
         triggers=tuple(t for t in getattr(system, "triggers", ()) if kept_from <= t.sim_s <= kept_to),
+        faults=faults, max_speed=cfg.max_speed,
     )
 
 
@@ -381,6 +388,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
     stop_reason = ""
     gave_up_at: tuple[float, float] | None = None
     mission_id: str | None = None
+    fault_events: list[FaultEvent] = []
     try:
         def starting(name: str) -> None:
             progress.step = f"starting {name}"
@@ -394,6 +402,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
         mission_id = await system.submit(setup.mission_file.read_text())
         submitted_wall, submitted_sim = system.submitted[mission_id]
         deadline = time.monotonic() + cfg.max_wall_time_s
+        pending = sorted(cfg.faults, key=lambda f: f.at_s)  # issue 10
         while True:
             st = await system.next_status(mission_id, timeout=0.5)
             now_wall, now_sim = system.stamps()
@@ -411,6 +420,10 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
                     break
             if on_progress:
                 on_progress(progress)
+            while pending and progress.sim_time_s >= pending[0].at_s:  # issue 10: inject each fault once its time came
+                spec = pending.pop(0)
+                progress.state = f"injecting {spec.name}"
+                fault_events.append(await inject_fault(system, spec, getattr(cfg, "arch", "codger")))
             if progress.sim_time_s > cfg.max_sim_time_s:
                 stop_reason = f"sim-time budget of {cfg.max_sim_time_s:.0f} s used up"
             elif time.monotonic() > deadline:
@@ -421,7 +434,8 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
         await system.finish(mission_id)
     finally:
         exit_codes = await system.close()
-    record = record_run(system, cfg, setup, mission_id or "", exit_codes, stop_reason=stop_reason, gave_up_at=gave_up_at)
+    record = record_run(system, cfg, setup, mission_id or "", exit_codes, stop_reason=stop_reason, gave_up_at=gave_up_at,
+                        faults=tuple(fault_events))
     save_record(record, out / RECORD_FILE)
     report = build_report(record)
     write_report(report, out)

@@ -21,7 +21,7 @@ from pydantic import BaseModel, ConfigDict
 from modules.vocabulary import MissionStatus, StepOutcome
 from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
-from sidewalk.run_record import FiredTrigger, RunRecord
+from sidewalk.run_record import FaultEvent, FiredTrigger, RunRecord
 from sidewalk.stops import StopSummary, stop_summary
 from wire.drive import SimEvent
 
@@ -151,6 +151,10 @@ class RunReport(BaseModel):
     stops: Optional[StopSummary] = None  # issue 12: stops on the way, time stopped, closest approach to actors
     #: EDDIE: the triggers fired, sim times [s] counted from submission like every other time here
     triggers: list[FiredTrigger] = []
+    #: issue 10: faults injected (`--fault`), the speed cap (`--max-speed`) [m/s], the mean true speed [m/s] over the mission
+    faults: list[FaultEvent] = []
+    max_speed: Optional[float] = None
+    mean_speed_m_s: Optional[float] = None
 
 
 def _final_status(rec: RunRecord) -> MissionStatus | None:
@@ -356,6 +360,9 @@ def build_report(rec: RunRecord) -> RunReport:
         exit_codes=dict(rec.exit_codes),
         stops=stop_summary(truth, actors=rec.actors, world_name=rec.world, vehicle=rec.vehicle),
         triggers=[t.model_copy(update={"sim_s": round(t.sim_s - t0, 3)}) for t in rec.triggers],
+        faults=list(rec.faults),
+        max_speed=rec.max_speed,
+        mean_speed_m_s=round(path_length(truth[:, 1:3]) / sim_span, 3) if sim_span > 0 else None,
     )
 
 

@@ -21,7 +21,7 @@ from sidewalk.map_error import MapErrorSummary
 from wire.drive import SimEvent
 from wire.health import ProcessUsage
 
-__all__ = ["RunRecord", "StampedStatus", "RecordedPlan", "ProcessCost", "FiredTrigger", "Architecture", "RunRecordError",
+__all__ = ["RunRecord", "StampedStatus", "RecordedPlan", "ProcessCost", "FiredTrigger", "FaultEvent", "Architecture", "RunRecordError",
            "save_record", "load_record"]
 
 #: The architectures a run can be recorded under.
@@ -82,6 +82,23 @@ class FiredTrigger(BaseModel):
     text: str = ""
 
 
+class FaultEvent(BaseModel):
+    """A fault injected into the run (`sidewalk run --fault`): what, into which process, when [s] sim.
+
+    `restored_sim_s` is when the injector undid it (the process was ready again, or continued);
+    None: nothing to undo. `injected` False: the run had no part to inject it into (`detail` says why).
+    """
+
+    model_config = _FROZEN
+
+    name: str
+    target: str = ""
+    injected: bool
+    at_sim_s: float
+    restored_sim_s: Optional[float] = None
+    detail: str = ""
+
+
 class RunRecord(BaseModel):
     """Everything measured during one run, for `build_report`.
 
@@ -125,6 +142,9 @@ class RunRecord(BaseModel):
     actors: Optional[str] = None  # issue 12: objects not on the map (file or preset) the run had
     #: EDDIE: every trigger fired during the run, in order (CODGER: none)
     triggers: tuple[FiredTrigger, ...] = ()
+    #: faults injected by `--fault` (issue 10), and the speed cap given by `--max-speed` [m/s] (None: the vehicle's)
+    faults: tuple[FaultEvent, ...] = ()
+    max_speed: Optional[float] = None
 
 
 def save_record(record: RunRecord, path: Path) -> Path:

@@ -33,6 +33,7 @@ _COMMANDS = [
     ("sidewalk.cli._run", "register"),
     ("sidewalk.cli._monitor", "register"),
     ("sidewalk.cli._mapbuild", "register"),
+    ("sidewalk.cli._compare", "register"),
 ]
 
 

@@ -90,6 +90,9 @@ def run(
     actors: Annotated[Optional[str], typer.Option("--actors", help="Objects not on the map: an actors file (JSON/YAML) or a preset (e.g. amv-delivery)")] = None,
     obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors)")] = None,
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
+    # ---- issue 10: faults and the speed cap ----
+    fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-perception, position-jump, kill-central, wedge; repeatable")] = None,
+    max_speed: Annotated[Optional[float], typer.Option("--max-speed", help="Cap the PILOT's speed (m/s) for every segment")] = None,
 ) -> None:
     """Run a mission as OS processes on loopback Zenoh (CODGER: blackboard and modules; --arch eddie: EDDIE, no blackboard); writes run.mcap."""
     from rich.console import Console
@@ -108,12 +111,22 @@ def run(
     pe_m, pe_deg = _parse_pose_error(pose_error)
     if map_error is not None and not (math.isfinite(map_error) and map_error >= 0):
         raise typer.BadParameter(f"{map_error!r} is not a distance >= 0 [m]", param_hint="--map-error")
+    from sidewalk.compare.errors import CompareError
+    from sidewalk.compare.faults import parse_fault
+
+    try:
+        fault_specs = tuple(parse_fault(f) for f in fault or ())
+    except CompareError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--fault") from None
+    if max_speed is not None and not (math.isfinite(max_speed) and max_speed > 0):
+        raise typer.BadParameter(f"{max_speed!r} is not a speed > 0 (m/s)", param_hint="--max-speed")
     try:
         cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
                         perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
                         max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns, arch=arch,
                         record=not no_record, monitor_port=monitor_port if monitor else None,  # issue 11
-                        secure=secure, actors=actors, obstacles=obstacles, map_file=map_file)  # issue 12
+                        secure=secure, actors=actors, obstacles=obstacles, map_file=map_file,  # issue 12
+                        faults=fault_specs, max_speed=max_speed)  # issue 10
     except ValidationError as exc:
         e = exc.errors()[0]
         raise typer.BadParameter(f"{e['loc'][0]}: {e['msg']}") from None

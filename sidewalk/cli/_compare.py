@@ -1,0 +1,120 @@
+"""`sidewalk compare`: run the comparison grid and write compare.json, compare.md and plots."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import shlex
+import sys
+from pathlib import Path
+from typing import Annotated, Optional
+
+import typer
+
+__all__ = ["register", "compare"]
+
+
+def _list(text: str, flag: str) -> tuple[str, ...]:
+    items = tuple(t.strip() for t in text.split(",") if t.strip())
+    if not items:
+        raise typer.BadParameter(f"{text!r} names nothing (comma-separated list)", param_hint=flag)
+    return items
+
+
+def _speeds(text: str) -> tuple[float, ...]:
+    try:
+        v = tuple(float(t) for t in _list(text, "--speed-sweep"))
+    except ValueError:
+        raise typer.BadParameter(f"{text!r} is not a list of speeds [m/s], e.g. 1.0,2.0,3.0", param_hint="--speed-sweep") from None
+    if not all(math.isfinite(x) and x > 0 for x in v):
+        raise typer.BadParameter(f"{text!r}: speeds must be > 0 [m/s]", param_hint="--speed-sweep")
+    return v
+
+
+def compare(
+    missions: Annotated[str, typer.Option(help="Missions (comma-separated names or files)")] = "campus-tour,amv-delivery",
+    worlds: Annotated[Optional[str], typer.Option(help="Only missions on these worlds (comma-separated; default: each mission's own)")] = None,
+    seeds: Annotated[int, typer.Option(help="Seeds 0..N-1: each runs on every architecture")] = 3,
+    rtf: Annotated[float, typer.Option(help="Real-time factor of every run")] = 8.0,
+    arch: Annotated[str, typer.Option("--arch", help="Architectures to compare (those `sidewalk run` offers are run)")] = "codger,eddie",
+    faults: Annotated[Optional[str], typer.Option(help="Faults: kill-perception,position-jump,kill-central,wedge")] = None,
+    speed_sweep: Annotated[Optional[str], typer.Option("--speed-sweep", help="Speed caps (m/s) to sweep, e.g. 1.0,2.0,3.0")] = None,
+    out: Annotated[Path, typer.Option(help="Output directory (compare.json, compare.md, *.png, runs/)")] = Path("runs/compare"),
+    jobs: Annotated[int, typer.Option(help="Runs at a time (1 on a 2-core machine: runs measure time)")] = 1,
+    max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s)")] = 900.0,
+    resume: Annotated[bool, typer.Option("--resume", help="Reuse runs in --out whose report is of the same cell (architecture, mission, seed, fault, speed cap)")] = False,
+) -> None:
+    """Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables and plots."""
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from sidewalk.compare.comparison import CompareConfig, mission_world, run_comparison
+    from sidewalk.compare.errors import CompareError
+    from sidewalk.compare.faults import FAULTS
+    from sidewalk.compare.grid import ARCHITECTURES, available_architectures
+    from sidewalk.compare.plots import plot_comparison
+    from sidewalk.compare.tables import render_markdown
+
+    console = Console(stderr=True)
+    archs = _list(arch, "--arch")
+    for a in archs:
+        if a not in ARCHITECTURES:
+            raise typer.BadParameter(f"unknown architecture {a!r}; known: {', '.join(ARCHITECTURES)}", param_hint="--arch")
+    fault_list = _list(faults, "--faults") if faults else ()
+    for f in fault_list:
+        if f not in FAULTS:
+            raise typer.BadParameter(f"unknown fault {f!r}; known: {', '.join(FAULTS)}", param_hint="--faults")
+    if seeds < 1 or jobs < 1 or not (math.isfinite(rtf) and rtf > 0):
+        raise typer.BadParameter("--seeds and --jobs must be ≥ 1 and --rtf > 0")
+    mission_list = _list(missions, "--missions")
+    try:
+        if worlds:
+            keep = set(_list(worlds, "--worlds"))
+            mission_list = tuple(m for m in mission_list if mission_world(m) in keep or mission_world(m) is None)
+            if not mission_list:
+                raise CompareError(f"--worlds {worlds}: none of the missions runs on these worlds")
+        for m in mission_list:
+            mission_world(m)
+    except CompareError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from None
+    available, arch_flag = available_architectures()
+    cfg = CompareConfig(missions=mission_list, seeds=tuple(range(seeds)), rtf=rtf, architectures=archs, faults=fault_list,
+                        speeds=_speeds(speed_sweep) if speed_sweep else (), out=out, jobs=jobs, arch_flag=arch_flag,
+                        max_wall_time_s=max_wall_time, resume=resume)
+    skipped = [a for a in archs if a not in available]
+    if skipped:
+        console.print(f"[yellow]not available in `sidewalk run`: {', '.join(skipped)} — compared without it[/yellow]")
+    with Progress(TextColumn("[bold]compare"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.fields[now]}"),
+                  TimeElapsedColumn(), console=console) as bar:
+        task = bar.add_task("grid", total=1, now="")
+
+        def total(n: int) -> None:
+            bar.update(task, total=max(1, n))
+
+        def started(r) -> None:  # noqa: ANN001 - GridRun
+            bar.update(task, now=r.label)
+
+        def done(res) -> None:  # noqa: ANN001 - GridResult
+            mark = {0: "[green]✔[/green]", 1: "[red]✘[/red]"}.get(res.exit_code, f"[red]exit {res.exit_code}[/red]")
+            bar.console.print(f"{mark} {res.run.label}")
+            bar.advance(task)
+
+        try:
+            result = asyncio.run(run_comparison(cfg, available, total=total, on_start=started, on_done=done))
+        except KeyboardInterrupt:
+            console.print("[yellow]interrupted[/yellow]")
+            raise typer.Exit(130) from None
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "compare.json").write_text(json.dumps(result.model_dump(mode="json"), indent=1) + "\n")
+    command = "sidewalk " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    (out / "compare.md").write_text(render_markdown(result, command))
+    plots = plot_comparison(result, out)
+    console.print(f"wrote {out / 'compare.json'}, {out / 'compare.md'}, {', '.join(str(p) for p in plots)} "
+                  f"({result.wall_time_s:.0f} s)")
+
+
+def register(app: typer.Typer) -> None:
+    """Add `compare` to the top-level app."""
+    app.command("compare")(compare)

@@ -1,0 +1,226 @@
+"""A whole comparison: the baseline grid, the fault runs, the speed sweep, the glue count — one `compare.json`.
+
+Order: every mission × seed × architecture without a fault; then each fault once per mission ×
+architecture on the first seed, injected at `FAULT_AT` × that mission's median baseline mission
+time; then the speed sweep, speed by speed, each architecture until a speed where some seed fails.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Optional, Sequence
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from sidewalk.compare.errors import CompareError
+from sidewalk.compare.fault_outcome import FaultOutcome, judge_fault
+from sidewalk.compare.faults import FaultSpec
+from sidewalk.compare.glue import GlueCount, count_glue
+from sidewalk.compare.grid import GridResult, GridRun, run_grid
+from sidewalk.compare.measures import RunMeasures, measure_dir
+from sidewalk.compare.summary import ArchSummary, summarise
+from sidewalk.run_record import RunRecordError, load_record
+
+__all__ = ["CompareConfig", "RunEntry", "SweepPoint", "Comparison", "run_comparison", "FAULT_AT", "SOURCE_ROOT", "mission_world"]
+
+#: Where in the mission a fault is injected: this fraction of the baseline's median mission time.
+FAULT_AT = 0.4
+
+#: A fault or sweep run gives up after this many times the baseline's wall and sim time (+ 60 s).
+BUDGET = 2.5
+
+#: The architectures whose `sidewalk run --max-speed` reaches the modules that set the speed (the sweep runs only these).
+SPEED_CAPPED = ("codger",)
+
+#: The source tree whose glue is counted.
+SOURCE_ROOT = Path(__file__).resolve().parents[2]
+
+
+class CompareConfig(BaseModel):
+    """What `sidewalk compare` runs."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    missions: tuple[str, ...] = ("campus-tour", "amv-delivery")
+    seeds: tuple[int, ...] = (0, 1, 2)
+    rtf: float = Field(default=8.0, gt=0.0)
+    architectures: tuple[str, ...] = ("codger",)
+    faults: tuple[str, ...] = ()
+    speeds: tuple[float, ...] = ()
+    out: Path = Path("runs/compare")
+    jobs: int = Field(default=1, ge=1)
+    arch_flag: bool = False
+    max_wall_time_s: float = Field(default=900.0, gt=0.0)
+    resume: bool = False
+
+
+class RunEntry(BaseModel):
+    """One run of the comparison: what was asked, how it ended, its report and figures (None: no report)."""
+
+    model_config = ConfigDict(frozen=True)
+
+    architecture: str
+    mission: str
+    seed: int
+    fault: Optional[str] = None
+    max_speed: Optional[float] = None
+    out: str
+    exit_code: int
+    report: Optional[dict] = None
+    measures: Optional[RunMeasures] = None
+    error: str = ""
+
+
+class SweepPoint(BaseModel):
+    """The speed sweep at one speed cap [m/s] for one architecture: runs and successes by truth."""
+
+    model_config = ConfigDict(frozen=True)
+
+    architecture: str
+    max_speed: float
+    runs: int
+    successes: int
+    mean_speed_m_s: Optional[float] = None
+    mission_time_s: Optional[float] = None
+
+
+class Comparison(BaseModel):
+    """Everything `compare.json` holds."""
+
+    model_config = ConfigDict(frozen=True)
+
+    config: CompareConfig
+    available: list[str]
+    requested: list[str]
+    runs: list[RunEntry]
+    summary: dict[str, ArchSummary]
+    per_mission: list[ArchSummary]
+    faults: list[FaultOutcome] = []
+    speed_sweep: list[SweepPoint] = []
+    highest_speed: dict[str, Optional[float]] = {}
+    glue: list[GlueCount] = []
+    wall_time_s: float = 0.0
+
+
+def _entry(res: GridResult) -> RunEntry:
+    r = res.run
+    base = dict(architecture=r.architecture, mission=r.mission, seed=r.seed, fault=r.fault.name if r.fault else None,
+                max_speed=r.max_speed, out=str(r.out), exit_code=res.exit_code)
+    if not res.has_report:
+        log = r.out / "compare-run.log"
+        tail = log.read_text(errors="replace").strip().splitlines()[-1:] if log.exists() else []
+        return RunEntry(**base, error=f"no report (exit {res.exit_code}): {tail[0] if tail else ''}")
+    try:
+        report, m = measure_dir(r.out)
+    except CompareError as exc:
+        return RunEntry(**base, error=str(exc))
+    return RunEntry(**base, report=report.model_dump(mode="json"), measures=m)
+
+
+def mission_world(mission: str) -> Optional[str]:
+    """Return the world a mission names (None: any); raise CompareError for an unknown mission."""
+    from modules.captain.missionfile import MissionFileError, load_mission
+    from sidewalk.launcher import mission_path
+
+    try:
+        return load_mission(mission_path(mission)).world
+    except (FileNotFoundError, MissionFileError) as exc:
+        raise CompareError(f"--missions: {exc}") from None
+
+
+def _budgets(measured: Sequence[RunMeasures], arch: str, mission: str, cfg: CompareConfig) -> dict[str, float]:
+    """Return the wall and sim budgets [s] of a fault or sweep run: a multiple of the baseline's (a stuck run gives up)."""
+    mine = [m for m in measured if m.architecture == arch and m.mission == mission]
+    if not mine:
+        return {}
+    wall = float(np.median([m.wall_time_s for m in mine]))
+    sim = float(np.median([m.mission_time_s for m in mine]))
+    return {"max_wall_time_s": min(cfg.max_wall_time_s, BUDGET * wall + 60.0), "max_sim_time_s": BUDGET * sim + 60.0}
+
+
+def _cells(cfg: CompareConfig, archs: Sequence[str], seeds: Sequence[int], *, tag: str = "",
+           fault: FaultSpec | None = None, speed: float | None = None, mission: str | None = None,
+           measured: Sequence[RunMeasures] = ()) -> list[GridRun]:
+    out = []
+    for m in ([mission] if mission else cfg.missions):
+        for s in seeds:
+            for a in archs:
+                budget = {"max_wall_time_s": cfg.max_wall_time_s, **_budgets(measured, a, m, cfg)}
+                out.append(GridRun(architecture=a, mission=m, world=mission_world(m), seed=s, rtf=cfg.rtf, fault=fault,
+                                   max_speed=speed, out=cfg.out / "runs" / a / m / f"seed{s}{tag}", **budget))
+    return out
+
+
+async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Callable[[int], None] | None = None,
+                         on_start: Callable[[GridRun], None] | None = None,
+                         on_done: Callable[[GridResult], None] | None = None, python: str = sys.executable) -> Comparison:
+    """Run the comparison; `total(n)` announces more cells as the grid grows (faults and sweep come later)."""
+    t0 = time.monotonic()
+    archs = [a for a in cfg.architectures if a in available]
+    grid = _cells(cfg, archs, cfg.seeds)
+    n_fault = len(cfg.faults) * len(cfg.missions) * len(archs)
+    n_sweep = len(cfg.speeds) * len(cfg.missions) * len(cfg.seeds) * len([a for a in archs if a in SPEED_CAPPED])
+    if total:
+        total(len(grid) + n_fault + n_sweep)
+    kw = dict(jobs=cfg.jobs, arch_flag=cfg.arch_flag, python=python, on_start=on_start, on_done=on_done, resume=cfg.resume)
+    entries = [_entry(r) for r in await run_grid(grid, **kw)]
+    measured = [e.measures for e in entries if e.measures is not None]
+
+    fault_cells = []
+    for f in cfg.faults:
+        for m in cfg.missions:
+            for a in archs:
+                base = [x.mission_time_s for x in measured if x.architecture == a and x.mission == m]
+                at = round(FAULT_AT * float(np.median(base)), 1) if base else 30.0
+                fault_cells += _cells(cfg, [a], cfg.seeds[:1], tag=f"-{f}", fault=FaultSpec(name=f, at_s=at), mission=m,  # type: ignore[arg-type]
+                                      measured=measured)
+    fault_entries = [_entry(r) for r in await run_grid(fault_cells, **kw)]
+    outcomes = []
+    for e in fault_entries:
+        if e.report is None or e.measures is None:
+            outcomes.append(FaultOutcome(architecture=e.architecture, mission=e.mission, seed=e.seed, fault=e.fault or "?",
+                                         injected=False, verdict="failed", how=e.error))
+            continue
+        from sidewalk.report import RunReport
+
+        try:
+            rec = load_record(Path(e.out) / "run_record.json")
+        except RunRecordError as exc:
+            outcomes.append(FaultOutcome(architecture=e.architecture, mission=e.mission, seed=e.seed, fault=e.fault or "?",
+                                         injected=False, verdict="failed", how=str(exc)))
+            continue
+        baseline = [x for x in measured if x.architecture == e.architecture and x.mission == e.mission]
+        outcomes.append(judge_fault(RunReport.model_validate(e.report), rec, e.measures, baseline))
+
+    sweep: list[SweepPoint] = []
+    sweep_entries: list[RunEntry] = []
+    alive = [a for a in archs if a in SPEED_CAPPED]
+    highest: dict[str, Optional[float]] = {a: None for a in archs if a in SPEED_CAPPED} if cfg.speeds else {}
+    for v in sorted(cfg.speeds):
+        if not alive:
+            break
+        res = [_entry(r) for r in await run_grid(_cells(cfg, alive, cfg.seeds, tag=f"-v{v:g}", speed=v, measured=measured), **kw)]
+        sweep_entries += res
+        for a in list(alive):
+            mine = [e for e in res if e.architecture == a]
+            ok = [e for e in mine if e.measures is not None and e.measures.success == 1.0]
+            ms = [e.measures for e in mine if e.measures is not None]
+            sweep.append(SweepPoint(architecture=a, max_speed=v, runs=len(mine), successes=len(ok),
+                                    mean_speed_m_s=float(np.median([m.mean_speed_m_s for m in ms if m.mean_speed_m_s])) if ms else None,
+                                    mission_time_s=float(np.median([m.mission_time_s for m in ms])) if ms else None))
+            if len(ok) == len(mine):
+                highest[a] = v
+            else:
+                alive.remove(a)
+
+    return Comparison(
+        config=cfg, available=available, requested=list(cfg.architectures), runs=entries + fault_entries + sweep_entries,
+        summary={s.architecture: s for s in summarise(measured)},
+        per_mission=[s for m in cfg.missions for s in summarise(measured, mission=m)],
+        faults=outcomes, speed_sweep=sweep, highest_speed=highest,
+        glue=[count_glue(SOURCE_ROOT, a) for a in ("codger", "eddie")],
+        wall_time_s=round(time.monotonic() - t0, 1),
+    )

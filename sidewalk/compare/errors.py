@@ -1,0 +1,11 @@
+"""The comparison's root error."""
+
+from __future__ import annotations
+
+from sidewalk.errors import SidewalkError
+
+__all__ = ["CompareError"]
+
+
+class CompareError(SidewalkError, ValueError):
+    """A comparison that cannot be set up or read (bad flag, missing report); names what and where."""

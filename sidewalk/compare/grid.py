@@ -1,0 +1,126 @@
+"""The comparison grid: every mission × seed × architecture (and fault, and speed) as a `sidewalk run` subprocess.
+
+Each run is its own `python -m sidewalk run` with the same seed for every architecture, so the
+world, the map error, the pose error and the simulator's sensor and odometry noise are the same
+(the simulator and the PILOT take `--seed`; the map and pose errors are drawn from it). A run's
+output directory is `<out>/runs/<arch>/<mission>/seed<S>[-<fault>|-v<speed>]`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import subprocess
+import sys
+from pathlib import Path
+from typing import Callable, Optional, Sequence
+
+from pydantic import BaseModel, ConfigDict
+
+from sidewalk.compare.faults import FaultSpec
+
+__all__ = ["GridRun", "GridResult", "available_architectures", "run_grid", "ARCHITECTURES"]
+
+#: Every architecture the comparison knows, in table order.
+ARCHITECTURES = ("codger", "eddie")
+
+
+class GridRun(BaseModel):
+    """One cell of the grid: what `sidewalk run` is asked to do, and where it writes."""
+
+    model_config = ConfigDict(frozen=True)
+
+    architecture: str
+    mission: str
+    world: Optional[str] = None
+    seed: int
+    rtf: float
+    out: Path
+    fault: Optional[FaultSpec] = None
+    max_speed: Optional[float] = None
+    max_wall_time_s: float = 900.0
+    max_sim_time_s: Optional[float] = None
+
+    @property
+    def label(self) -> str:
+        """Return a short name for the progress bar."""
+        extra = f" {self.fault.name}" if self.fault else (f" v≤{self.max_speed:g}" if self.max_speed else "")
+        return f"{self.architecture} {self.mission} s{self.seed}{extra}"
+
+    def argv(self, *, arch_flag: bool) -> list[str]:
+        """Return the command line (after the interpreter); `arch_flag`: the run command takes --arch."""
+        args = ["-m", "sidewalk", "run", "--mission", self.mission, "--seed", str(self.seed), "--rtf", f"{self.rtf:g}",
+                "--out", str(self.out), "--max-wall-time", f"{self.max_wall_time_s:g}"]
+        if self.max_sim_time_s is not None:
+            args += ["--max-sim-time", f"{self.max_sim_time_s:g}"]
+        if self.world:
+            args += ["--world", self.world]
+        if arch_flag:
+            args += ["--arch", self.architecture]
+        if self.fault is not None:
+            args += ["--fault", self.fault.flag()]
+        if self.max_speed is not None:
+            args += ["--max-speed", f"{self.max_speed:g}"]
+        return args
+
+
+class GridResult(BaseModel):
+    """A finished run: its cell, the exit code (0 success, 1 mission failed, other: did not run) and whether it wrote a report."""
+
+    model_config = ConfigDict(frozen=True)
+
+    run: GridRun
+    exit_code: int
+    has_report: bool
+
+
+def available_architectures(python: str = sys.executable) -> tuple[list[str], bool]:
+    """Ask `sidewalk run --help` which architectures it runs; return them and whether it takes --arch."""
+    text = subprocess.run([python, "-m", "sidewalk", "run", "--help"], capture_output=True, text=True,
+                          env={"COLUMNS": "200", **__import__("os").environ}).stdout
+    if "--arch" not in text:
+        return ["codger"], False
+    return [a for a in ARCHITECTURES if a in text] or ["codger"], True
+
+
+def _finished(run: GridRun) -> Optional[int]:
+    """Return the exit code of a finished run of this very cell in its directory (None: there is none)."""
+    try:
+        rep = json.loads((run.out / "report.json").read_text())
+    except (OSError, ValueError):
+        return None
+    same = (rep.get("architecture") == run.architecture and rep.get("mission") == Path(run.mission).stem
+            and rep.get("seed") == run.seed and rep.get("max_speed") == run.max_speed
+            and [f.get("name") for f in rep.get("faults", [])] == ([run.fault.name] if run.fault else []))
+    return (0 if rep.get("success") else 1) if same else None
+
+
+async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool) -> GridResult:
+    run.out.mkdir(parents=True, exist_ok=True)
+    if resume and (code := _finished(run)) is not None:
+        return GridResult(run=run, exit_code=code, has_report=True)
+    (run.out / "report.json").unlink(missing_ok=True)  # a report left by an earlier comparison is not this run's
+    with open(run.out / "compare-run.log", "wb") as log:
+        proc = await asyncio.create_subprocess_exec(python, *run.argv(arch_flag=arch_flag), stdin=asyncio.subprocess.DEVNULL,
+                                                    stdout=log, stderr=log)
+        code = await proc.wait()
+    return GridResult(run=run, exit_code=code, has_report=(run.out / "report.json").exists())
+
+
+async def run_grid(runs: Sequence[GridRun], *, jobs: int = 1, arch_flag: bool = False, python: str = sys.executable,
+                   resume: bool = False,
+                   on_start: Callable[[GridRun], None] | None = None,
+                   on_done: Callable[[GridResult], None] | None = None) -> list[GridResult]:
+    """Run the cells, at most `jobs` at a time (`resume`: reuse a finished run of the same command); return their results in order."""
+    gate = asyncio.Semaphore(max(1, jobs))
+
+    async def guarded(r: GridRun) -> GridResult:
+        async with gate:
+            if on_start:
+                on_start(r)
+            res = await _one(r, python, arch_flag, resume)
+            if on_done:
+                on_done(res)
+            return res
+
+    return list(await asyncio.gather(*(guarded(r) for r in runs)))

@@ -1,0 +1,134 @@
+"""`compare.md`: the comparison as tables a person reads."""
+
+from __future__ import annotations
+
+from typing import Optional
+
+import numpy as np
+
+from sidewalk.compare.comparison import FAULT_AT, SPEED_CAPPED, Comparison
+from sidewalk.compare.fault_outcome import BEFORE_S, HELD_S, SLOWER, WORSE_M
+from sidewalk.compare.faults import JUMP_M, WEDGE_S
+from sidewalk.compare.glue import TRANSPORT
+from sidewalk.compare.measures import MEASURES, OBSERVERS
+from sidewalk.compare.summary import Spread
+
+__all__ = ["render_markdown", "fmt_spread"]
+
+
+def _num(v: Optional[float]) -> str:
+    if v is None:
+        return "–"
+    if abs(v) >= 1000:
+        return f"{v:,.0f}"
+    if abs(v) >= 100:
+        return f"{v:.0f}"
+    if abs(v) >= 10:
+        return f"{v:.1f}"
+    return f"{v:.2f}"
+
+
+def fmt_spread(s: Spread) -> str:
+    """Return 'median [min–max]' (just the value when all runs agree; '–' when none has it)."""
+    if s.median is None:
+        return "–"
+    if s.min == s.max:
+        return _num(s.median)
+    return f"{_num(s.median)} [{_num(s.min)}–{_num(s.max)}]"
+
+
+def _table(head: list[str], rows: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|", *("| " + " | ".join(r) + " |" for r in rows)]
+
+
+def render_markdown(c: Comparison, command: str = "") -> str:
+    """Return compare.md for a comparison."""
+    archs = list(c.summary)
+    cfg = c.config
+    out = ["# Sidewalk compare: CODGER and EDDIE on the same missions", ""]
+    if command:
+        out += [f"Command: `{command}` — {c.wall_time_s:.0f} s wall.", ""]
+    missing = [a for a in c.requested if a not in c.available]
+    out += [f"Missions: {', '.join(cfg.missions)}; seeds {', '.join(map(str, cfg.seeds))}; RTF {cfg.rtf:g}.",
+            f"Architectures run: **{', '.join(archs) or 'none'}** (available to `sidewalk run`: {', '.join(c.available)})."]
+    if missing:
+        out.append(f"Not run: {', '.join(missing)} — `sidewalk run --help` does not offer it on this build; no rows are shown for it.")
+    out += ["", "Every figure is `median [min–max]` over the runs (seeds × missions), the range being the spread; "
+            "a single figure means every run gave it. Latencies are by the recorder's **sim clock** (run.mcap log "
+            "times); the wall column divides by the run's achieved real-time factor.", ""]
+    for group in ("outcome", "accuracy", "reaction", "cost"):
+        out += [f"## {group.capitalize()}", ""]
+        rows = []
+        if group == "outcome":
+            rows.append(["runs", *(str(c.summary[a].runs) for a in archs)])
+            rows.append(["success rate (truth)", *(f"{c.summary[a].success_rate:.0%}" for a in archs)])
+        for key, (g, label) in MEASURES.items():
+            if g != group or key == "success":
+                continue
+            rows.append([label, *(fmt_spread(c.summary[a].measures[key]) for a in archs)])
+        out += _table(["measure", *archs], rows) + [""]
+        if group == "outcome" and c.per_mission:
+            pm = [[s.mission, s.architecture, str(s.runs), f"{s.success_rate:.0%}", fmt_spread(s.measures["mission_time_s"]),
+                   fmt_spread(s.measures["goal_error_m"]), fmt_spread(s.measures["position_error_rms_m"])] for s in c.per_mission]
+            out += ["Per mission:", ""] + _table(["mission", "arch", "runs", "success", "mission time [s]", "goal error [m]",
+                                                  "position error rms [m]"], pm) + [""]
+        if group == "reaction":
+            out += ["Position query latency is not measured inside a run (the PILOT's pose lookups on the blackboard and "
+                    "EDDIE's position requests carry no stamps to the recording); `sidewalk bench blackboard` (CODGER) and "
+                    "`sidewalk bench eddie` (EDDIE) measure it on the bench.", ""]
+        if group == "cost":
+            out += [f"Processes counted in `modules`: every process but {', '.join(OBSERVERS)}. Per process (median over baseline runs):", ""]
+            rows = []
+            for a in archs:
+                reports = [r.report for r in c.runs if r.architecture == a and r.report and r.fault is None and r.max_speed is None]
+                names = sorted({n for rep in reports for n in rep["modules"]})
+                for n in names:
+                    mods = [rep["modules"][n] for rep in reports if n in rep["modules"]]
+                    spans = [rep["sim_time_s"] for rep in reports if n in rep["modules"]]
+                    med = lambda k: float(np.median([m[k] for m in mods]))  # noqa: E731
+                    rate = float(np.median([m["msgs_out"] / s for m, s in zip(mods, spans) if s > 0])) if spans else 0.0
+                    brate = float(np.median([m["bytes_out"] / s for m, s in zip(mods, spans) if s > 0])) if spans else 0.0
+                    rows.append([a, n, _num(med("cpu_s")), _num(med("rss_mb")), _num(rate), _num(brate)])
+            out += _table(["arch", "process", "CPU [s]", "RSS [MB]", "msgs out / s sim", "bytes out / s sim"], rows) + [""]
+    out += ["## Runs", ""]
+    rows = []
+    for r in c.runs:
+        m = r.measures
+        what = r.fault or (f"v≤{r.max_speed:g}" if r.max_speed else "")
+        if m is None:
+            rows.append([r.architecture, r.mission, str(r.seed), what, "no report", "–", "–", "–", "–", "–", r.error[:80]])
+            continue
+        rows.append([r.architecture, r.mission, str(r.seed), what, "✔" if m.success else "✘", _num(m.mission_time_s),
+                     _num(m.goal_error_m), _num(m.position_error_rms_m), _num(m.sense_to_act_ms_p50), _num(m.cpu_s),
+                     (r.report or {}).get("reason", "")[:80]])
+    out += _table(["arch", "mission", "seed", "variant", "truth", "time [s]", "goal err [m]", "pos err rms [m]",
+                   "s→a p50 [ms sim]", "CPU [s]", "reason"], rows) + [""]
+    if cfg.faults:
+        out += ["## Faults", "",
+                f"Each fault once per mission and architecture (seed {cfg.seeds[0]}), at {FAULT_AT:.0%} of the mission's median "
+                f"baseline time. kill-perception / kill-central: SIGKILL, then started again; wedge: SIGSTOP for {WEDGE_S:g} s sim; "
+                f"position-jump: the estimate moved {JUMP_M:g} m. Degraded: succeeded, but slower than {SLOWER:g}× the baseline, "
+                f"a position error peak over {WORSE_M:g} m above it, longer off the path, or a collision. Recovery: from the "
+                f"injection until the vehicle drove at ≥ half its speed of the {BEFORE_S:g} s before for {HELD_S:g} s with its "
+                "position error under max(1 m, 2× the error at injection) [s sim].", ""]
+        rows = [[f.fault, f.architecture, f.mission, f"{f.at_s:.0f}" if f.at_s is not None else "–", f.verdict,
+                 _num(f.recovery_s) if f.recovery_s is not None else ("never" if f.injected else "–"), f.how[:120]] for f in c.faults]
+        out += _table(["fault", "arch", "mission", "at [s sim]", "verdict", "recovery [s sim]", "how / why"], rows) + [""]
+    if cfg.speeds:
+        out += ["## Speed sweep", "", "The PILOT's speed cap (`sidewalk run --max-speed`) raised step by step; an architecture "
+                "stops at the first cap where a seed fails. Swept: " + ", ".join(a for a in archs if a in SPEED_CAPPED)
+                + "; EDDIE's modules take no speed cap yet, so it is not swept.", ""]
+        rows = [[p.architecture, f"{p.max_speed:g}", f"{p.successes}/{p.runs}", _num(p.mean_speed_m_s), _num(p.mission_time_s)]
+                for p in c.speed_sweep]
+        out += _table(["arch", "cap [m/s]", "successes", "mean speed [m/s]", "mission time [s]"], rows) + [""]
+        out += ["Highest cap with success on every seed: " + ", ".join(
+            f"{a} {('%g m/s' % v) if v is not None else 'none'}" for a, v in c.highest_speed.items()), ""]
+    out += ["## Lines of glue", "",
+            "Counted by `sidewalk.compare.glue.count_glue` over the files each architecture's processes reach by static "
+            "imports from its entry points (`__main__.py` of `modules/` and `blackboard/` for CODGER, of `eddie/` for EDDIE; "
+            f"`wire/` excluded). *Substrate*: files importing the transport ({', '.join(TRANSPORT)}). *Glue*: substrate, or "
+            "files importing substrate. *Algorithm*: the rest. Lines are logical lines: no blanks, comments or docstrings.", ""]
+    rows = [[g.architecture, str(g.glue_lines) if g.present else "absent", str(g.glue_files), str(g.substrate_lines),
+             str(g.algorithm_lines), str(g.algorithm_files)] for g in c.glue]
+    out += _table(["arch", "glue lines", "glue files", "of which substrate", "algorithm lines", "algorithm files"], rows) + [""]
+    return "\n".join(out) + "\n"

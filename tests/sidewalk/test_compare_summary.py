@@ -1,0 +1,164 @@
+"""The comparison's statistics, measures, latencies, glue count and fault verdicts, on recorded data and real files."""
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sidewalk.compare import (
+    CompareError, count_glue, logical_lines, measure_run, parse_fault, sense_to_act_s, spread, summarise, unit_latency_s,
+    within_spread,
+)
+from sidewalk.compare.fault_outcome import judge_fault, recovery_s
+from sidewalk.compare.latency import Latencies, LatencySeries
+from sidewalk.compare.tables import fmt_spread
+from sidewalk.report import build_report
+from sidewalk.run_record import FaultEvent, load_record
+
+DATA = Path(__file__).parent / "data"
+
+
+@pytest.fixture(scope="module")
+def record():
+    return load_record(DATA / "two-hop.run_record.json.gz")
+
+
+def test_spread_is_median_and_range_and_skips_missing():
+    s = spread([3.0, None, 1.0, 10.0, float("nan")])
+    assert (s.median, s.min, s.max, s.n) == (3.0, 1.0, 10.0, 3)
+    assert spread([None]).median is None and spread([]).n == 0
+    assert fmt_spread(s) == "3.00 [1.00–10.0]"
+    assert fmt_spread(spread([2.0, 2.0])) == "2.00"
+
+
+def test_within_spread_needs_each_median_inside_the_other_range():
+    assert within_spread(spread([1, 2, 3]), spread([1.5, 2.5, 4]))
+    assert not within_spread(spread([1, 2, 3]), spread([5, 6, 7]))
+    assert not within_spread(spread([1, 2, 3]), spread([]))
+
+
+def test_measures_of_a_recorded_run_match_its_report(record):
+    rep = build_report(record)
+    lat = Latencies(sense_to_act=LatencySeries.of(np.array([0.5, 1.5])), driving_unit=LatencySeries())
+    m = measure_run(rep, lat)
+    assert m.success == float(rep.success) == 0.0
+    assert m.mission_time_s == rep.sim_time_s
+    assert m.cpu_s == pytest.approx(sum(c.cpu_s for c in rep.modules.values()), abs=1e-3)
+    assert m.cpu_s_modules < m.cpu_s  # the simulator and router are left out
+    assert m.messages_per_s == pytest.approx(sum(c.msgs_out for c in rep.modules.values()) / rep.sim_time_s, rel=1e-3)
+    assert m.sense_to_act_ms_p50 == 1000.0
+    assert m.sense_to_act_wall_ms_p50 == pytest.approx(1000.0 / rep.rtf_achieved, abs=0.1)
+    assert m.mean_speed_m_s == pytest.approx(rep.distance_m / rep.sim_time_s, abs=1e-3)
+
+
+def test_summary_per_architecture_keeps_each_apart(record):
+    rep = build_report(record)
+    a = measure_run(rep)
+    b = a.model_copy(update={"architecture": "eddie", "success": 1.0, "cpu_s": a.cpu_s * 2})
+    c = a.model_copy(update={"seed": 9, "cpu_s": a.cpu_s + 1})
+    out = {s.architecture: s for s in summarise([a, b, c])}
+    assert out["codger"].runs == 2 and out["codger"].success_rate == 0.0
+    assert out["eddie"].success_rate == 1.0
+    assert out["codger"].measures["cpu_s"].min == pytest.approx(a.cpu_s, abs=1e-3)
+    assert out["codger"].cpu_s == pytest.approx(a.cpu_s + 0.5, abs=1e-3)
+    assert summarise([a, b], mission="no-such-mission") == []
+
+
+def test_sense_to_act_takes_the_first_command_per_capture():
+    cmds = [(10.0, None), (10.1, 9.5), (10.2, 9.5), (11.0, 10.4), (11.1, 9.5), (11.2, None)]
+    assert np.allclose(sense_to_act_s(cmds), [0.6, 0.6])
+    assert unit_latency_s([("u0", 1.0), ("u1", 2.0), ("u0", 5.0)], [("u0", 1.75), ("u2", 3.0), ("u0", 9.0)]).tolist() == [0.75]
+
+
+def test_fault_flags_are_parsed_or_named():
+    f = parse_fault("wedge@42.5")
+    assert (f.name, f.at_s, f.flag()) == ("wedge", 42.5, "wedge@42.5")
+    for bad in ("wedge", "wedge@", "wedge@-1", "wedge@x", "nap@3", "wedge@inf"):
+        with pytest.raises(CompareError, match="--fault"):
+            parse_fault(bad)
+
+
+def test_recovery_follows_the_recorded_motion(record):
+    truth = np.asarray(record.truth)
+    moving = truth[np.r_[0.0, np.hypot(np.diff(truth[:, 1]), np.diff(truth[:, 2]))] > 1e-3]
+    at = float(moving[len(moving) // 3, 0])
+    r = recovery_s(record, at)
+    assert r is not None and 0.0 <= r < 30.0
+    assert recovery_s(record, float(truth[0, 0]) - 100.0) is None  # no motion before: nothing to recover to
+
+
+def test_a_fault_run_is_judged_against_its_baseline(record):
+    at = record.submitted_sim_s + 50.0
+    rec = record.model_copy(update={"faults": (FaultEvent(name="wedge", target="pilot", injected=True, at_sim_s=at),)})
+    rep = build_report(rec)
+    assert rep.faults[0].name == "wedge"
+    m = measure_run(rep)
+    out = judge_fault(rep, rec, m, [m])
+    assert out.verdict == "failed" and out.how == rep.reason and out.at_s == 50.0
+    assert rep.collisions > 0
+    crashed = judge_fault(rep.model_copy(update={"success": True}), rec, m, [m])
+    assert crashed.verdict == "degraded" and "collision" in crashed.how
+    ok = rep.model_copy(update={"success": True, "collisions": 0})
+    assert judge_fault(ok, rec, m, [m]).verdict == "completed"
+    slow = m.model_copy(update={"mission_time_s": rep.sim_time_s / 2})
+    judged = judge_fault(ok, rec, m, [slow])
+    assert judged.verdict == "degraded" and "without the fault" in judged.how
+    missing = rec.model_copy(update={"faults": (FaultEvent(name="position-jump", injected=False, at_sim_s=at, detail="no part"),)})
+    assert judge_fault(build_report(missing), missing, m, [m]).verdict == "not injected"
+
+
+def test_logical_lines_skip_blanks_comments_and_docstrings():
+    src = '"""Module doc\nover two lines."""\n\n# a comment\nx = (1,\n     2)  # trailing\n\n\ndef f():\n    """Doc."""\n    return x\n'
+    assert logical_lines(src) == 4
+
+
+def test_glue_is_what_touches_the_transport(tmp_path):
+    pkg = tmp_path / "arch"
+    (pkg / "algo").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "algo" / "__init__.py").write_text("")
+    (pkg / "algo" / "plan.py").write_text("def plan(x):\n    return x + 1\n")
+    (pkg / "link.py").write_text("from wire.session import open_session\n\nS = open_session\n")
+    (pkg / "__main__.py").write_text("from arch.link import S\nfrom .algo.plan import plan\n\nS(plan(1))\n")
+    (pkg / "unused.py").write_text("import wire.session\nY = 1\n")  # not reached from the entry point
+    g = count_glue(tmp_path, "test", ["arch"])
+    assert g.present
+    assert set(g.glue_by_file) == {"arch/link.py", "arch/__main__.py"}
+    assert (g.glue_lines, g.substrate_lines, g.algorithm_lines) == (5, 2, 2)
+    assert not count_glue(tmp_path, "none", ["nothing"]).present
+
+
+def test_the_codger_glue_count_covers_the_blackboard_and_module_mains():
+    root = Path(__file__).resolve().parents[2]
+    g = count_glue(root, "codger")
+    assert "blackboard/client.py" in g.glue_by_file and "modules/pilot/pilot.py" in g.glue_by_file
+    assert "modules/pilot/kalman.py" not in g.glue_by_file  # an algorithm
+    assert g.glue_lines > 0 and g.algorithm_lines > 0 and not math.isnan(g.glue_lines)
+
+
+def test_compare_md_holds_every_table_and_names_what_did_not_run(record, tmp_path):
+    from sidewalk.compare.comparison import SOURCE_ROOT, CompareConfig, Comparison, RunEntry
+    from sidewalk.compare.fault_outcome import FaultOutcome
+    from sidewalk.compare.plots import plot_comparison
+    from sidewalk.compare.tables import render_markdown
+
+    rep = build_report(record)
+    m = measure_run(rep)
+    runs = [RunEntry(architecture="codger", mission=rep.mission, seed=s, out=str(tmp_path), exit_code=1,
+                     report=rep.model_dump(mode="json"), measures=m.model_copy(update={"seed": s})) for s in (0, 1)]
+    runs.append(RunEntry(architecture="codger", mission=rep.mission, seed=2, out=str(tmp_path), exit_code=2, error="no report (exit 2)"))
+    c = Comparison(config=CompareConfig(missions=(rep.mission,), seeds=(0, 1, 2), faults=("wedge",)), available=["codger"],
+                   requested=["codger", "eddie"], runs=runs, summary={s.architecture: s for s in summarise([r.measures for r in runs[:2]])},
+                   per_mission=summarise([r.measures for r in runs[:2]], mission=rep.mission),
+                   faults=[FaultOutcome(architecture="codger", mission=rep.mission, seed=0, fault="wedge", injected=True,
+                                        verdict="degraded", how="slower", at_s=40.0, recovery_s=3.5)],
+                   glue=[count_glue(SOURCE_ROOT, "codger"), count_glue(SOURCE_ROOT, "eddie")])
+    md = render_markdown(c, "sidewalk compare --seeds 3")
+    for heading in ("## Outcome", "## Accuracy", "## Reaction", "## Cost", "## Runs", "## Faults", "## Lines of glue"):
+        assert heading in md
+    assert "Not run: eddie" in md and "no report" in md
+    assert "| wedge | codger |" in md and "degraded" in md
+    assert "| success rate (truth) | 0% |" in md
+    files = plot_comparison(c, tmp_path)
+    assert [f.name for f in files] == ["measures.png"] and files[0].stat().st_size > 10_000

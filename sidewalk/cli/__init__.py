@@ -27,6 +27,7 @@ _SUBAPPS = [
     ("sidewalk.cli._sim", "sim_app", "sim"),
     ("sidewalk.cli._bench", "bench_app", "bench"),
     ("sidewalk.cli._perception", "perception_app", "perception"),
+    ("sidewalk.cli._eddie", "eddie_app", "eddie"),
 ]
 _COMMANDS = [
     ("sidewalk.cli._run", "register"),

@@ -23,6 +23,7 @@ UP_TARGETS: dict[str, tuple[str, str]] = {
     "pilot": ("modules.pilot.__main__", "main"),
     "helm": ("modules.helm.__main__", "main"),
     "perception": ("modules.perception.__main__", "main"),
+    "map_manager": ("eddie.map_manager.__main__", "main"),
 }
 
 

@@ -12,6 +12,11 @@ the vehicle's turning radius). Out come, in `world` [m]:
 - `start_landmarks` at the start of each step listing the landmarks near its first straight;
 - a `stop_at_object` gate `STOP_LEAD_M` before each step's destination, naming the object there
   (for amv-delivery the mailbox) and the step's action (stop / wait / continue).
+
+The MAP NAVIGATOR's and CAPTAIN's libraries are imported when a mission is compiled, not when this
+file is: their packages' `__init__` also import their blackboard services, and importing `eddie`
+(the map manager process included) must load no blackboard code. Compiling is offline
+(`sidewalk eddie annotate`); only the annotated map file reaches the running EDDIE system.
 """
 
 from __future__ import annotations
@@ -20,20 +25,20 @@ import math
 from pathlib import Path
 
 import shapely
+from typing import TYPE_CHECKING, Any
+
 from pydantic import BaseModel, ConfigDict
 from wire.mapfile import WorldFileError
 
-from modules.captain.missionfile import MissionFileError, load_mission
-from modules.map_navigator.mapdata import MapData, load_map
-from modules.map_navigator.route import RouteError, RouteOptions, select_route
-from modules.map_navigator.segments import SegmentOptions, segment_route
-from modules.map_navigator.stepjob import vehicle_turn_radius
 from modules.vocabulary import Mission
 
 from eddie.annotated_map.annotation import Annotation, Location
 from eddie.messages.map_manager import LandmarkMatching, RouteSegment, SetSpeed, StopAtObject, encode_trigger_data
 from eddie.missions.errors import MissionCompileError
 from eddie.missions.macros import gate, trigger, turn_at_intersection
+
+if TYPE_CHECKING:
+    from modules.map_navigator.mapdata import MapData
 
 __all__ = ["CRUISE_SPEED_M_S", "INTERSECTION_SPEED_M_S", "STOP_LEAD_M", "LANDMARK_RADIUS_M", "CompiledMission",
            "compile_mission", "compile_mission_files"]
@@ -61,20 +66,24 @@ class CompiledMission(BaseModel):
     annotations: tuple[Annotation, ...]
 
 
-def _landmarks(m: MapData, coords) -> tuple[str, ...]:
+def _landmarks(m: "MapData", coords: Any) -> tuple[str, ...]:
     line = shapely.LineString(coords)
     return tuple(o.id for _d, o in m.objects_near(line, LANDMARK_RADIUS_M) if o.role == "landmark")
 
 
-def _stop_object(m: MapData, place: str | None, xy: tuple[float, float]) -> str:
+def _stop_object(m: "MapData", place: str | None, xy: tuple[float, float]) -> str:
     near = [(math.dist(xy, o.footprint.centroid.coords[0]), o.id) for o in m.world.objects
             if o.role == "landmark" and o.kind == (place or "")]
     near = [n for n in near if n[0] <= STOP_LEAD_M]
     return min(near)[1] if near else (place or f"({xy[0]:.1f}, {xy[1]:.1f})")
 
 
-def compile_mission(mission: Mission, m: MapData, *, vehicle: str | None = None) -> CompiledMission:
+def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = None) -> CompiledMission:
     """Return the annotations of `mission` over map `m`; raise MissionCompileError naming the step."""
+    from modules.map_navigator.route import RouteError, RouteOptions, select_route
+    from modules.map_navigator.segments import SegmentOptions, segment_route
+    from modules.map_navigator.stepjob import vehicle_turn_radius
+
     veh = vehicle or mission.vehicle or "terregator"
     if mission.start is not None:
         here = (mission.start.x, mission.start.y)
@@ -148,6 +157,9 @@ def compile_mission(mission: Mission, m: MapData, *, vehicle: str | None = None)
 
 def compile_mission_files(mission_path: str | Path, map_path: str | Path, *, vehicle: str | None = None) -> CompiledMission:
     """Load the mission YAML and the map file, compile; raise MissionCompileError naming the file."""
+    from modules.captain.missionfile import MissionFileError, load_mission
+    from modules.map_navigator.mapdata import load_map
+
     try:
         mission = load_mission(mission_path)
     except FileNotFoundError:

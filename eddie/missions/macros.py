@@ -15,7 +15,7 @@ import shapely
 
 from eddie.annotated_map.annotation import Annotation, Location
 from eddie.messages.map_manager import (DeadReckonThrough, LandmarkMatching, ObstacleDetection, ResumeVision, SetSpeed,
-                                        encode_trigger_data)
+                                        VisionThroughIntersection, encode_trigger_data)
 from eddie.toolkit.message import Message
 
 __all__ = ["gate", "trigger", "turn_at_intersection", "point_along", "BRAKE_DECEL_M_S2"]
@@ -59,8 +59,11 @@ def trigger(aid: str, type_: str, loc: Location, data: Message, text: str) -> An
 
 def turn_at_intersection(prefix: str, before: shapely.LineString, s_entry: float, seg_coords, node_id: str,
                          width: float, from_speed: float, cruise_speed: float, slow_speed: float,
-                         landmarks: tuple[str, ...], segment_index: int) -> list[Annotation]:
+                         landmarks: tuple[str, ...], segment_index: int, *, vision: bool = False) -> list[Annotation]:
     """Expand the "turn at intersection" macro for the intersection segment `seg_coords` [m `world`].
+
+    With `vision` the road follower keeps vision on through it (`vision_through_intersection`)
+    instead of the controller dead-reckoning and vision resuming after it.
 
     `before` is the whole route line, `s_entry` [m] the arc length where the intersection segment begins;
     the slow-down gate sits the braking distance from `from_speed` [m/s] before it.
@@ -76,12 +79,14 @@ def turn_at_intersection(prefix: str, before: shapely.LineString, s_entry: float
                 f"stop landmark matching in intersection {node_id}"),
         trigger(f"{prefix}.stop_obstacles", "stop_obstacles", gate(before, s_entry, width), ObstacleDetection(on=False),
                 f"stop fast obstacle detection in intersection {node_id}"),
-        trigger(f"{prefix}.dead_reckon", "dead_reckon_intersection", gate(before, s_entry, width),
-                DeadReckonThrough(node_id=node_id, points=tuple(seg_coords), speed=slow_speed),
-                f"dead-reckon through intersection {node_id}"),
-        trigger(f"{prefix}.resume_vision", "resume_vision", gate(before, s_exit, width),
-                ResumeVision(node_id=node_id, segment_index=segment_index + 1),
-                f"resume vision after intersection {node_id}"),
+        *([trigger(f"{prefix}.vision_through", "vision_through_intersection", gate(before, s_entry, width),
+                   VisionThroughIntersection(node_id=node_id), f"vision through intersection {node_id}")] if vision else [
+            trigger(f"{prefix}.dead_reckon", "dead_reckon_intersection", gate(before, s_entry, width),
+                    DeadReckonThrough(node_id=node_id, points=tuple(seg_coords), speed=slow_speed),
+                    f"dead-reckon through intersection {node_id}"),
+            trigger(f"{prefix}.resume_vision", "resume_vision", gate(before, s_exit, width),
+                    ResumeVision(node_id=node_id, segment_index=segment_index + 1),
+                    f"resume vision after intersection {node_id}")]),
         trigger(f"{prefix}.start_obstacles", "start_obstacles", gate(before, s_exit, width), ObstacleDetection(on=True),
                 f"restart fast obstacle detection after intersection {node_id}"),
         trigger(f"{prefix}.cruise", "set_speed", gate(before, s_exit, width), SetSpeed(speed=cruise_speed),

@@ -8,7 +8,8 @@ the vehicle's turning radius). Out come, in `world` [m]:
   min(3.0 m/s, the step's limit) on straights, 0.5 m/s in intersections; chained by next / previous id;
 - a `set_speed` gate where the speed changes (the step's first straight, and around intersections);
 - per intersection the "turn at intersection" macro (`macros`): slow down, stop landmarks and
-  obstacle detection, dead-reckon through, then resume vision, restart both and cruise again;
+  obstacle detection, dead-reckon through (or, if asked, vision through), then resume vision,
+  restart both and cruise again;
 - `start_landmarks` at the start of each step listing the landmarks near its first straight;
 - a `stop_at_object` gate `STOP_LEAD_M` before each step's destination, naming the object there
   (for amv-delivery the mailbox) and the step's action (stop / wait / continue).
@@ -78,8 +79,15 @@ def _stop_object(m: "MapData", place: str | None, xy: tuple[float, float]) -> st
     return min(near)[1] if near else (place or f"({xy[0]:.1f}, {xy[1]:.1f})")
 
 
-def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = None) -> CompiledMission:
-    """Return the annotations of `mission` over map `m`; raise MissionCompileError naming the step."""
+def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = None,
+                    intersections: str = "dead_reckon") -> CompiledMission:
+    """Return the annotations of `mission` over map `m`; raise MissionCompileError naming the step.
+
+    `intersections`: `dead_reckon` (the seed's AMV: dead-reckon through, resume vision after) or `vision`
+    (vision through intersections).
+    """
+    if intersections not in ("dead_reckon", "vision"):
+        raise MissionCompileError(f"intersections: {intersections!r}: expected dead_reckon or vision")
     from modules.map_navigator.route import RouteError, RouteOptions, select_route
     from modules.map_navigator.segments import SegmentOptions, segment_route
     from modules.map_navigator.stepjob import vehicle_turn_radius
@@ -139,7 +147,8 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
                 nxt = next((q for q in plans[i + 1:] if q.mode not in _INTERSECTIONS), None)
                 out.extend(turn_at_intersection(f"{sp}.x{i + 1}.{p.node_id}", line, starts[i], p.coords, p.node_id or "",
                                                 p.width, speed_now, cruise, slow,
-                                                _landmarks(m, nxt.coords) if nxt is not None else (), seg_index))
+                                                _landmarks(m, nxt.coords) if nxt is not None else (), seg_index,
+                                                vision=intersections == "vision"))
                 speed_now = cruise
             seg_index += 1
         goal = route.goal_xy
@@ -155,7 +164,8 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
     return CompiledMission(mission=mission.name, map_name=m.name, vehicle=veh, annotations=tuple(chained + out))
 
 
-def compile_mission_files(mission_path: str | Path, map_path: str | Path, *, vehicle: str | None = None) -> CompiledMission:
+def compile_mission_files(mission_path: str | Path, map_path: str | Path, *, vehicle: str | None = None,
+                          intersections: str = "dead_reckon") -> CompiledMission:
     """Load the mission YAML and the map file, compile; raise MissionCompileError naming the file."""
     from modules.captain.missionfile import MissionFileError, load_mission
     from modules.map_navigator.mapdata import load_map
@@ -172,4 +182,4 @@ def compile_mission_files(mission_path: str | Path, map_path: str | Path, *, veh
         raise MissionCompileError(f"{map_path}: no such map file") from None
     except WorldFileError as exc:
         raise MissionCompileError(str(exc)) from None
-    return compile_mission(mission, m, vehicle=vehicle)
+    return compile_mission(mission, m, vehicle=vehicle, intersections=intersections)

@@ -40,6 +40,7 @@ def annotate(
     out: Annotated[Path, typer.Option(help="Annotated map file to write (GeoJSON)")],
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file to route on (default: the world's)")] = None,
     vehicle: Annotated[Optional[str], typer.Option(help="terregator or navlab (default: the mission's)")] = None,
+    intersections: Annotated[str, typer.Option(help="dead-reckon (then resume vision) or vision through intersections")] = "dead-reckon",
 ) -> None:
     """Compile a mission into trigger annotations along its route and write them as GeoJSON."""
     from wire.mapfile import world_path
@@ -51,6 +52,8 @@ def annotate(
 
     if vehicle is not None and vehicle not in ("terregator", "navlab"):
         raise _fail(f"--vehicle: {vehicle!r}: expected terregator or navlab")
+    if intersections not in ("dead-reckon", "vision"):
+        raise _fail(f"--intersections: {intersections!r}: expected dead-reckon or vision")
     try:
         mpath = mission_path(mission)
         mfile = map_file if map_file is not None else world_path(world, kind="map")
@@ -59,7 +62,7 @@ def annotate(
     except FileNotFoundError as exc:
         raise _fail(str(exc)) from None
     try:
-        compiled = compile_mission_files(mpath, mfile, vehicle=vehicle)
+        compiled = compile_mission_files(mpath, mfile, vehicle=vehicle, intersections=intersections.replace("-", "_"))
     except MissionCompileError as exc:
         raise _fail(str(exc)) from None
     try:

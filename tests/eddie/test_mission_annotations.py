@@ -64,3 +64,10 @@ def test_bad_inputs_name_the_file(tmp_path) -> None:
     bad.write_text("mission: x\nsteps:\n  - destination: nowhere_at_all\n")
     with pytest.raises(MissionCompileError, match="nowhere_at_all"):
         compile_mission_files(bad, "worlds/north_hills.map.geojson")
+
+
+def test_vision_through_intersections_replaces_dead_reckoning() -> None:
+    c = compile_mission_files("worlds/amv-delivery.yaml", "worlds/north_hills.map.geojson", intersections="vision")
+    types = [a.type for a in c.annotations]
+    assert types.count("vision_through_intersection") == 4
+    assert "dead_reckon_intersection" not in types and "resume_vision" not in types

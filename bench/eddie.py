@@ -6,8 +6,8 @@ Zenoh thread, with as many bytes as a position reply. This process asks both thr
 session and asyncio harness (`wire.aio.Link.get` under `eddie.toolkit.Module.request`), interleaved.
 
 Keys: position_query_p50_us/p99 vs zenoh_get_p50_us/p99, their ratio position_query_vs_zenoh_get,
-and trigger_latency_p50_ms (the annotated map manager's trigger: the crossing in sim to the
-message's arrival at its destination, wall time) — null until `measure_trigger_latency` is filled.
+and trigger_latency_p50_ms (the annotated map manager's trigger: the crossing cycle to the
+message's arrival at its destination, wall time; `measure_trigger_latency`).
 """
 
 from __future__ import annotations
@@ -101,12 +101,80 @@ def _stop(p: subprocess.Popen) -> None:
         p.stdout.close()
 
 
-def measure_trigger_latency(net: NetworkConfig, samples: int) -> float | None:
-    """Return the trigger latency p50 [ms] (crossing in sim → arrival at the destination, wall), or None.
+#: Gates the trigger benchmark crosses (one trigger message each).
+TRIGGER_SAMPLES_MAX = 300
 
-    Hook for the annotated map manager's benchmark (helper eddie-maps): None until it is filled.
+
+async def _trigger_bench(net: NetworkConfig, path: Path, n: int) -> dict:
+    """Cross `n` gates one by one as fake controller `benchctl` / navigator `benchnav`; time each trigger's arrival."""
+    from eddie.messages.controller import ControllerState
+    from eddie.messages.map_manager import AnnotationList, AnnotationQuery, TriggerMessage
+    from eddie.messages.navigator import WorldFromLocal
+    from eddie.toolkit.message import encode_body
+
+    async with Module("bench_dest", net) as me:
+        await me.wait_connected(10.0)
+        deadline = time.monotonic() + 30.0
+        while True:  # the answer means the manager's subscriptions are declared (it declares them first)
+            try:
+                await me.request("map_manager", "query", AnnotationQuery(type="bench"), timeout=2.0, reply_type=AnnotationList)
+                break
+            except Exception:  # noqa: BLE001 - not up yet
+                if time.monotonic() > deadline:
+                    raise
+                await asyncio.sleep(0.1)
+        me.link.put(me.keys.topic("benchnav", "world_from_local"), encode_body(WorldFromLocal(stamp=0.0, x=0.0, y=0.0, yaw=0.0)))
+
+        def state(k: int) -> None:
+            me.link.put(me.keys.topic("benchctl", "state"),
+                        encode_body(ControllerState(stamp=0.1 * k, x=float(k), y=0.0, yaw=0.0, v=10.0, curvature=0.0)))
+
+        state(0)
+        from_manager: list[float] = []
+        from_state: list[float] = []
+        for k in range(1, n + 1):
+            t_pub = time.time()
+            state(k)
+            inc = await me.receive(timeout=5.0)
+            t_arr = time.time()
+            msg = inc.message
+            if not isinstance(msg, TriggerMessage) or msg.annotation_id != f"g{k - 1:04d}":
+                raise RuntimeError(f"expected the trigger of gate {k - 1}, got {msg!r}")
+            from_manager.append((t_arr - msg.crossed_wall) * 1e3)
+            from_state.append((t_arr - t_pub) * 1e3)
+    m50, m99 = _pct(from_manager)
+    s50, _ = _pct(from_state)
+    return {"trigger_latency_p50_ms": m50, "trigger_latency_p99_ms": m99, "trigger_latency_from_state_p50_ms": s50,
+            "trigger_samples": n}
+
+
+def measure_trigger_latency(net: NetworkConfig, samples: int) -> dict:
+    """Return the map manager's trigger latency figures [ms] (the crossing cycle → arrival at the destination, wall).
+
+    A map manager process (`python -m eddie.map_manager`, following fake `benchctl` / `benchnav`)
+    loads a row of gates 1 m apart; this process publishes controller states 1 m apart, each crossing
+    one gate, and waits for that gate's `TriggerMessage` in its inbox before the next. `trigger_latency_p50_ms`
+    runs from `crossed_wall` (the crossing state's arrival at the manager) to the arrival at the
+    destination; `trigger_latency_from_state_p50_ms` from the state's publication (the hop to the manager included).
     """
-    return None
+    import tempfile
+
+    from eddie.annotated_map import Annotation, Location, save_annotations
+    from eddie.messages.map_manager import SetSpeed, encode_trigger_data
+
+    n = max(1, min(samples, TRIGGER_SAMPLES_MAX))
+    gates = [Annotation(id=f"g{k:04d}", type="set_speed", destination="bench_dest", trigger="cross",
+                        location=Location.line([(k + 0.5, -2.0), (k + 0.5, 2.0)]), data=encode_trigger_data(SetSpeed(speed=1.0)))
+             for k in range(n)]
+    with tempfile.TemporaryDirectory(prefix="bench-eddie-") as tmp:
+        path = Path(tmp) / "gates.geojson"
+        save_annotations(path, gates)
+        mm = _spawn(["-m", "eddie.map_manager", "--annotated-map", str(path), "--controller", "benchctl",
+                     "--navigator", "benchnav", "--ns", net.namespace, "--connect", net.connect[0]], "SIDEWALK-READY map_manager")
+        try:
+            return asyncio.run(_trigger_bench(net, path, n))
+        finally:
+            _stop(mm)
 
 
 async def _bench(ns: str, ep: str, samples: int) -> dict:
@@ -163,7 +231,7 @@ def run(samples: int = 2000) -> dict:
         size = len(encode_envelope("controller", Position(stamp=1.0, x=1.0, y=1.0, yaw=1.0, v=1.0), 1.0))
         procs.append(_spawn(["-m", "bench.eddie", "floor", "--endpoint", ep, "--ns", ns, "--size", str(size)], FLOOR_READY))
         out = asyncio.run(_bench(ns, ep, samples))
-        out["trigger_latency_p50_ms"] = measure_trigger_latency(NetworkConfig(namespace=ns, connect=(ep,)), samples)
+        out.update(measure_trigger_latency(NetworkConfig(namespace=ns, connect=(ep,)), samples))
         return out
     finally:
         for p in reversed(procs):

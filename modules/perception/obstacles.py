@@ -20,7 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from scipy.ndimage import label as cc_label
 from scipy.ndimage import maximum_filter, minimum_filter
 
-from modules.perception.range_seg import jump_edges, unwrap_range
+from modules.perception.patch_maker.range_seg import jump_edges, unwrap_range
 
 __all__ = [
     "ObstacleConfig",

@@ -28,6 +28,7 @@ _SUBAPPS = [
     ("sidewalk.cli._bench", "bench_app", "bench"),
     ("sidewalk.cli._perception", "perception_app", "perception"),
     ("sidewalk.cli._security", "security_app", "security"),
+    ("sidewalk.cli._eddie", "eddie_app", "eddie"),
 ]
 _COMMANDS = [
     ("sidewalk.cli._run", "register"),

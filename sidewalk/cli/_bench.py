@@ -77,7 +77,7 @@ def bench_eddie(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
     samples: Annotated[int, typer.Option(help="Position queries (and floor gets) measured")] = 2000,
 ) -> None:
-    """EDDIE's controller position queries beside the raw-Zenoh get floor (and the trigger latency hook)."""
+    """EDDIE's controller position queries beside the raw-Zenoh get floor and the map manager's trigger latency."""
     if samples < 10:
         raise typer.BadParameter(f"--samples must be ≥ 10, got {samples}")
     mod = importlib.import_module("bench.eddie")

@@ -1,0 +1,50 @@
+"""Run the map manager: `python -m eddie.map_manager --annotated-map FILE [--controller N] [--navigator N] [Zenoh flags]`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from modules.runtime.args import setup_logging
+from wire.flags import add_network_args, network_from_args
+
+from eddie.annotated_map import AnnotatedMapError, AnnotationDatabase, load_annotations
+from eddie.map_manager.map_manager import MapManager
+from eddie.map_manager.map_manager_module import MapManagerModule
+from eddie.toolkit.module import Module
+from eddie.toolkit.process import run_module
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the map manager's argument parser (network flags included)."""
+    p = argparse.ArgumentParser(prog="python -m eddie.map_manager", description=__doc__)
+    p.add_argument("--annotated-map", required=True, help="annotated map file (GeoJSON, `sidewalk eddie annotate`)")
+    p.add_argument("--controller", default="controller", help="the controller module's name (its state stream)")
+    p.add_argument("--navigator", default="navigator", help="the navigator module's name (its world_from_local stream)")
+    p.add_argument("--name", default="map_manager", help="module name")
+    add_network_args(p)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse flags, load the annotated map and run the manager until SIGINT/SIGTERM; return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    setup_logging()
+    net = network_from_args(parser, args)
+    try:
+        db = AnnotationDatabase(load_annotations(args.annotated_map))
+    except AnnotatedMapError as exc:
+        parser.error(f"--annotated-map: {exc}")
+    mgr = MapManager(db)
+
+    async def body(m: Module) -> None:
+        await MapManagerModule(m, mgr, controller=args.controller, navigator=args.navigator).run()
+
+    return run_module(args.name, body, net)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

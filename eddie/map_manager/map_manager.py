@@ -1,0 +1,71 @@
+"""The map manager's cycle, pure: the travelled line = controller pose (`local`) through world←local, over the trigger walker.
+
+A cycle takes the controller's pose in `local` and the navigator's world←local. When world←local is
+unchanged the vehicle travelled from the last world position to the new one (`advance`). When the
+navigator moved world←local since the last cycle (a fix), the vehicle first travelled under the old
+transform, then its world position jumped from there to the new one (seed Figure 3.3): that jump
+goes through the walker's position-jump policy (`TriggerWalker.jump`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from eddie.annotated_map.database import AnnotationDatabase
+from eddie.annotated_map.triggers import TriggerEvent, TriggerWalker
+from eddie.messages.map_manager import AnnotationList, AnnotationQuery, AnnotationRecord
+from eddie.messages.navigator import WorldFromLocal
+
+__all__ = ["MapManager", "TravelledCycle", "world_of", "record_of"]
+
+
+def world_of(w: WorldFromLocal, x: float, y: float) -> tuple[float, float]:
+    """Return the `world` point [m] of `local` point (x, y) [m] through world←local `w`."""
+    c, s = math.cos(w.yaw), math.sin(w.yaw)
+    return w.x + c * x - s * y, w.y + s * x + c * y
+
+
+@dataclass(frozen=True)
+class TravelledCycle:
+    """One cycle's outcome: the world position [m] reached and the trigger events in travel order."""
+
+    x: float
+    y: float
+    events: tuple[TriggerEvent, ...]
+
+
+def record_of(a) -> AnnotationRecord:
+    """Return annotation `a` as the query's answer record (header, `world` location, data base64)."""
+    import base64
+
+    return AnnotationRecord(id=a.id, type=a.type, destination=a.destination, used=a.used, text=a.text,
+                            kind=a.location.kind, points=a.location.points, next_id=a.next_id, previous_id=a.previous_id,
+                            trigger=a.trigger, data_size=a.data_size, data_base64=base64.b64encode(a.data).decode("ascii"))
+
+
+class MapManager:
+    """The annotation database, its trigger walker and the last world←local used."""
+
+    def __init__(self, db: AnnotationDatabase) -> None:
+        self.db = db
+        self.walker = TriggerWalker(db)
+        self._w: WorldFromLocal | None = None
+
+    def query(self, q: AnnotationQuery) -> AnnotationList:
+        """Answer `q`: every annotation of its type within its polygon [m `world`]."""
+        return AnnotationList(annotations=tuple(record_of(a) for a in self.db.query(q.type, q.polygon)))
+
+    def cycle(self, local_x: float, local_y: float, w: WorldFromLocal) -> TravelledCycle:
+        """Travel to controller position (local_x, local_y) [m `local`] under world←local `w`; return the events."""
+        prev = self._w
+        self._w = w
+        events: list[TriggerEvent] = []
+        if prev is not None and (prev.x, prev.y, prev.yaw) != (w.x, w.y, w.yaw):
+            events += self.walker.advance(*world_of(prev, local_x, local_y))
+            x, y = world_of(w, local_x, local_y)
+            events += self.walker.jump(x, y)
+        else:
+            x, y = world_of(w, local_x, local_y)
+            events += self.walker.advance(x, y)
+        return TravelledCycle(x=x, y=y, events=tuple(events))

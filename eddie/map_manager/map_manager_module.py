@@ -1,0 +1,109 @@
+"""The map manager as an EDDIE module: the `query` service, and triggers sent once to their destinations.
+
+Service `query` answers an `AnnotationQuery` envelope with an `AnnotationList`, and the monitor's and
+recorder's plain JSON `{"type": …, "polygon": …}` with JSON `{"annotations": [...]}` (same records).
+A cycle runs on each controller `state` sample (the controller's rate, ≥ 10 Hz sim) once the
+navigator's `world_from_local` (pushed stream) is known; a fired trigger's `TriggerMessage` goes to
+its destination's inbox, and every outcome (fired, skipped, rearmed) is published on stream
+`triggers` as a `TriggerFired`. `crossed_wall` is the wall time the crossing state reached the manager.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import json
+import logging
+import time
+
+from pydantic import ValidationError
+from wire.aio import QueryAnswer, QueryRequest
+
+from eddie.errors import BadMessage
+from eddie.map_manager.map_manager import MapManager
+from eddie.messages.controller import ControllerState
+from eddie.messages.map_manager import AnnotationQuery, TriggerFired, TriggerMessage
+from eddie.messages.navigator import WorldFromLocal
+from eddie.toolkit.message import decode_envelope, encode_envelope
+from eddie.toolkit.module import Module
+
+__all__ = ["MapManagerModule"]
+
+log = logging.getLogger(__name__)
+
+
+class MapManagerModule:
+    """Run a `MapManager` on endpoint `m`, following modules `controller` and `navigator`."""
+
+    def __init__(self, m: Module, mgr: MapManager, *, controller: str = "controller", navigator: str = "navigator") -> None:
+        self.m = m
+        self.mgr = mgr
+        self.controller = controller
+        self.navigator = navigator
+        self._state: tuple[ControllerState, float] | None = None
+        self._w: WorldFromLocal | None = None
+        self._wake = asyncio.Event()
+        #: triggers sent to their destinations
+        self.sent = 0
+
+    def _on_state(self, st: ControllerState) -> None:
+        self._state = (st, time.time())
+        self._wake.set()
+
+    def _on_w(self, w: WorldFromLocal) -> None:
+        self._w = w
+        self._wake.set()
+
+    async def _answer(self, req: QueryRequest) -> QueryAnswer:
+        where = f"{self.m.name}/query"
+        if req.is_json:
+            try:
+                body = json.loads(req.payload or b"{}")
+                q = AnnotationQuery.model_validate(body if isinstance(body, dict) else {})
+            except (ValueError, ValidationError) as exc:
+                first = str(exc).splitlines()[0]
+                return QueryAnswer(ok=False, payload=f"{where}: bad JSON query: {first}".encode(), as_json=False)
+            ans = self.mgr.query(q)
+            payload = {"annotations": [r.model_dump(mode="json") for r in ans.annotations]}
+            return QueryAnswer(ok=True, payload=json.dumps(payload).encode(), as_json=True)
+        try:
+            env, msg = decode_envelope(req.payload, where=where)
+            if not isinstance(msg, AnnotationQuery):
+                raise BadMessage(f"{where}: expected an AnnotationQuery, got {type(msg).__name__}", sender=env.sender,
+                                 field="type")
+        except BadMessage as exc:
+            log.warning("%s", exc)
+            return QueryAnswer(ok=False, payload=str(exc).encode())
+        return QueryAnswer(ok=True, payload=encode_envelope(self.m.name, self.mgr.query(msg), self.m.now()))
+
+    async def _cycle(self) -> None:
+        if self._state is None or self._w is None:
+            return
+        st, wall = self._state
+        out = self.mgr.cycle(st.x, st.y, self._w)
+        for ev in out.events:
+            a = ev.annotation
+            if ev.kind == "fired":
+                await self.m.send(a.destination, TriggerMessage(
+                    annotation_id=a.id, trigger_type=a.type, text=a.text, x=ev.x, y=ev.y, stamp=st.stamp,
+                    crossed_wall=wall, data_base64=base64.b64encode(a.data).decode("ascii")))
+                self.sent += 1
+                log.info("map_manager: t=%.2f %s → %s at (%.1f, %.1f): %s", st.stamp, a.id, a.destination, ev.x, ev.y, a.text)
+            else:
+                log.warning("map_manager: t=%.2f %s %s (%s) at (%.1f, %.1f)", st.stamp, a.id, ev.kind, ev.via, ev.x, ev.y)
+            self.m.publish("triggers", TriggerFired(stamp=st.stamp, annotation_id=a.id, trigger_type=a.type,
+                                                    destination=a.destination, x=ev.x, y=ev.y, text=a.text,
+                                                    event=ev.kind, via=ev.via))
+
+    async def run(self) -> None:
+        """Serve queries and fire triggers until cancelled."""
+        m = self.m
+        m.subscribe(self.controller, "state", ControllerState, self._on_state)
+        m.subscribe(self.navigator, "world_from_local", WorldFromLocal, self._on_w)
+        # declared after the subscriptions: a client that gets an answer knows they are declared too
+        m.link.queryable(m.keys.service(m.name, "query"), self._answer)
+        m.ready()
+        while True:
+            await self._wake.wait()
+            self._wake.clear()
+            await self._cycle()

@@ -1,0 +1,185 @@
+"""Compile a mission into trigger annotations along the route the MAP NAVIGATOR picks (seed §3.3).
+
+For each step, from the previous step's goal (the first from the mission's or the map's start pose),
+the route is the MAP NAVIGATOR's `select_route` cut by its `segment_route` (both as libraries, with
+the vehicle's turning radius). Out come, in `world` [m]:
+
+- a `route` annotation (no trigger) per route segment, its `RouteSegment` data carrying the speed:
+  min(3.0 m/s, the step's limit) on straights, 0.5 m/s in intersections; chained by next / previous id;
+- a `set_speed` gate where the speed changes (the step's first straight, and around intersections);
+- per intersection the "turn at intersection" macro (`macros`): slow down, stop landmarks and
+  obstacle detection, dead-reckon through (or, if asked, vision through), then resume vision,
+  restart both and cruise again;
+- `start_landmarks` at the start of each step listing the landmarks near its first straight;
+- a `stop_at_object` gate `STOP_LEAD_M` before each step's destination, naming the object there
+  (for amv-delivery the mailbox) and the step's action (stop / wait / continue).
+
+The MAP NAVIGATOR's and CAPTAIN's libraries are imported when a mission is compiled, not when this
+file is: their packages' `__init__` also import their blackboard services, and importing `eddie`
+(the map manager process included) must load no blackboard code. Compiling is offline
+(`sidewalk eddie annotate`); only the annotated map file reaches the running EDDIE system.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import shapely
+from typing import TYPE_CHECKING, Any
+
+from pydantic import BaseModel, ConfigDict
+from wire.mapfile import WorldFileError
+
+from modules.vocabulary import Mission
+
+from eddie.annotated_map.annotation import Annotation, Location
+from eddie.messages.map_manager import LandmarkMatching, RouteSegment, SetSpeed, StopAtObject, encode_trigger_data
+from eddie.missions.errors import MissionCompileError
+from eddie.missions.macros import gate, trigger, turn_at_intersection
+
+if TYPE_CHECKING:
+    from modules.map_navigator.mapdata import MapData
+
+__all__ = ["CRUISE_SPEED_M_S", "INTERSECTION_SPEED_M_S", "STOP_LEAD_M", "LANDMARK_RADIUS_M", "CompiledMission",
+           "compile_mission", "compile_mission_files"]
+
+#: The seed's AMV profile: up to 3.0 m/s on straights, 0.5 m/s in intersections.
+CRUISE_SPEED_M_S = 3.0
+INTERSECTION_SPEED_M_S = 0.5
+#: How far before a step's destination its stop gate sits [m]: room for the receiver to stop at the object.
+STOP_LEAD_M = 6.0
+#: Landmarks within this distance [m] of a straight are listed for landmark matching on it.
+LANDMARK_RADIUS_M = 12.0
+#: How far into a step its first gates sit [m] (a gate under the start would fire at the first cycle anyway).
+FIRST_GATE_M = 1.0
+_INTERSECTIONS = ("turn-at-intersection", "go-through-intersection")
+
+
+class CompiledMission(BaseModel):
+    """A mission compiled over a map: its name, the vehicle, the annotations in driving order."""
+
+    model_config = ConfigDict(frozen=True)
+
+    mission: str
+    map_name: str
+    vehicle: str
+    annotations: tuple[Annotation, ...]
+
+
+def _landmarks(m: "MapData", coords: Any) -> tuple[str, ...]:
+    line = shapely.LineString(coords)
+    return tuple(o.id for _d, o in m.objects_near(line, LANDMARK_RADIUS_M) if o.role == "landmark")
+
+
+def _stop_object(m: "MapData", place: str | None, xy: tuple[float, float]) -> str:
+    near = [(math.dist(xy, o.footprint.centroid.coords[0]), o.id) for o in m.world.objects
+            if o.role == "landmark" and o.kind == (place or "")]
+    near = [n for n in near if n[0] <= STOP_LEAD_M]
+    return min(near)[1] if near else (place or f"({xy[0]:.1f}, {xy[1]:.1f})")
+
+
+def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = None,
+                    intersections: str = "dead_reckon") -> CompiledMission:
+    """Return the annotations of `mission` over map `m`; raise MissionCompileError naming the step.
+
+    `intersections`: `dead_reckon` (the seed's AMV: dead-reckon through, resume vision after) or `vision`
+    (vision through intersections).
+    """
+    if intersections not in ("dead_reckon", "vision"):
+        raise MissionCompileError(f"intersections: {intersections!r}: expected dead_reckon or vision")
+    from modules.map_navigator.route import RouteError, RouteOptions, select_route
+    from modules.map_navigator.segments import SegmentOptions, segment_route
+    from modules.map_navigator.stepjob import vehicle_turn_radius
+
+    veh = vehicle or mission.vehicle or "terregator"
+    if mission.start is not None:
+        here = (mission.start.x, mission.start.y)
+    elif m.world.start is not None:
+        here = (m.world.start.x, m.world.start.y)
+    else:
+        raise MissionCompileError(f"mission {mission.name!r}: no start pose (the mission gives none and map {m.name!r} has none)")
+    seg_opts = SegmentOptions(turn_radius_m=vehicle_turn_radius(veh))
+    out: list[Annotation] = []
+    routes: list[Annotation] = []
+    speed_now: float | None = None
+    seg_index = 0
+    for k, step in enumerate(mission.steps):
+        try:
+            route = select_route(m, here, step.destination, step.constraints, RouteOptions(vehicle=veh))  # type: ignore[arg-type]
+        except RouteError as exc:
+            raise MissionCompileError(f"mission {mission.name!r} step {k + 1} ({step.name}): {exc}") from None
+        plans = segment_route(route, m, seg_opts)
+        if not plans:
+            raise MissionCompileError(f"mission {mission.name!r} step {k + 1} ({step.name}): empty route")
+        cruise = min(CRUISE_SPEED_M_S, step.constraints.speed_limit or CRUISE_SPEED_M_S)
+        slow = min(INTERSECTION_SPEED_M_S, cruise)
+        pts: list[tuple[float, float]] = []
+        starts: list[float] = []
+        for p in plans:
+            starts.append(shapely.LineString(pts).length if len(pts) >= 2 else 0.0)
+            for c in p.coords:
+                if not pts or math.dist(pts[-1], c) > 1e-6:
+                    pts.append((float(c[0]), float(c[1])))
+        line = shapely.LineString(pts)
+        width = max(p.width for p in plans)
+        sp = f"s{k + 1}"
+        straights = [p for p in plans if p.mode not in _INTERSECTIONS]
+        first_speed = slow if plans[0].mode in _INTERSECTIONS else cruise
+        if speed_now != first_speed:
+            out.append(trigger(f"{sp}.speed", "set_speed", gate(line, FIRST_GATE_M, width), SetSpeed(speed=first_speed),
+                               f"step {k + 1}: set speed {first_speed:g} m/s"))
+        if straights:
+            marks = _landmarks(m, straights[0].coords)
+            if marks:
+                out.append(trigger(f"{sp}.start_landmarks", "start_landmarks", gate(line, FIRST_GATE_M, width),
+                                   LandmarkMatching(on=True, landmarks=marks), f"step {k + 1}: start landmark matching"))
+        speed_now = first_speed
+        for i, p in enumerate(plans):
+            inter = p.mode in _INTERSECTIONS
+            speed = slow if inter else cruise
+            routes.append(Annotation(
+                id=f"route.{seg_index:03d}", type="route", destination="vision",
+                text=f"step {k + 1} segment {i + 1}: {p.mode} at {speed:g} m/s", location=Location.line(p.coords),
+                data=encode_trigger_data(RouteSegment(index=seg_index, mode=p.mode, points=tuple(p.coords), width=p.width,
+                                                      speed=speed, node_id=p.node_id, edge_ids=p.edge_ids))))
+            if inter:
+                nxt = next((q for q in plans[i + 1:] if q.mode not in _INTERSECTIONS), None)
+                out.extend(turn_at_intersection(f"{sp}.x{i + 1}.{p.node_id}", line, starts[i], p.coords, p.node_id or "",
+                                                p.width, speed_now, cruise, slow,
+                                                _landmarks(m, nxt.coords) if nxt is not None else (), seg_index,
+                                                vision=intersections == "vision"))
+                speed_now = cruise
+            seg_index += 1
+        goal = route.goal_xy
+        obj = _stop_object(m, step.destination.place, goal)
+        out.append(trigger(f"{sp}.stop", "stop_at_object", gate(line, max(0.0, line.length - STOP_LEAD_M), width),
+                           StopAtObject(object_id=obj, x=goal[0], y=goal[1], tolerance=step.tolerance,
+                                        action=step.trigger.action, wait_s=step.trigger.wait_s),
+                           f"step {k + 1}: {step.trigger.action} at {obj}"))
+        here = goal
+    chained = [r.model_copy(update={"previous_id": routes[j - 1].id if j else None,
+                                    "next_id": routes[j + 1].id if j + 1 < len(routes) else None})
+               for j, r in enumerate(routes)]
+    return CompiledMission(mission=mission.name, map_name=m.name, vehicle=veh, annotations=tuple(chained + out))
+
+
+def compile_mission_files(mission_path: str | Path, map_path: str | Path, *, vehicle: str | None = None,
+                          intersections: str = "dead_reckon") -> CompiledMission:
+    """Load the mission YAML and the map file, compile; raise MissionCompileError naming the file."""
+    from modules.captain.missionfile import MissionFileError, load_mission
+    from modules.map_navigator.mapdata import load_map
+
+    try:
+        mission = load_mission(mission_path)
+    except FileNotFoundError:
+        raise MissionCompileError(f"{mission_path}: no such mission file") from None
+    except MissionFileError as exc:
+        raise MissionCompileError(str(exc)) from None
+    try:
+        m = load_map(map_path)
+    except FileNotFoundError:
+        raise MissionCompileError(f"{map_path}: no such map file") from None
+    except WorldFileError as exc:
+        raise MissionCompileError(str(exc)) from None
+    return compile_mission(mission, m, vehicle=vehicle, intersections=intersections)

@@ -1,0 +1,73 @@
+"""Missions compile into trigger annotations along the MAP NAVIGATOR's route (issue 9 item 6)."""
+
+from __future__ import annotations
+
+import pytest
+
+from eddie.annotated_map import AnnotationDatabase, TriggerWalker
+from eddie.messages.map_manager import DeadReckonThrough, RouteSegment, SetSpeed, StopAtObject, open_trigger_data
+from eddie.missions import MissionCompileError, compile_mission_files
+
+
+@pytest.fixture(scope="module")
+def amv():
+    return compile_mission_files("worlds/amv-delivery.yaml", "worlds/north_hills.map.geojson")
+
+
+def test_amv_delivery_speeds_and_dead_reckoning(amv) -> None:
+    segs = [open_trigger_data(a.data) for a in amv.annotations if a.type == "route"]
+    assert all(isinstance(s, RouteSegment) for s in segs)
+    inter = [s for s in segs if "intersection" in s.mode]
+    straight = [s for s in segs if "intersection" not in s.mode]
+    assert len(inter) == 4 and straight
+    assert {s.speed for s in inter} == {0.5} and {s.speed for s in straight} == {3.0}
+    dr = [open_trigger_data(a.data) for a in amv.annotations if a.type == "dead_reckon_intersection"]
+    assert sorted(d.node_id for d in dr) == sorted(s.node_id for s in inter)
+    for d, s in zip(sorted(dr, key=lambda d: d.node_id), sorted(inter, key=lambda s: s.node_id)):
+        assert isinstance(d, DeadReckonThrough) and d.points == s.points and d.speed == 0.5
+    stop = [open_trigger_data(a.data) for a in amv.annotations if a.type == "stop_at_object"]
+    assert len(stop) == 1 and isinstance(stop[0], StopAtObject) and stop[0].action == "stop"
+    assert "mailbox" in stop[0].object_id
+
+
+def test_driving_the_route_fires_the_profile_in_order(amv) -> None:
+    db = AnnotationDatabase(amv.annotations)
+    line = [p for a in amv.annotations if a.type == "route" for p in a.location.points]
+    w = TriggerWalker(db)
+    fired = []
+    for x, y in line:
+        fired += [e.annotation for e in w.advance(x, y) if e.kind == "fired"]
+    triggers = [a for a in amv.annotations if a.trigger == "cross"]
+    assert sorted(a.id for a in fired) == sorted(a.id for a in triggers)  # each exactly once
+    speeds = [open_trigger_data(a.data).speed for a in fired if a.type == "set_speed"]
+    assert speeds == [3.0] + [0.5, 3.0] * 4
+    order = [a.id for a in fired]
+    for a in fired:  # per intersection: slow down, dead-reckon, then resume vision
+        if a.type == "dead_reckon_intersection":
+            node = a.id.rsplit(".", 1)[0]
+            assert order.index(f"{node}.slow") < order.index(a.id) < order.index(f"{node}.resume_vision")
+    assert fired[-1].type == "stop_at_object"
+
+
+def test_campus_tour_steps_and_limits() -> None:
+    c = compile_mission_files("worlds/campus-tour.yaml", "worlds/campus.map.geojson")
+    stops = [open_trigger_data(a.data) for a in c.annotations if a.type == "stop_at_object"]
+    assert [s.action for s in stops] == ["continue", "continue", "wait", "stop"]
+    slope = [open_trigger_data(a.data) for a in c.annotations if a.id.startswith("s3.") and a.type == "set_speed"]
+    assert slope and all(isinstance(s, SetSpeed) and s.speed <= 0.8 for s in slope)
+
+
+def test_bad_inputs_name_the_file(tmp_path) -> None:
+    with pytest.raises(MissionCompileError, match="nope.yaml"):
+        compile_mission_files(tmp_path / "nope.yaml", "worlds/north_hills.map.geojson")
+    bad = tmp_path / "m.yaml"
+    bad.write_text("mission: x\nsteps:\n  - destination: nowhere_at_all\n")
+    with pytest.raises(MissionCompileError, match="nowhere_at_all"):
+        compile_mission_files(bad, "worlds/north_hills.map.geojson")
+
+
+def test_vision_through_intersections_replaces_dead_reckoning() -> None:
+    c = compile_mission_files("worlds/amv-delivery.yaml", "worlds/north_hills.map.geojson", intersections="vision")
+    types = [a.type for a in c.annotations]
+    assert types.count("vision_through_intersection") == 4
+    assert "dead_reckon_intersection" not in types and "resume_vision" not in types

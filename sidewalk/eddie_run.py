@@ -172,21 +172,16 @@ def compile_annotated_map(setup: "RunSetup", out: Path) -> Optional[Path]:
     """Compile the run's mission into trigger annotations along the MAP NAVIGATOR's route; write and return the file.
 
     The compiler is `eddie.missions` (it plans the route on the map the robot gets, `setup.map_file`,
-    from the start belief); the file is `out`/annotated_map.geojson, which a person can open in QGIS.
-    Until the annotated map manager is part of the tree (`eddie.missions`, `eddie.map_manager`),
-    return None: the run goes without annotations and fires no triggers (its log says so).
+    from the mission's or the map's start); the file is `out`/annotated_map.geojson, which a person can open in QGIS.
     """
+    from eddie.annotated_map.geojson_file import save_annotations
+    from eddie.missions import MissionCompileError, compile_mission_files
     from sidewalk.launcher import LaunchError
 
-    try:
-        from eddie.missions import MissionCompileError, compile_mission_file
-    except ImportError:
-        log.warning("--arch eddie: no annotated map manager in this tree (eddie.missions): running without triggers")
-        return None
     path = Path(out) / ANNOTATED_MAP_NAME
     try:
-        compile_mission_file(setup.mission_file, map_file=setup.map_file, vehicle=setup.vehicle,
-                             start=setup.start_belief, out=path)
+        compiled = compile_mission_files(setup.mission_file, setup.map_file, vehicle=setup.vehicle)
     except MissionCompileError as exc:
         raise LaunchError(f"--arch eddie: {setup.mission_file}: {exc}") from None
+    save_annotations(path, compiled.annotations, name=f"{compiled.mission} on {compiled.map_name}")
     return path

@@ -205,7 +205,7 @@ def _kind_of(o: TrackedObject) -> str:
 
 def write_map(map_world, built: BuiltMap, path: str | Path, *, name: str | None = None) -> Path:
     """Write the map file's ground and path graph with its discrete objects replaced by the built ones; return the path."""
-    from wire.mapfile import Colour, MapFile, PostShape, TreeShape, WorldObject
+    from wire.mapfile import MapColour, MapFile, PostShape, TreeShape, WorldObject
 
     keep = [o for o in map_world.objects if o.kind not in DISCRETE_KINDS]
     new = []
@@ -213,14 +213,14 @@ def write_map(map_world, built: BuiltMap, path: str | Path, *, name: str | None 
         kind = _kind_of(o)
         if kind == "tree":
             shape = TreeShape(trunk_radius=0.23, crown_radius=2.4, height=7.0, crown_base=2.8, z0=0.0)
-            radius, colour, refl, role = 0.23, Colour(mean=(92.0, 72.0, 54.0), std=(10.0, 8.0, 8.0)), 0.35, "obstacle"
+            radius, colour, role = 0.23, MapColour(type="BROWN", nominal=(92.0, 72.0, 54.0)), "obstacle"
         else:
             h = {"sign": 2.4, "mailbox": 1.15, "hydrant": 0.8}[kind]
             shape = PostShape(height=h, z0=0.0)
             radius = {"sign": 0.08, "mailbox": 0.25, "hydrant": 0.2}[kind]
-            colour, refl, role = Colour(mean=(120.0, 110.0, 100.0), std=(10.0, 10.0, 10.0)), 0.7, "landmark"
+            colour, role = MapColour(type="GRAY", nominal=(120.0, 110.0, 100.0)), "landmark"
         new.append(WorldObject(id=f"built_{kind}_{k:03d}", kind=kind, role=role, colour=colour, shape=shape,
-                               center=(round(o.x, 3), round(o.y, 3)), radius=radius, reflectance=refl))
+                               center=(round(o.x, 3), round(o.y, 3)), radius=radius))
     m = MapFile(name=name or map_world.name, objects=keep + new, nodes=map_world.nodes, edges=map_world.edges, sun=map_world.sun,
                 start=map_world.start, source=str(path))
     return m.save(path)

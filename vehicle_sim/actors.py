@@ -10,6 +10,8 @@ truth: only the simulator renders them and counts collisions with them.
 
 from __future__ import annotations
 
+from vehicle_sim.errors import SimError
+
 import json
 import math
 from pathlib import Path
@@ -45,7 +47,7 @@ _COLOURS: dict[str, tuple[float, float, float]] = {
 }
 
 
-class ActorError(ValueError):
+class ActorError(SimError, ValueError):
     """A bad actors file or preset name (the message names where and what)."""
 
 

@@ -6,6 +6,8 @@ Frames: truth in `world`; odometry in `local` (starts at (0, 0, 0) at the start 
 
 from __future__ import annotations
 
+from vehicle_sim.errors import SimError
+
 import math
 from typing import Literal
 
@@ -22,7 +24,7 @@ from vehicle_sim.worldfile import KINDS, PostShape, PrismShape, TreeShape, World
 __all__ = ["SimConfig", "Simulator", "CommandRejected"]
 
 
-class CommandRejected(ValueError):
+class CommandRejected(SimError, ValueError):
     """A drive command the vehicle cannot execute (e.g. turn-in-place on the Navlab)."""
 
 

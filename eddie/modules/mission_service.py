@@ -33,7 +33,7 @@ from eddie.toolkit.module import Incoming
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 from modules.captain.missionfile import MissionFileError, parse_mission
-from modules.captain.service import new_mission_id
+from modules.captain.wire import new_mission_id
 from modules.captain.wire import Rejection, SubmitAccepted, WireError, parse_cancel, rejection_from
 from modules.map_navigator import MapData, load_map
 from modules.runtime.args import setup_logging

@@ -9,7 +9,7 @@ import importlib as _importlib
 from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
 from modules.captain.missionfile import CONSTRAINT_NAMES, MissionFileError, MissionProblem, load_mission, parse_mission
 from modules.captain.sequencer import MissionRun, Next, SequenceError
-from modules.captain.wire import CancelRequest, ProblemWire, Rejection, SubmitAccepted, WireError
+from modules.captain.wire import CancelRequest, ProblemWire, Rejection, SubmitAccepted, WireError, new_mission_id
 
 __all__ = [
     "CaptainUnavailableError", "MissionClient", "MissionRejected",
@@ -22,7 +22,7 @@ __all__ = [
 
 #: names served lazily: the blackboard-bound parts
 _LAZY = {"build_parser": "main", "captain_main": "main", "main": "main",
-         "Captain": "service", "CaptainOptions": "service", "new_mission_id": "service"}
+         "Captain": "service", "CaptainOptions": "service"}
 
 
 def __getattr__(name: str):

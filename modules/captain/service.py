@@ -9,8 +9,6 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import re
-import secrets
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -19,19 +17,13 @@ from blackboard import AttrPredicate, Spec, VersionConflictError
 
 from modules.captain.missionfile import MissionFileError, parse_mission
 from modules.captain.sequencer import MissionRun
-from modules.captain.wire import Rejection, SubmitAccepted, WireError, parse_cancel, rejection_from
+from modules.captain.wire import Rejection, SubmitAccepted, WireError, new_mission_id, parse_cancel, rejection_from
 from modules.runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
 from modules.vocabulary import Mission, MissionStatus, StepResult
 
 __all__ = ["Captain", "CaptainOptions", "new_mission_id"]
 
 log = logging.getLogger(__name__)
-
-
-def new_mission_id(name: str) -> str:
-    """Return a fresh mission id: the name's slug and 6 hex digits (a single key chunk)."""
-    slug = re.sub(r"[^A-Za-z0-9_-]+", "-", name).strip("-")[:40] or "mission"
-    return f"{slug}-{secrets.token_hex(3)}"
 
 
 @dataclass(frozen=True)

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import secrets
+
+import re
+
 import json
 
 from pydantic import BaseModel, ConfigDict, ValidationError
@@ -9,7 +13,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from modules.captain.missionfile import MissionFileError
 from modules.captain.errors import CaptainError
 
-__all__ = ["SubmitAccepted", "Rejection", "ProblemWire", "CancelRequest", "rejection_from", "parse_cancel", "WireError"]
+__all__ = ["new_mission_id", "SubmitAccepted", "Rejection", "ProblemWire", "CancelRequest", "rejection_from", "parse_cancel", "WireError"]
 
 
 class _Frozen(BaseModel):
@@ -76,3 +80,9 @@ def parse_cancel(payload: bytes) -> CancelRequest:
         except (ValueError, ValidationError) as exc:
             raise WireError(f"bad cancel request: {exc}") from None
     return CancelRequest(mission_id=text)
+
+
+def new_mission_id(name: str) -> str:
+    """Return a fresh mission id: the name's slug and 6 hex digits (a single key chunk)."""
+    slug = re.sub(r"[^A-Za-z0-9_-]+", "-", name).strip("-")[:40] or "mission"
+    return f"{slug}-{secrets.token_hex(3)}"

@@ -18,7 +18,6 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
-import math
 import time
 from dataclasses import dataclass, field
 
@@ -29,7 +28,7 @@ from shapely.geometry import Polygon as ShapelyPolygon
 
 from blackboard import AttrPredicate, BlackboardError, Polygon as BbPolygon, Spec, VersionConflictError, NotFoundError
 from blackboard.errors import FutureExtrapolationError
-from modules.perception.monitor import ResolutionTable, SensorGeometry, image_input_position
+from modules.perception.monitor import SENSORS, ResolutionTable, SensorGeometry, image_input_position
 from modules.perception.pipeline import PerceptionPipeline
 from modules.perception.results import build_result, failed_result
 from wire.keys import SimKeys
@@ -42,10 +41,6 @@ log = logging.getLogger("modules.perception")
 
 #: Laser mounting per vehicle (height [m], ahead of the vehicle origin [m]): the view table's first guess,
 #: replaced by the calibration the first capture carries.
-SENSORS: dict[str, SensorGeometry] = {
-    "navlab": SensorGeometry(height=2.3, pitch_down=math.radians(14.0), x_offset=1.6),
-    "terregator": SensorGeometry(height=1.6, pitch_down=math.radians(14.0), x_offset=0.7),
-}
 
 
 def capture_key(namespace: str) -> str:

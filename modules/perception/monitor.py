@@ -25,6 +25,7 @@ from modules.perception.predicted import PredictedObject, vehicle_to_world, visi
 from modules.vocabulary import MapObject
 
 __all__ = [
+    "SENSORS",
     "SensorGeometry",
     "ViewPlan",
     "ResolutionTable",
@@ -142,6 +143,13 @@ class ResolutionTable:
         t = math.tan(self.sensor.hfov / 2)
         x0 = self.sensor.x_offset
         return ((x0 + near, -near * t), (x0 + far, -far * t), (x0 + far, far * t), (x0 + near, near * t))
+
+
+#: where each vehicle carries its sensors
+SENSORS: dict[str, SensorGeometry] = {
+    "navlab": SensorGeometry(height=2.3, pitch_down=math.radians(14.0), x_offset=1.6),
+    "terregator": SensorGeometry(height=1.6, pitch_down=math.radians(14.0), x_offset=0.7),
+}
 
 
 def select_segmentation(objects: tuple[MapObject, ...] | list[MapObject]) -> Segmentation:

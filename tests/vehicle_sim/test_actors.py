@@ -20,8 +20,8 @@ from wire.drive import DriveCommand
 def road_world() -> World:
     """Return a flat road along +x (y in -3…3) on grass."""
     return World(name="road", objects=[
-        WorldObject(id="grass", kind="grass", role="none", cost=3.0, colour=GREEN, shape=FlatShape(), polygon=box(-20, -30, 80, 30)),
-        WorldObject(id="road", kind="road", role="path", cost=1.0, colour=GREY, shape=FlatShape(), polygon=box(-20, -3, 80, 3)),
+        WorldObject(id="grass", kind="grass", role="none", cost=3.0, **GREEN, shape=FlatShape(), polygon=box(-20, -30, 80, 30)),
+        WorldObject(id="road", kind="road", role="path", cost=1.0, **GREY, shape=FlatShape(), polygon=box(-20, -3, 80, 3)),
     ])
 
 

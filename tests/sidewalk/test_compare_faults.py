@@ -16,7 +16,8 @@ DATA = Path(__file__).parent / "data"
 @pytest.mark.e2e
 @pytest.mark.timeout(400)
 async def test_kill_wedge_and_jump_each_happen_in_a_run(tmp_path):
-    faults = (FaultSpec(name="kill-perception", at_s=5.0), FaultSpec(name="wedge", at_s=15.0),
+    # the kill comes once the recorder has heard the first life's heartbeats (1 s wall each), so both lives count
+    faults = (FaultSpec(name="kill-perception", at_s=12.0), FaultSpec(name="wedge", at_s=20.0),
               FaultSpec(name="position-jump", at_s=30.0))
     cfg = RunConfig(world="campus", mission=str(DATA / "short-hop.yaml"), rtf=10.0, seed=3, out=tmp_path, faults=faults,
                     max_wall_time_s=240.0, pilot_grace_s=60.0)

@@ -8,7 +8,7 @@ from typing import Awaitable, Callable, TypeVar
 from wire.network import NetworkConfig
 from wire.ports import free_port
 
-from eddie.errors import NoSuchModule, ServiceError
+from eddie.errors import LinkTimeout, NoSuchModule, ServiceError
 
 __all__ = ["net_pair", "retry"]
 
@@ -16,13 +16,13 @@ T = TypeVar("T")
 
 
 async def retry(ask: Callable[[], Awaitable[T]], timeout: float = 30.0) -> T:
-    """Return `await ask()` once the service it asks is up (NoSuchModule / ServiceError until then; wall [s])."""
+    """Return `await ask()` once the service it asks is up (NoSuchModule / ServiceError / LinkTimeout until then; wall [s])."""
     loop = asyncio.get_running_loop()
     deadline = loop.time() + timeout
     while True:
         try:
             return await ask()
-        except (NoSuchModule, ServiceError):
+        except (NoSuchModule, ServiceError, LinkTimeout):
             if loop.time() > deadline:
                 raise
             await asyncio.sleep(0.1)

@@ -36,7 +36,15 @@ async def test_controller_drives_a_path_then_dead_reckons_back_along_its_record(
             await me.wait_connected(10.0)
             states: list[ControllerState] = []
             paths: list[ControllerPath] = []
-            me.subscribe("controller", "state", ControllerState, states.append)
+            settled = asyncio.Event()
+            settle_from: list[int] = []  # set once the dead-reckon command is acknowledged
+
+            def on_state(s: ControllerState) -> None:
+                states.append(s)
+                if settle_from and len(states) > settle_from[0] + 5 and s.mode == "idle" and abs(s.v) < 0.02:
+                    settled.set()
+
+            me.subscribe("controller", "state", ControllerState, on_state)
             me.subscribe("controller", "path", ControllerPath, paths.append)
             p0 = await _ask(me, "position", PositionQuery(), Position)
             x0, y0, yaw0 = p0.x, p0.y, p0.yaw
@@ -63,12 +71,8 @@ async def test_controller_drives_a_path_then_dead_reckons_back_along_its_record(
                              CommandAck)
             assert ack.accepted, ack.reason
             n0 = len(states)
-            async with asyncio.timeout(90):
-                while True:
-                    await asyncio.sleep(0.1)
-                    s = states[-1]
-                    if len(states) > n0 + 5 and s.mode == "idle" and abs(s.v) < 0.02:
-                        break
+            settle_from.append(n0)
+            await asyncio.wait_for(settled.wait(), 90)
             assert any(s.mode == "dead_reckon" for s in states[n0:])
             back = await me.request("controller", "position", PositionQuery(), timeout=2.0, reply_type=Position)
             assert math.dist((back.x, back.y), (x0, y0)) < 0.8, (back, (x0, y0))

@@ -16,7 +16,6 @@ from wire.network import NetworkConfig
 from wire.ports import free_port
 
 from eddie.annotated_map import Annotation, Location, save_annotations
-from eddie.errors import LinkTimeout, NoSuchModule, ServiceError
 from eddie.map_manager.map_manager import MapManager, world_of
 from eddie.annotated_map import AnnotationDatabase
 from eddie.messages.controller import ControllerState
@@ -24,6 +23,7 @@ from eddie.messages.map_manager import (AnnotationList, AnnotationQuery, SetSpee
                                         encode_trigger_data, open_trigger_data)
 from eddie.messages.navigator import WorldFromLocal
 from eddie.toolkit import Module
+from tests.eddie._net import retry
 from eddie.toolkit.message import encode_body
 from tests.modules._procs import spawn, stop
 
@@ -52,18 +52,6 @@ def test_a_fix_between_cycles_is_a_jump_not_travel() -> None:
     assert world_of(big, 1.0, 2.0) == (31.0, 2.0)
 
 
-async def _retry(fn, timeout: float = 30.0):
-    loop = asyncio.get_running_loop()
-    deadline = loop.time() + timeout
-    while True:
-        try:
-            return await fn()
-        except (NoSuchModule, ServiceError, LinkTimeout):
-            if loop.time() > deadline:
-                raise
-            await asyncio.sleep(0.1)
-
-
 async def test_triggers_reach_the_inbox_once_as_the_controller_crosses_them(tmp_path) -> None:
     ns = f"mm{os.getpid()}"
     ep = f"tcp/127.0.0.1:{free_port()}"
@@ -74,7 +62,7 @@ async def test_triggers_reach_the_inbox_once_as_the_controller_crosses_them(tmp_
         async with Module("vision", NetworkConfig(namespace=ns, listen=(ep,))) as me:
             procs.append(spawn([sys.executable, "-m", "eddie.map_manager", "--annotated-map", str(path), "--ns", ns,
                                 "--connect", ep], "SIDEWALK-READY map_manager"))
-            ans = await _retry(lambda: me.request("map_manager", "query", AnnotationQuery(type="set_speed"),
+            ans = await retry(lambda: me.request("map_manager", "query", AnnotationQuery(type="set_speed"),
                                                   reply_type=AnnotationList))
             assert [r.id for r in ans.annotations] == ["a", "b", "c"]
             replies = await me.link.get(me.keys.service("map_manager", "query"),
@@ -99,7 +87,7 @@ async def test_triggers_reach_the_inbox_once_as_the_controller_crosses_them(tmp_
             for k in range(24, -1, -1):
                 st = ControllerState(stamp=3.0 + 0.1 * (24 - k), x=0.25 * k, y=0.1, yaw=0.0, v=1.0, curvature=0.0)
                 me.link.put(me.keys.topic("controller", "state"), encode_body(st))
-            ans = await _retry(lambda: me.request("map_manager", "query", AnnotationQuery(type="set_speed"),
+            ans = await retry(lambda: me.request("map_manager", "query", AnnotationQuery(type="set_speed"),
                                                   reply_type=AnnotationList))
             assert [r.used for r in ans.annotations] == [False, True, True]
             async with asyncio.timeout(10):

@@ -136,6 +136,7 @@ class EddieSystemRun(SystemRun):
         self.link = Link.open(self.net)
         self.recorder = Recorder(self.link, None, self.ns, estimator=self.pose.at)
         self.recorder.start()
+        await self.recorder.wait_clock()
         self.link.subscribe(MissionKeys(self.ns).events, self._on_status)
         subscribe_eddie(self.link, EddieKeys(self.ns), self.pose, self.triggers)
 

@@ -154,6 +154,20 @@ class Recorder:
             return None  # still since the first sample: not yet known to have stopped for long enough
         return since if t - since >= still_s else None
 
+    async def wait_clock(self, timeout: float = 10.0) -> bool:
+        """Wait until the simulator's clock and truth have been heard (submission is stamped by them); False on timeout [s] wall."""
+        loop = asyncio.get_running_loop()
+        end = loop.time() + timeout
+        while self.clock is None or not self.truth.rows:
+            if (left := end - loop.time()) <= 0:
+                return False
+            self._new_truth.clear()
+            try:
+                await asyncio.wait_for(self._new_truth.wait(), left)
+            except (asyncio.TimeoutError, TimeoutError):
+                return False
+        return True
+
     async def wait_rest(self, *, still_s: float = 1.0, max_sim_s: float = 30.0, max_wall_s: float = 20.0) -> float | None:
         """Wait until the true vehicle has stood still for `still_s` [s] sim; return when it stopped [s] sim.
 

@@ -70,6 +70,7 @@ class SystemRun:
         self.bb = await BlackboardClient.connect(self.net, source="launcher")
         self.recorder = Recorder(self.link, self.bb, self.ns)
         self.recorder.start()
+        await self.recorder.wait_clock()
         self._status = self.bb.monitor(Spec(type="mission_status"))
         await self._status.start()
 

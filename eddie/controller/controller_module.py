@@ -1,6 +1,7 @@
 """The integrated controller as an EDDIE module: on the simulator's drive interface, answering and publishing.
 
-Inbox and service `command`: controller commands (`eddie.messages.controller`); service `position`:
+Inbox and service `command`: controller commands (`eddie.messages.controller`); the inbox also takes
+the map manager's `set_speed` triggers (a mission speed cap over every client); service `position`:
 the dead-reckoned pose now; service `recorded_path`: a stretch of the driven path. Streams: `state`
 every control tick (≥ 10 Hz sim), `path` when the path changes, `events` for every event (also written
 to the process log).
@@ -15,6 +16,7 @@ from wire.keys import SimKeys
 
 from eddie.controller.integrated_controller import ControllerConfig, IntegratedController
 from eddie.errors import BadMessage, ControlRefused
+from eddie.messages.map_manager import SetSpeed, TriggerMessage, open_trigger_data
 from eddie.messages.controller import (
     DeadReckon, Nudge, PathCommand, PositionQuery, RecordedPath, RecordedPathQuery, Release, SpeedLimit, Stop,
 )
@@ -75,6 +77,13 @@ class ControllerModule:
         self._flush()
         return ack
 
+    def _trigger(self, msg: TriggerMessage) -> None:
+        data = open_trigger_data(msg)
+        if not isinstance(data, SetSpeed):
+            raise BadMessage(f"trigger {msg.annotation_id!r}: {type(data).__name__} is not for the controller", field="data")
+        self.core.set_mission_speed(data.speed, self._now(), msg.annotation_id)
+        self._flush()
+
     def _flush(self) -> None:
         for ev in self.core.take_events():
             event_log.info("t=%.2f %s client=%s %s", ev.stamp, ev.kind, ev.client, ev.detail)
@@ -90,7 +99,10 @@ class ControllerModule:
                 log.warning("controller: %s", exc)
                 continue
             try:
-                await self._command(inc)
+                if isinstance(inc.message, TriggerMessage):
+                    self._trigger(inc.message)
+                else:
+                    await self._command(inc)
             except BadMessage as exc:
                 log.warning("controller: %s", exc)
 

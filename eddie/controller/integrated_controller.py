@@ -75,6 +75,7 @@ class IntegratedController:
         self.path: _Path | None = None
         self.mode: ControllerMode = "idle"
         self.speed_limit: float | None = None
+        self.mission_speed: float | None = None
         self.curvature = 0.0
         self.path_changed = True
         self._seq = 0
@@ -87,6 +88,14 @@ class IntegratedController:
         if self.odom is None or od.stamp >= self.odom.stamp:
             self.odom = od
             self.record.add(od.distance, od.x, od.y)
+
+    def set_mission_speed(self, speed: float | None, now: float, why: str = "") -> None:
+        """Cap every client's speed at `speed` [m/s] (None: no cap): the seed's "set speed" trigger.
+
+        Kept apart from a client's `SpeedLimit` (an obstacle stop holds 0 there) so a trigger never lifts a stop.
+        """
+        self.mission_speed = speed
+        self._event(now, "set_speed", "map_manager", ("none" if speed is None else f"{speed:g} m/s") + (f" ({why})" if why else ""))
 
     def _event(self, now: float, kind: str, client: str = "", detail: str = "") -> None:
         self.events.append(ControllerEvent(stamp=now, kind=kind, client=client, detail=detail))
@@ -169,8 +178,9 @@ class IntegratedController:
                 self.path_changed = True
             else:
                 speed, curv, turn_rate, horizon = cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon
-        if self.speed_limit is not None:
-            speed = max(-self.speed_limit, min(self.speed_limit, speed))
+        for cap in (self.speed_limit, self.mission_speed):
+            if cap is not None:
+                speed = max(-cap, min(cap, speed))
         if turn_rate is not None:  # the tracker turns a skid-steer vehicle on the spot
             self.velocity.reset(0.0)
             speed = 0.0
@@ -201,7 +211,8 @@ class IntegratedController:
         od = self.odom
         x, y, yaw, v, dist = (od.x, od.y, od.yaw, od.v, od.distance) if od is not None else (0.0, 0.0, 0.0, 0.0, 0.0)
         return ControllerState(stamp=od.stamp if od is not None else now, x=x, y=y, yaw=yaw, v=v, curvature=self.curvature,
-                               client=self.arbiter.holder or "", mode=self.mode, odometer=dist, speed_limit=self.speed_limit)
+                               client=self.arbiter.holder or "", mode=self.mode, odometer=dist, speed_limit=self.speed_limit,
+                               mission_speed=self.mission_speed)
 
     def path_message(self, now: float) -> ControllerPath:
         """Return the tracked path for the `path` stream (clears the changed flag)."""

@@ -163,6 +163,7 @@ class ControllerState(Message):
     mode: ControllerMode = "idle"
     odometer: float = 0.0
     speed_limit: float | None = None
+    mission_speed: float | None = None
 
 
 @message_type("controller.path")

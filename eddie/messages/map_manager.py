@@ -8,14 +8,14 @@ bytes in a `TriggerMessage` to the annotation's destination module, which opens 
 | type | destination | data |
 |---|---|---|
 | `set_speed` | controller | `SetSpeed` |
-| `dead_reckon_intersection` | controller | `DeadReckonThrough` |
-| `resume_vision` | vision | `ResumeVision` |
-| `start_landmarks` / `stop_landmarks` | landmarks | `LandmarkMatching` |
-| `stop_at_object` | obstacles | `StopAtObject` |
-| `stop_obstacles` / `start_obstacles` | obstacles | `ObstacleDetection` |
-| `vision_through_intersection` | vision | `VisionThroughIntersection` |
-| `switch_perception` | vision | `SwitchPerception` |
-| `route` (not a trigger; queried) | vision, controller | `RouteSegment` |
+| `dead_reckon_intersection` | road_following (it holds world←local; sends the controller a `DeadReckon` in `local`) | `DeadReckonThrough` |
+| `resume_vision` | road_following | `ResumeVision` |
+| `start_landmarks` / `stop_landmarks` | landmark_matching | `LandmarkMatching` |
+| `stop_at_object` | obstacle_stop | `StopAtObject` |
+| `stop_obstacles` / `start_obstacles` | obstacle_stop | `ObstacleDetection` |
+| `vision_through_intersection` | road_following | `VisionThroughIntersection` |
+| `switch_perception` | road_following | `SwitchPerception` |
+| `route` (not a trigger; queried) | road_following | `RouteSegment` |
 """
 
 from __future__ import annotations

@@ -23,12 +23,14 @@ __all__ = ["gate", "trigger", "turn_at_intersection", "point_along", "BRAKE_DECE
 #: Deceleration [m/s²] used to place a slow-down gate so the vehicle is slow at the segment boundary.
 BRAKE_DECEL_M_S2 = 1.0
 
-#: Destination module of each trigger type (eddie.messages.map_manager's table).
+#: Destination module of each trigger type: the module names of the EDDIE system configuration
+#: (eddie.messages.map_manager's table). Dead reckoning goes to the vision module because it holds
+#: world←local and hands the controller the path in `local`.
 DESTINATIONS = {
-    "set_speed": "controller", "dead_reckon_intersection": "controller", "resume_vision": "vision",
-    "start_landmarks": "landmarks", "stop_landmarks": "landmarks", "stop_at_object": "obstacles",
-    "stop_obstacles": "obstacles", "start_obstacles": "obstacles", "vision_through_intersection": "vision",
-    "switch_perception": "vision",
+    "set_speed": "controller", "dead_reckon_intersection": "road_following", "resume_vision": "road_following",
+    "start_landmarks": "landmark_matching", "stop_landmarks": "landmark_matching", "stop_at_object": "obstacle_stop",
+    "stop_obstacles": "obstacle_stop", "start_obstacles": "obstacle_stop", "vision_through_intersection": "road_following",
+    "switch_perception": "road_following",
 }
 
 

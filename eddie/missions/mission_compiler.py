@@ -139,7 +139,7 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
             inter = p.mode in _INTERSECTIONS
             speed = slow if inter else cruise
             routes.append(Annotation(
-                id=f"route.{seg_index:03d}", type="route", destination="vision",
+                id=f"route.{seg_index:03d}", type="route", destination="road_following",
                 text=f"step {k + 1} segment {i + 1}: {p.mode} at {speed:g} m/s", location=Location.line(p.coords),
                 data=encode_trigger_data(RouteSegment(index=seg_index, mode=p.mode, points=tuple(p.coords), width=p.width,
                                                       speed=speed, node_id=p.node_id, edge_ids=p.edge_ids))))

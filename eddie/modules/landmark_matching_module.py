@@ -49,9 +49,9 @@ class LandmarkMatching:
     async def cycle(self) -> str:
         """Match one frame; send the fix if there is one."""
         frame = await capture_frame(self.m)
-        local, prior = self.belief.local, self.belief.world()
+        local, prior = self.belief.local_at(frame.stamp), self.belief.world_at(frame.stamp)
         if local is None or prior is None:
-            return "no controller pose yet"
+            return "no controller pose at the capture"
         fix, why = landmark_fix(self.pipeline, colored_range_image(frame), objects_in_view(self.map, tuple(prior)), tuple(prior))
         if fix is None:
             return why

@@ -1,52 +1,54 @@
-"""Obstacle stop's core: is something standing in the vehicle's path, and how far ahead?
+"""Obstacle stop's core: is something standing on the controller's path, and how far along it?
 
 Seed: Navlab 1990 §2.5 — fast obstacle detection stops the vehicle through the controller (a
-trigger starts and stops it). It reads the laser range image as PERCEPTION does
-(`modules.perception.colored_range_image`: unwrapped range, points in `vehicle`) and counts the
-returns that stand above the ground inside the corridor the vehicle will sweep.
+trigger starts and stops it). The algorithm is the OBSTACLE DETECTOR's fast mode, as a library
+(`modules.perception.obstacles`): the laser points into `vehicle`, unwrapped over the ground, and
+only the corridor along the path looked at; a point standing `min_height` above the corridor's
+ground is an obstacle point. The path is the one the controller tracks (its `path` stream, in
+`local`), moved into `vehicle` by the controller's pose at the capture.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from modules.perception.image import ColoredRangeImage
+from modules.perception.obstacles import LaserScan, ObstacleConfig, path_clear_distance, path_in_vehicle
 
 __all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead"]
 
 
 class ObstacleStopConfig(BaseModel):
-    """The corridor checked ahead of the vehicle (`vehicle` frame, x forward, y left) and the evidence needed."""
+    """The corridor checked along the path (`vehicle` frame) and the evidence needed."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    stop_distance_m: float = Field(4.0, gt=0.0, description="look this far ahead of the vehicle origin [m]")
-    near_m: float = Field(1.0, ge=0.0, description="ignore returns closer than this (the vehicle itself, its sensor mast) [m]")
-    half_width_m: float = Field(1.2, gt=0.0, description="half the swept width [m]")
-    min_height_m: float = Field(0.25, gt=0.0, description="a return this high above the ground is an obstacle [m]")
-    max_height_m: float = Field(2.5, gt=0.0, description="returns above this clear the vehicle (branches) [m]")
-    min_points: int = Field(6, ge=1, description="this many obstacle returns make an obstacle (noise and mixed points do not)")
+    stop_distance_m: float = Field(8.0, gt=0.0, description="stop for an obstacle this near along the path [m]")
+    half_width_m: float = Field(1.5, gt=0.0, description="half the swept corridor [m] (the OBSTACLE DETECTOR's)")
+    min_points: int = Field(3, ge=1, description="this many obstacle points make an obstacle (noise and mixed points do not)")
+    detection: ObstacleConfig = ObstacleConfig()
 
 
 class ObstacleReport(BaseModel):
-    """What one range image shows: `blocked`, the nearest obstacle return ahead [m] (None: none), how many returns."""
+    """What one range image shows: `blocked`, the first obstacle point along the path [m] (None: clear)."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
     blocked: bool
     distance_m: float | None = None
-    points: int = 0
     stamp: float = 0.0
 
 
-def obstacle_ahead(img: ColoredRangeImage, cfg: ObstacleStopConfig = ObstacleStopConfig()) -> ObstacleReport:
-    """Return whether enough laser returns stand in the corridor ahead (`vehicle` frame, flat ground z = 0)."""
-    xyz = img.xyz.reshape(-1, 3).astype(np.float64)
-    ok = np.isfinite(img.range_m.reshape(-1)) & np.all(np.isfinite(xyz), axis=1)
-    x, y, z = xyz[:, 0], xyz[:, 1], xyz[:, 2]
-    hit = ok & (x >= cfg.near_m) & (x <= cfg.stop_distance_m) & (np.abs(y) <= cfg.half_width_m) \
-        & (z >= cfg.min_height_m) & (z <= cfg.max_height_m)
-    n = int(hit.sum())
-    nearest = float(x[hit].min()) if n else None
-    return ObstacleReport(blocked=n >= cfg.min_points, distance_m=nearest, points=n, stamp=float(img.stamp))
+def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig(), *,
+                   path_local: np.ndarray | None = None, pose_local: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> ObstacleReport:
+    """Return whether an obstacle stands on the path within `stop_distance_m`.
+
+    `path_local` (N, 2) [m] is the path in `local` and `pose_local` the vehicle's pose there at the
+    scan; without a path the corridor runs straight ahead.
+    """
+    path = path_in_vehicle(np.empty((0, 2)) if path_local is None else path_local, pose_local, cfg.stop_distance_m)
+    d = path_clear_distance(scan, path, cfg.half_width_m, cfg.detection, min_points=cfg.min_points)
+    blocked = math.isfinite(d) and d <= cfg.stop_distance_m
+    return ObstacleReport(blocked=blocked, distance_m=float(d) if math.isfinite(d) else None, stamp=float(scan.stamp))

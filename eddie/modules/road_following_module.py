@@ -44,6 +44,10 @@ log = logging.getLogger("eddie.modules.road_following")
 #: the controller client name and priority of vision (above the mission service's dead reckoning)
 CLIENT, PRIORITY = "road_following", 2
 
+#: How far past an intersection's exit a dead-reckoned path runs on along the route [m] (the
+#: resume-vision gate sits at the exit; a path ending there could stop short of it).
+DEAD_RECKON_BEYOND_M = 4.0
+
 
 class RoadFollowing:
     """The vision road following loop on one module endpoint."""
@@ -74,10 +78,11 @@ class RoadFollowing:
             if self.route is None:
                 return "no mission route"
         frame = await capture_frame(self.m)
-        at_capture = self.belief.local
-        if at_capture is None:
-            return "no controller pose yet"
-        prior = self.belief.world()
+        if self.m.pending():
+            return "inbox first"  # a trigger (dead reckoning, a new speed) came while the frame did: act on it first
+        at_capture, prior = self.belief.local_at(frame.stamp), self.belief.world_at(frame.stamp)
+        if at_capture is None or prior is None:
+            return "no controller pose at the capture"
         img = colored_range_image(frame)
         objs = objects_in_view(self.map, tuple(prior))
         out = self.pipeline.process(img, objs, tuple(prior), error_allowance=0.5)
@@ -108,6 +113,11 @@ class RoadFollowing:
         kind = message_name(data)
         if kind == "map_manager.dead_reckon_through":
             local = transform_points(inverse(self.belief.world_from_local), np.asarray(data.points))  # type: ignore[attr-defined]
+            if self.route is not None:
+                # run on along the route past the exit, so the vehicle crosses the gate that resumes vision
+                route = route_to_local(np.asarray(self.route.points), tuple(inverse(self.belief.world_from_local)))
+                beyond = route_ahead(route, local[-1], DEAD_RECKON_BEYOND_M)
+                local = np.vstack([local, beyond[1:]]) if len(beyond) >= 2 else local
             await self.m.send("controller", DeadReckon(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                        points=tuple((float(x), float(y)) for x, y in local),
                                                        speed=float(data.speed)))  # type: ignore[attr-defined]

@@ -17,6 +17,7 @@ from shapely.geometry import Point, Polygon
 from eddie.messages.controller import ControllerState
 from eddie.messages.navigator import WorldFromLocal
 from eddie.modules.errors import EddieModuleError
+from eddie.navigator.local_pose_buffer import LocalPoseBuffer
 from eddie.toolkit.module import Module
 from modules.map_navigator import MapData, map_object
 from modules.perception.sensor_frame import SensorFrame, SensorFrameError, decode_sensor_frame
@@ -47,7 +48,11 @@ async def capture_frame(m: Module, *, timeout: float = 15.0) -> SensorFrame:
 
 
 class Belief:
-    """The newest controller `local` pose and navigator `world` ← `local`, kept from their streams."""
+    """The controller's `local` poses (the newest and a short history) and navigator `world` ← `local`, kept from their streams.
+
+    A frame is paired with the pose at its capture stamp (`local_at`), not the newest one: at RTF 20
+    a capture's round trip is seconds of sim, metres of travel.
+    """
 
     def __init__(self, m: Module, world_from_local: tuple[float, float, float]) -> None:
         """Subscribe on `m`; `world_from_local` (x, y [m], yaw [rad]) holds until the navigator speaks."""
@@ -56,11 +61,13 @@ class Belief:
         self.local_stamp: float | None = None
         self.speed = 0.0
         self.fixes_used = 0
+        self.history = LocalPoseBuffer(span_s=30.0)
         m.subscribe("controller", "state", ControllerState, self._on_state)
         m.subscribe("navigator", "world_from_local", WorldFromLocal, self._on_transform)
 
     def _on_state(self, st: ControllerState) -> None:
         self.local, self.local_stamp, self.speed = np.array([st.x, st.y, st.yaw]), st.stamp, st.v
+        self.history.add(st.stamp, st.x, st.y, st.yaw)
 
     def _on_transform(self, t: WorldFromLocal) -> None:
         self.world_from_local, self.fixes_used = np.array([t.x, t.y, t.yaw]), t.fixes_used
@@ -68,6 +75,22 @@ class Belief:
     def world(self) -> np.ndarray | None:
         """Return the believed pose (3,) in `world` (None before the controller spoke)."""
         return None if self.local is None else compose(self.world_from_local, self.local)
+
+    def local_at(self, stamp: float) -> np.ndarray | None:
+        """Return the `local` pose (3,) at sim time `stamp` [s]: interpolated, or the newest when `stamp` is past it.
+
+        None before the controller spoke, or when `stamp` is older than the history kept.
+        """
+        if self.local is None:
+            return None
+        if self.local_stamp is not None and stamp >= self.local_stamp:
+            return self.local.copy()
+        return self.history.at(stamp)
+
+    def world_at(self, stamp: float) -> np.ndarray | None:
+        """Return the believed pose (3,) in `world` at sim time `stamp` [s] (see `local_at`)."""
+        local = self.local_at(stamp)
+        return None if local is None else compose(self.world_from_local, local)
 
 
 def objects_in_view(map_data: MapData, pose: tuple[float, float, float], reach: float = 24.0) -> tuple[MapObject, ...]:

@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from blackboard import Spec
 from blackboard.errors import BlackboardError
-from modules.perception.obstacles import LaserScan, ObstacleConfig, detect_obstacles, path_clear_distance
+from modules.perception.obstacles import LaserScan, ObstacleConfig, detect_obstacles, path_clear_distance, path_in_vehicle
 from modules.vocabulary import LocalPathPlan, ObstaclePolygon, ObstacleReport
 from wire.capture import CaptureDecodeError, decode_capture
 from wire.keys import SimKeys
@@ -48,22 +48,7 @@ class ObstacleDetectorConfig(BaseModel):
 
 def plan_in_vehicle(plan: LocalPathPlan, pose: tuple[float, float, float], lookahead: float) -> np.ndarray:
     """Return the plan ahead of the vehicle, (K, 2) [m] in the `vehicle` frame, starting at the vehicle origin."""
-    p = np.array([(q.x, q.y) for q in plan.poses], np.float64)
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    v = (p - (pose[0], pose[1])) @ np.array([[c, -s], [s, c]])
-    i = int(np.argmin(np.linalg.norm(v, axis=1)))
-    ahead = v[i:]
-    ahead = ahead[ahead[:, 0] > 0.0]
-    out = np.vstack([[0.0, 0.0], ahead]) if len(ahead) else np.array([[0.0, 0.0], [lookahead, 0.0]])
-    seg = np.linalg.norm(np.diff(out, axis=0), axis=1)
-    keep = np.concatenate([[True], np.cumsum(seg) <= lookahead + seg.max(initial=0.0)])
-    out = out[keep]
-    length = float(np.linalg.norm(np.diff(out, axis=0), axis=1).sum())
-    if length < lookahead:  # the plan ends short of the look-ahead (it reaches only the newest driving unit): carry on straight
-        d = out[-1] - out[-2]
-        d = d / max(float(np.linalg.norm(d)), 1e-9)
-        out = np.vstack([out, out[-1] + (lookahead - length) * d])
-    return out
+    return path_in_vehicle(np.array([(q.x, q.y) for q in plan.poses], np.float64), pose, lookahead)
 
 
 class ObstacleDetector:

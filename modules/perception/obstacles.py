@@ -32,6 +32,7 @@ __all__ = [
     "height_map",
     "detect_obstacles",
     "path_clear_distance",
+    "path_in_vehicle",
 ]
 
 
@@ -276,3 +277,29 @@ def path_clear_distance(scan: LaserScan, path: np.ndarray, half_width: float, cf
         return math.inf
     hs = s[hot]
     return float(hs[min_points - 1])
+
+
+def path_in_vehicle(points: np.ndarray, pose: tuple[float, float, float], lookahead: float) -> np.ndarray:
+    """Return a path ahead of the vehicle, (K, 2) [m] in the `vehicle` frame from its origin, about `lookahead` [m] long.
+
+    `points` (N, 2) [m] and `pose` (x, y [m], yaw [rad]) are in `local`; the part behind the vehicle is
+    dropped and a path that ends short carries on straight (no points: straight ahead).
+    """
+    p = np.asarray(points, np.float64).reshape(-1, 2)
+    if len(p) == 0:
+        return np.array([[0.0, 0.0], [lookahead, 0.0]])
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    v = (p - (pose[0], pose[1])) @ np.array([[c, -s], [s, c]])
+    i = int(np.argmin(np.linalg.norm(v, axis=1)))
+    ahead = v[i:]
+    ahead = ahead[ahead[:, 0] > 0.0]
+    out = np.vstack([[0.0, 0.0], ahead]) if len(ahead) else np.array([[0.0, 0.0], [lookahead, 0.0]])
+    seg = np.linalg.norm(np.diff(out, axis=0), axis=1)
+    keep = np.concatenate([[True], np.cumsum(seg) <= lookahead + seg.max(initial=0.0)])
+    out = out[keep]
+    length = float(np.linalg.norm(np.diff(out, axis=0), axis=1).sum())
+    if length < lookahead:  # the plan ends short of the look-ahead (it reaches only the newest driving unit): carry on straight
+        d = out[-1] - out[-2]
+        d = d / max(float(np.linalg.norm(d)), 1e-9)
+        out = np.vstack([out, out[-1] + (lookahead - length) * d])
+    return out

@@ -13,6 +13,7 @@ from eddie.modules import (
     route_to_local,
 )
 from modules.perception import PerceptionPipeline
+from modules.perception.obstacles import LaserScan
 from modules.pilot import LocalPathPlanner, PlannerConfig
 from sidewalk.cli._perception import FrameSource, objects_in_view
 from wire.se2 import compose, inverse, transform_points
@@ -37,17 +38,26 @@ def _tree(src: FrameSource):
     return next(o for o in src.world.objects if o.kind == "tree" and o.center is not None)
 
 
-def test_obstacle_stop_sees_a_tree_ahead_and_not_the_open_walk(src: FrameSource) -> None:
+def _scan(src: FrameSource, pose, seed=0) -> LaserScan:
+    _img(src, pose, seed)
+    return LaserScan.from_capture(src.last_frame)
+
+
+def test_obstacle_stop_sees_a_tree_on_the_path_and_not_the_open_walk(src: FrameSource) -> None:
     cfg = ObstacleStopConfig(stop_distance_m=5.0)
-    clear = obstacle_ahead(_img(src, ON_WALK), cfg)
+    clear = obstacle_ahead(_scan(src, ON_WALK), cfg)
     assert not clear.blocked, clear
     tx, ty = _tree(src).center
     facing = (tx - 3.5, ty, 0.0)  # 3.5 m west of the trunk, looking east at it
-    hit = obstacle_ahead(_img(src, facing), cfg)
+    hit = obstacle_ahead(_scan(src, facing), cfg)
     assert hit.blocked and hit.distance_m is not None
     assert 2.0 < hit.distance_m < 3.6  # the near side of the trunk
-    away = obstacle_ahead(_img(src, (tx - 3.5, ty, math.pi)), cfg)  # the same place, looking away
-    assert away.points < hit.points
+    assert not obstacle_ahead(_scan(src, (tx - 3.5, ty, math.pi)), cfg).blocked  # the same place, looking away
+    # the same view, but the path (in an arbitrary `local`) swerves left past the trunk: nothing on it
+    local_from_world = inverse(WORLD_FROM_LOCAL)
+    pose_local = compose(local_from_world, np.asarray(facing))
+    swerve = transform_points(local_from_world, np.array([[tx - 3.5, ty], [tx - 2.5, ty + 2.5], [tx + 2.0, ty + 4.0]]))
+    assert not obstacle_ahead(_scan(src, facing), cfg, path_local=swerve, pose_local=tuple(pose_local)).blocked
 
 
 def test_road_following_plans_in_local_along_the_route_inside_the_walk(src: FrameSource) -> None:

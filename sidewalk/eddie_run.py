@@ -29,7 +29,7 @@ from modules.vocabulary import MissionStatus
 from sidewalk.observers import observer_plans
 from sidewalk.eddie_observe import subscribe_eddie
 from sidewalk.recorder import Recorder
-from sidewalk.run_record import FiredTrigger, StampedStatus
+from sidewalk.run_record import FiredTrigger, RecordedPlan, StampedStatus
 from sidewalk.supervisor import ProcessPlan
 from sidewalk.system import SystemRun
 from wire.keys import EddieKeys, MissionKeys
@@ -41,7 +41,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 __all__ = ["EDDIE_MODULES", "EDDIE_PERCEPTION_MODULES", "ANNOTATED_MAP_NAME", "eddie_plans", "EddieSystemRun",
-           "PoseComposer", "compile_annotated_map"]
+           "PoseComposer", "compile_annotated_map", "route_plans"]
 
 #: The annotated map's file name in a run's output directory.
 ANNOTATED_MAP_NAME = "annotated_map.geojson"
@@ -121,8 +121,10 @@ class EddieSystemRun(SystemRun):
     None, `recorder`) and `triggers`, every trigger fired; statuses come from the mission events stream.
     """
 
-    def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path) -> None:
+    def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path,
+                 annotated_map: Optional[Path] = None) -> None:
         super().__init__(plans, ns=ns, endpoint=endpoint, log_dir=log_dir)
+        self.annotated_map = annotated_map
         self.pose = PoseComposer()
         self.triggers: list[FiredTrigger] = []
         self._status_q: asyncio.Queue[MissionStatus] = asyncio.Queue()
@@ -163,10 +165,36 @@ class EddieSystemRun(SystemRun):
         return None
 
     async def finish(self, mission_id: str) -> None:
-        """Wait until the vehicle has come to rest (call once the mission ended, before `close()`); no route plans here."""
+        """Wait until the vehicle has come to rest (call once the mission ended, before `close()`); take the route from the annotated map."""
         assert self.recorder is not None
         self.rest[mission_id] = await self.recorder.wait_rest()
-        self.routes[mission_id] = []
+        at = self.submitted.get(mission_id, (0.0, 0.0))[1]
+        self.routes[mission_id] = [] if self.annotated_map is None else route_plans(self.annotated_map, stamp=at)
+
+
+def route_plans(annotated_map: Path, *, stamp: float) -> list[RecordedPlan]:
+    """Return each step's route (`world`) as the mission compiler laid it into the annotated map's `route` annotations.
+
+    EDDIE plans no route at run time: the route is the one compiled into the map, so it is each
+    step's one plan (revision 0, stamped `stamp` [s] sim) — what cross-track error is measured against.
+    """
+    from eddie.annotated_map.geojson_file import load_annotations
+    from eddie.messages.map_manager import RouteSegment, open_trigger_data
+
+    by_step: dict[int, list[tuple[int, tuple[tuple[float, float], ...]]]] = {}
+    for a in load_annotations(annotated_map):
+        if a.type != "route":
+            continue
+        seg = open_trigger_data(a.data)
+        if isinstance(seg, RouteSegment):
+            by_step.setdefault(seg.step_index, []).append((seg.index, tuple((float(x), float(y)) for x, y in seg.points)))
+    plans = []
+    for step, segs in sorted(by_step.items()):
+        line: list[tuple[float, float]] = []
+        for _i, pts in sorted(segs):
+            line.extend(p for p in pts if not line or math.dist(line[-1], p) > 1e-6)
+        plans.append(RecordedPlan(step_index=step, revision=0, stamp=stamp, polyline=tuple(line)))
+    return plans
 
 
 def compile_annotated_map(setup: "RunSetup", out: Path) -> Optional[Path]:

@@ -195,9 +195,10 @@ class SwitchPerception(Message):
 
 @message_type("map_manager.route_segment")
 class RouteSegment(Message):
-    """One route segment to follow: `index` in driving order, its navigation `mode`, centreline in `world` [m], `speed` [m/s]."""
+    """One route segment to follow: `index` in driving order, the mission step it belongs to, its navigation `mode`, centreline in `world` [m], `speed` [m/s]."""
 
     index: int = Field(ge=0)
+    step_index: int = Field(0, ge=0)
     mode: str
     points: tuple[XY, ...] = Field(min_length=2)
     width: _F = Field(gt=0.0)

@@ -141,7 +141,7 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
             routes.append(Annotation(
                 id=f"route.{seg_index:03d}", type="route", destination="road_following",
                 text=f"step {k + 1} segment {i + 1}: {p.mode} at {speed:g} m/s", location=Location.line(p.coords),
-                data=encode_trigger_data(RouteSegment(index=seg_index, mode=p.mode, points=tuple(p.coords), width=p.width,
+                data=encode_trigger_data(RouteSegment(index=seg_index, step_index=k, mode=p.mode, points=tuple(p.coords), width=p.width,
                                                       speed=speed, node_id=p.node_id, edge_ids=p.edge_ids))))
             if inter:
                 nxt = next((q for q in plans[i + 1:] if q.mode not in _INTERSECTIONS), None)

@@ -35,6 +35,7 @@ from eddie.toolkit.process import run_module
 from modules.captain.missionfile import MissionFileError, parse_mission
 from modules.captain.wire import new_mission_id
 from modules.captain.wire import Rejection, SubmitAccepted, WireError, parse_cancel, rejection_from
+from modules.pilot import pilot_config_for
 from modules.map_navigator import MapData, load_map
 from modules.runtime.args import setup_logging
 from wire.aio import QueryAnswer, QueryRequest
@@ -208,7 +209,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
     p.add_argument("--start-pose", required=True, help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
     p.add_argument("--perception", choices=["on", "off"], default="on", help="off: drive the route by dead reckoning")
-    p.add_argument("--speed", type=float, default=1.0, help="route speed without a step's limit [m/s]")
+    p.add_argument("--speed", type=float, default=None,
+                   help="route speed without a step's limit [m/s] (default: the vehicle's top speed, as the PILOT's)")
     p.add_argument("--annotated-map", default=None, help="the run's annotated map (for the record; the map manager loads it)")
     add_network_args(p)
     return p
@@ -221,6 +223,8 @@ def main(argv: list[str] | None = None) -> int:
     setup_logging()
     net = network_from_args(parser, args)
     x, y, yaw = parse_pose(parser, args.start_pose)
+    if args.speed is None:
+        args.speed = pilot_config_for(args.vehicle).max_speed
     if not (args.speed > 0 and math.isfinite(args.speed)):
         parser.error("--speed: must be > 0 [m/s]")
     try:

@@ -7,19 +7,25 @@ fast obstacle detection"). Awake, each cycle reads a range image (the simulator'
 no truth), and when an obstacle stands on the controller's path (its `path` stream, placed by the
 controller's pose at the capture) it sends `Stop` to the controller as
 the highest-priority client and holds control (a speed cap of 0); once the corridor is clear again
-it lifts the cap and releases control, so the driving module's next path is taken. Each verdict goes out on its stream `seen`.
+it lifts the cap and releases control, so the driving module's next path is taken. A "stop at
+object" trigger (the mission's stop at the mailbox) stops the vehicle at its goal point and holds
+it (action `stop`) or waits and lets it go (`wait`). Each verdict goes out on its stream `seen`.
 """
 
 from __future__ import annotations
 
 import argparse
+import asyncio
+import math
 import logging
 import sys
 
 import numpy as np
 
 from eddie.messages.controller import ControllerPath, Release, SpeedLimit, Stop
+from eddie.messages.map_manager import StopAtObject
 from eddie.messages.modules import ObstacleSeen
+from eddie.modules.args import parse_pose
 from eddie.modules.obstacle_stop import ObstacleStopConfig, obstacle_ahead
 from eddie.modules.sensing import Belief, capture_frame
 from eddie.modules.switched import Switch, run_switched
@@ -37,16 +43,22 @@ log = logging.getLogger("eddie.modules.obstacle_stop")
 #: the controller client name and priority of obstacle stop (above every driving module)
 CLIENT, PRIORITY = "obstacle_stop", 10
 
+#: "stop at object": stop this near the goal point [m], or this far inside the tolerance once past the nearest approach [m]
+STOP_AT_NEAR_M, STOP_AT_MARGIN_M = 0.3, 0.3
+
 
 class ObstacleStop:
     """The obstacle stop loop on one module endpoint."""
 
-    def __init__(self, m: Module, *, awake: bool = True, cfg: ObstacleStopConfig = ObstacleStopConfig()) -> None:
+    def __init__(self, m: Module, *, awake: bool = True, cfg: ObstacleStopConfig = ObstacleStopConfig(),
+                 start: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         self.m = m
         self.cfg = cfg
         self.switch = Switch(awake)
         self.stopped = False
-        self.belief = Belief(m, (0.0, 0.0, 0.0))  # only its `local` poses are used
+        self.holding_at: str | None = None  # the object a "stop at object" trigger holds the vehicle at
+        self._watch: asyncio.Task | None = None
+        self.belief = Belief(m, start)
         self.path: np.ndarray | None = None
         m.subscribe("controller", "path", ControllerPath, self._on_path)
 
@@ -65,23 +77,57 @@ class ObstacleStop:
         self.m.publish("seen", ObstacleSeen(stamp=seen.stamp, blocked=seen.blocked, distance_m=seen.distance_m))
         if seen.blocked and not self.stopped:
             self.stopped = True
-            await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY,
-                                                 reason=f"obstacle {seen.distance_m:.1f} m ahead on the path"))
-            # hold control (a speed cap of 0 at the top priority) so no driving module's path moves it on
-            await self.m.send("controller", SpeedLimit(client=CLIENT, priority=PRIORITY, speed=0.0))
+            await self._hold(f"obstacle {seen.distance_m:.1f} m ahead on the path")
             return "stopped"
         if not seen.blocked and self.stopped:
             await self._release()
             return "released"
         return "blocked" if seen.blocked else "clear"
 
+    async def _hold(self, reason: str) -> None:
+        await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=reason))
+        # hold control (a speed cap of 0 at the top priority) so no driving module's path moves it on
+        await self.m.send("controller", SpeedLimit(client=CLIENT, priority=PRIORITY, speed=0.0))
+
     async def _release(self) -> None:
         self.stopped = False
+        if self.holding_at is not None:
+            return  # a "stop at object" holds the vehicle: the obstacle clearing does not lift it
         await self.m.send("controller", SpeedLimit(client=CLIENT, priority=PRIORITY, speed=None))
         await self.m.send("controller", Release(client=CLIENT))
 
-    async def on_trigger(self, _data: Message) -> None:
-        """Lift a stop this module holds when a trigger switches detection off (it could not lift it asleep)."""
+    async def stop_at(self, target: StopAtObject) -> None:
+        """Stop at the object's goal point (nearest approach within its tolerance), then hold, wait or go on.
+
+        The believed pose (navigator ∘ controller) is watched every 0.1 s sim: the vehicle stops once
+        within `STOP_AT_NEAR_M` [m] of the point, or within the tolerance less `STOP_AT_MARGIN_M` [m]
+        when the distance starts growing again (it passed its nearest approach).
+        """
+        best = math.inf
+        while True:
+            pose = self.belief.world()
+            if pose is not None:
+                d = math.hypot(pose[0] - target.x, pose[1] - target.y)
+                if d <= STOP_AT_NEAR_M or (d <= target.tolerance - STOP_AT_MARGIN_M and d > best + 0.05):
+                    break
+                best = min(best, d)
+            await self.m.clock.sleep(0.1)
+        self.holding_at = target.object_id
+        log.info("obstacle_stop: at %s (%.2f m from its goal point): %s", target.object_id, d, target.action)
+        await self._hold(f"{target.action} at {target.object_id}")
+        if target.action == "wait":
+            await self.m.clock.sleep(target.wait_s)
+            self.holding_at = None
+            await self._release()
+
+    async def on_trigger(self, data: Message) -> None:
+        """Act on a trigger's data: watch for a "stop at object"; lift a stop held when detection is switched off."""
+        if isinstance(data, StopAtObject):
+            if data.action != "continue":
+                if self._watch is not None:
+                    self._watch.cancel()
+                self._watch = asyncio.ensure_future(self.stop_at(data))
+            return
         if not self.switch.awake and self.stopped:
             log.info("obstacle_stop: detection switched off while holding a stop: released")
             await self._release()
@@ -96,7 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m eddie.modules.obstacle_stop_module", description=__doc__.splitlines()[0])
     p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
     p.add_argument("--map", default=None, help="(accepted for a uniform command line; not used)")
-    p.add_argument("--start-pose", default=None, help="(accepted for a uniform command line; not used)")
+    p.add_argument("--start-pose", default="0,0,0", help="X,Y,YAW: world←local until the navigator says [m, m, rad] (for stop at object)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--stop-distance", type=float, default=ObstacleStopConfig().stop_distance_m, help="stop for an obstacle this near along the path [m]")
     p.add_argument("--asleep", action="store_true", help="start asleep (a trigger wakes it)")
@@ -113,9 +159,10 @@ def main(argv: list[str] | None = None) -> int:
     if not args.stop_distance > 0:
         parser.error("--stop-distance: must be > 0 [m]")
     cfg = ObstacleStopConfig(stop_distance_m=args.stop_distance)
+    start = parse_pose(parser, args.start_pose)
 
     async def body(m: Module) -> None:
-        await ObstacleStop(m, awake=not args.asleep, cfg=cfg).run()
+        await ObstacleStop(m, awake=not args.asleep, cfg=cfg, start=start).run()
 
     return run_module("obstacle_stop", body, net)
 

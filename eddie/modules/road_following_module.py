@@ -53,13 +53,14 @@ class RoadFollowing:
     """The vision road following loop on one module endpoint."""
 
     def __init__(self, m: Module, map_data: MapData, *, vehicle: str, seed: int, start: tuple[float, float, float],
-                 awake: bool = True, cfg: RoadFollowingConfig = RoadFollowingConfig()) -> None:
+                 awake: bool = True, cfg: RoadFollowingConfig | None = None) -> None:
         self.m = m
         self.map = map_data
-        self.cfg = cfg
+        # the vehicle's top speed (the PILOT's) unless told otherwise; routes and triggers slow it
+        self.cfg = cfg or RoadFollowingConfig(speed_mps=pilot_config_for(vehicle).max_speed)
         self.switch = Switch(awake)
         self.belief = Belief(m, start)
-        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=cfg.speed_mps)
+        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=self.cfg.speed_mps)
         self.planner = LocalPathPlanner(pilot_config_for(vehicle).planner, seed=seed)
         self.route: MissionRoute | None = None
 
@@ -70,6 +71,17 @@ class RoadFollowing:
             log.debug("no route: %s", exc)
             return None
         return r if r.state == "running" and len(r.points) >= 2 else None
+
+    def _route_speed(self, world_pose: np.ndarray) -> float:
+        """Return the speed [m/s] the route allows where the vehicle is (its nearest route point), capped by `speed_mps`.
+
+        The controller caps it again with the mission's set-speed triggers (slow in intersections).
+        """
+        r = self.route
+        if r is None or not r.speeds:
+            return self.cfg.speed_mps
+        i = int(np.argmin(np.linalg.norm(np.asarray(r.points) - world_pose[:2], axis=1)))
+        return min(self.cfg.speed_mps, float(r.speeds[min(i, len(r.speeds) - 1)]))
 
     async def cycle(self) -> str:
         """Run one cycle; return what happened (for the log)."""
@@ -87,7 +99,7 @@ class RoadFollowing:
         objs = objects_in_view(self.map, tuple(prior))
         out = self.pipeline.process(img, objs, tuple(prior), error_allowance=0.5)
         route = route_to_local(np.asarray(self.route.points), tuple(inverse(self.belief.world_from_local)))
-        speed = min(self.cfg.speed_mps, min(self.route.speeds)) if self.route.speeds else self.cfg.speed_mps
+        speed = self._route_speed(prior)
         now = self.belief.local
         try:
             if out.navigable is None:

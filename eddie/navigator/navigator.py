@@ -4,7 +4,8 @@ The PILOT's `PoseFilter` (an EKF on world←vehicle) is the library: it predicts
 `local` motion and updates with point and line fixes. A fix is related to the present through the
 motion since its stamp: the local pose at the fix comes with the fix (or from the navigator's own
 short buffer of the controller's states). world←local = world←vehicle ∘ (local←vehicle)⁻¹ changes
-only when a fix arrives, never by prediction.
+only when a fix arrives, never by prediction. A fix far outside the estimate's uncertainty (`FIX_GATE`)
+is refused and counted, not applied.
 """
 
 from __future__ import annotations
@@ -20,14 +21,18 @@ from eddie.errors import BadMessage
 from eddie.messages.navigator import LineFixMessage, PointFixMessage, WorldFromLocal
 from eddie.navigator.local_pose_buffer import LocalPoseBuffer
 
-__all__ = ["Navigator"]
+__all__ = ["Navigator", "FIX_GATE"]
+
+#: A fix whose innovation's squared Mahalanobis distance exceeds this is refused (χ² with 3 degrees
+#: of freedom at 99.9 %): a landmark matched to the wrong map object must not turn the world←local.
+FIX_GATE = 16.27
 
 
 class Navigator:
     """Keep world←local; start from the vehicle's world pose `start` (x, y, yaw) with std `sigma_xy` [m], `sigma_yaw` [rad]."""
 
     def __init__(self, start: tuple[float, float, float], *, sigma_xy: float = 1.0, sigma_yaw: float = math.radians(5.0),
-                 buffer_s: float = 10.0) -> None:
+                 buffer_s: float = 10.0, gate: float | None = FIX_GATE) -> None:
         self.start = np.asarray(start, dtype=np.float64)
         self.start_cov = np.diag([sigma_xy**2, sigma_xy**2, sigma_yaw**2])
         self.buffer = LocalPoseBuffer(buffer_s)
@@ -36,6 +41,7 @@ class Navigator:
         self.stamp = 0.0
         self.fixes_used = 0
         self.fixes_rejected = 0
+        self.gate = gate
 
     @property
     def started(self) -> bool:
@@ -47,7 +53,7 @@ class Navigator:
         pose = np.array([x, y, yaw], dtype=np.float64)
         self.buffer.add(stamp, x, y, yaw)
         if self.filter is None:
-            self.filter = PoseFilter(self.start, self.start_cov)
+            self.filter = PoseFilter(self.start, self.start_cov, gate=self.gate)
             self.stamp = stamp
         else:
             self.filter.predict(PoseFilter.motion(self.local, pose))

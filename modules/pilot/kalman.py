@@ -84,8 +84,13 @@ def _check_pd(m: np.ndarray, what: str) -> None:
 class PoseFilter:
     """Fuse odometry increments and perception fixes into the world←vehicle pose and its covariance."""
 
-    def __init__(self, pose: np.ndarray, cov: np.ndarray, noise: OdometryNoise = OdometryNoise()) -> None:
-        """Start at world←vehicle `pose` (3,) [m, m, rad] with covariance `cov` (3,3)."""
+    def __init__(self, pose: np.ndarray, cov: np.ndarray, noise: OdometryNoise = OdometryNoise(), *,
+                 gate: float | None = None) -> None:
+        """Start at world←vehicle `pose` (3,) [m, m, rad] with covariance `cov` (3,3).
+
+        With `gate`, a fix whose innovation has a squared Mahalanobis distance above it is refused
+        (EstimatorError) instead of applied: a wrong landmark association must not drag the estimate.
+        """
         pose = np.asarray(pose, dtype=np.float64).reshape(3)
         cov = np.asarray(cov, dtype=np.float64).reshape(3, 3)
         if not np.all(np.isfinite(pose)):
@@ -95,6 +100,7 @@ class PoseFilter:
         self._ekf.x = pose.reshape(3, 1).copy()
         self._ekf.P = cov.copy()
         self.noise = noise
+        self.gate = gate
         self.fixes_used = 0
         self.distance_m = 0.0
         self.distance_since_fix_m = 0.0
@@ -134,6 +140,11 @@ class PoseFilter:
             dx = np.zeros(3)
             dx[k] = eps
             jac[:, k] = residual(h(x0 + dx), z0) / eps
+        if self.gate is not None:
+            y = residual(np.asarray(z, dtype=np.float64).reshape(-1), z0)
+            d2 = float(y @ np.linalg.solve(jac @ self._ekf.P @ jac.T + r, y))
+            if not d2 <= self.gate:
+                raise EstimatorError(f"fix refused: squared Mahalanobis distance {d2:.1f} > gate {self.gate:g}")
         self._ekf.dim_z = len(z0)
         self._ekf.update(
             z.reshape(-1, 1),

@@ -111,3 +111,25 @@ def test_drive_commands_carry_the_sensed_at_of_the_path_they_track():
     assert c.tick(0.6).sensed_at == 0.4
     c.command(DeadReckon(client="map", points=((0, 0), (10, 0))), 0.7)
     assert c.tick(0.8).sensed_at is None
+
+
+def test_a_set_speed_trigger_caps_every_client_and_never_lifts_an_obstacle_hold():
+    c = _ctl()
+    t = 0.0
+    c.odometry(_od(t, 0.0))
+    assert c.command(PathCommand(client="vision", points=((0, 0), (200, 0)), speed=3.0), t).accepted
+    c.set_mission_speed(0.5, t, "slow before an intersection")
+    for _ in range(100):  # 10 s: the ramp has long reached any cap
+        t += 0.1
+        cmd = c.tick(t)
+        c.odometry(_od(t, cmd.speed * t, v=cmd.speed))
+    assert cmd.speed == pytest.approx(0.5)
+    assert c.state(t).mission_speed == 0.5
+    # an obstacle hold (a client's cap of 0) stays when the next trigger raises the mission speed
+    assert c.command(SpeedLimit(client="obstacles", priority=10, speed=0.0), t).accepted
+    c.set_mission_speed(3.0, t, "cruise after the intersection")
+    for _ in range(50):
+        t += 0.1
+        cmd = c.tick(t)
+    assert cmd.speed == 0.0
+    assert [e.kind for e in c.take_events()].count("set_speed") == 2

@@ -84,3 +84,20 @@ def test_the_cli_refuses_an_unknown_architecture_and_lists_eddie_modules_for_up(
     assert r.exit_code == 2 and "--arch" in r.output
     r = CliRunner().invoke(app, ["up", "no_such_module"])
     assert r.exit_code == 2 and "mission_service" in r.output and "road_following" in r.output
+
+
+def test_each_steps_route_comes_back_from_the_annotated_map_for_cross_track(tmp_path: Path) -> None:
+    from eddie.annotated_map.geojson_file import save_annotations
+    from eddie.missions import compile_mission_files
+    from sidewalk.eddie_run import route_plans
+
+    c = compile_mission_files("worlds/campus-tour.yaml", "worlds/campus.map.geojson", vehicle="terregator")
+    save_annotations(tmp_path / "am.geojson", c.annotations, name="campus-tour")
+    plans = route_plans(tmp_path / "am.geojson", stamp=12.5)
+    assert [p.step_index for p in plans] == [0, 1, 2, 3]
+    assert all(p.revision == 0 and p.stamp == 12.5 for p in plans)
+    for a, b in zip(plans, plans[1:]):  # each step starts where the last one ended
+        assert math.dist(a.polyline[-1], b.polyline[0]) < 1e-6
+    # the segments are joined in driving order without repeated points
+    for p in plans:
+        assert np.linalg.norm(np.diff(np.asarray(p.polyline), axis=0), axis=1).min() > 0.0

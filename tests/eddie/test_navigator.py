@@ -42,6 +42,31 @@ def test_a_line_fix_corrects_only_across_the_line_using_the_buffered_local_pose(
         raise AssertionError("a fix outside the buffer must be refused")
 
 
+def test_a_fix_far_outside_the_estimates_uncertainty_is_refused_and_counted():
+    nav = Navigator((10.0, 5.0, 0.3), sigma_xy=0.5, sigma_yaw=math.radians(3.0))
+    for i in range(21):
+        nav.on_local(i * 0.1, i * 0.1, 0.0, 0.0)
+    # a fix that agrees within its uncertainty (0.3 m, 2°) is applied
+    w = nav.fix(PointFixMessage(stamp=2.0, x=12.0, y=5.9, yaw=0.33, sigma_xy=0.1, sigma_yaw=0.02, source="lm"), now=2.0)
+    assert nav.fixes_used == 1
+    before = (w.x, w.y, w.yaw)
+    # a wrong association: the right place but a heading 80° off, claimed to within 0.02 rad
+    try:
+        nav.fix(PointFixMessage(stamp=2.0, x=12.0, y=5.9, yaw=0.33 - 1.4, sigma_xy=0.1, sigma_yaw=0.02, source="lm"), now=2.0)
+    except Exception as exc:  # noqa: BLE001
+        assert "refused" in str(exc) and "Mahalanobis" in str(exc)
+    else:
+        raise AssertionError("a fix 1.4 rad off a 3° estimate must be refused")
+    after = nav.world_from_local()
+    assert nav.fixes_rejected == 1 and nav.fixes_used == 1
+    assert (after.x, after.y, after.yaw) == before
+    # with the gate off, the same fix drags the heading
+    loose = Navigator((10.0, 5.0, 0.3), sigma_xy=0.5, sigma_yaw=math.radians(3.0), gate=None)
+    loose.on_local(0.0, 0.0, 0.0, 0.0)
+    w = loose.fix(PointFixMessage(stamp=0.0, x=10.0, y=5.0, yaw=0.3 - 1.4, sigma_xy=0.1, sigma_yaw=0.02, source="lm"), now=0.0)
+    assert abs(w.yaw - 0.3) > 1.0
+
+
 async def test_fixes_pull_world_from_local_to_the_truth_pushed_or_on_request():
     ns = f"nav{os.getpid()}"
     ep = f"tcp/127.0.0.1:{free_port()}"

@@ -10,10 +10,14 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
+import math
+
+from eddie.messages.navigator import LineFixMessage, LocalPose, PointFixMessage
 from modules.perception import ColoredRangeImage, PerceptionPipeline
+from modules.perception.pipeline import PipelineOutput
 from modules.vocabulary import MapObject
 
-__all__ = ["LandmarkFix", "landmark_fix"]
+__all__ = ["LandmarkFix", "landmark_fix", "calibration_fix", "fix_message"]
 
 
 class LandmarkFix(BaseModel):
@@ -39,10 +43,28 @@ def landmark_fix(pipeline: PerceptionPipeline, img: ColoredRangeImage, landmarks
                  prior_world: tuple[float, float, float], *, error_allowance_m: float = 0.5) -> tuple[LandmarkFix | None, str]:
     """Return (the fix, "") or (None, why not) for one frame, matching `landmarks` around the prior pose (`world`)."""
     out = pipeline.process(img, landmarks, prior_world, error_allowance=max(error_allowance_m, 0.2))
+    fix = calibration_fix(out, float(img.stamp))
+    return (fix, "") if fix is not None else (None, out.fix_note or out.failure or "no fix")
+
+
+def calibration_fix(out: PipelineOutput, stamp: float) -> LandmarkFix | None:
+    """Return the position calibration of one PERCEPTION pipeline pass as a fix at capture `stamp` [s] sim (None: none)."""
     cal = out.calibration
     if cal is None:
-        return None, out.fix_note or out.failure or "no fix"
+        return None
     x, y, yaw = cal.pose
-    return LandmarkFix(stamp=float(img.stamp), x=float(x), y=float(y), yaw=float(yaw),
+    return LandmarkFix(stamp=stamp, x=float(x), y=float(y), yaw=float(yaw),
                        covariance=tuple(float(v) for v in cal.covariance.reshape(-1)), kind=cal.kind,
-                       line_direction=float(cal.line_direction), yaw_known=bool(cal.yaw_known), n_used=int(cal.n_used)), ""
+                       line_direction=float(cal.line_direction), yaw_known=bool(cal.yaw_known), n_used=int(cal.n_used))
+
+
+def fix_message(fix: LandmarkFix, local: tuple[float, float, float], source: str) -> PointFixMessage | LineFixMessage:
+    """Return the navigator's fix message for `fix`, with the controller's `local` pose (x, y [m], yaw [rad]) at its capture."""
+    at = LocalPose(x=float(local[0]), y=float(local[1]), yaw=float(local[2]))
+    sx = math.sqrt(max(fix.covariance[0], fix.covariance[4], 1e-4))
+    syaw = math.sqrt(max(fix.covariance[8], 1e-6))
+    if fix.kind == "point":
+        return PointFixMessage(stamp=fix.stamp, x=fix.x, y=fix.y, yaw=fix.yaw, sigma_xy=sx, sigma_yaw=syaw, local=at, source=source)
+    return LineFixMessage(stamp=fix.stamp, x=fix.x, y=fix.y, angle=fix.line_direction, sigma_cross=sx,
+                          yaw=fix.yaw if fix.yaw_known else None, sigma_yaw=syaw if fix.yaw_known else None,
+                          local=at, source=source)

@@ -13,12 +13,10 @@ from __future__ import annotations
 
 import argparse
 import logging
-import math
 import sys
 
-from eddie.messages.navigator import LineFixMessage, LocalPose, PointFixMessage
 from eddie.modules.args import parse_pose
-from eddie.modules.landmark_matching import landmark_fix
+from eddie.modules.landmark_matching import fix_message, landmark_fix
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
 from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.module import Module
@@ -55,16 +53,7 @@ class LandmarkMatching:
         fix, why = landmark_fix(self.pipeline, colored_range_image(frame), objects_in_view(self.map, tuple(prior)), tuple(prior))
         if fix is None:
             return why
-        at = LocalPose(x=float(local[0]), y=float(local[1]), yaw=float(local[2]))
-        sx = math.sqrt(max(fix.covariance[0], fix.covariance[4], 1e-4))
-        syaw = math.sqrt(max(fix.covariance[8], 1e-6))
-        if fix.kind == "point":
-            msg = PointFixMessage(stamp=fix.stamp, x=fix.x, y=fix.y, yaw=fix.yaw, sigma_xy=sx, sigma_yaw=syaw, local=at,
-                                  source="landmark_matching")
-        else:
-            msg = LineFixMessage(stamp=fix.stamp, x=fix.x, y=fix.y, angle=fix.line_direction, sigma_cross=sx,
-                                 yaw=fix.yaw if fix.yaw_known else None, sigma_yaw=syaw if fix.yaw_known else None,
-                                 local=at, source="landmark_matching")
+        msg = fix_message(fix, tuple(local), "landmark_matching")
         await self.m.send("navigator", msg)
         return f"{fix.kind} fix sent ({fix.n_used} observations)"
 

@@ -43,8 +43,8 @@ log = logging.getLogger("eddie.modules.obstacle_stop")
 #: the controller client name and priority of obstacle stop (above every driving module)
 CLIENT, PRIORITY = "obstacle_stop", 10
 
-#: "stop at object": stop this near the goal point [m], or this far inside the tolerance once past the nearest approach [m]
-STOP_AT_NEAR_M, STOP_AT_MARGIN_M = 0.3, 0.3
+#: "stop at object": stop this far inside the goal's tolerance [m], and never farther than this when the tolerance is small [m]
+STOP_AT_MARGIN_M, STOP_AT_NEAR_M = 0.3, 0.3
 
 
 class ObstacleStop:
@@ -100,17 +100,16 @@ class ObstacleStop:
         """Stop at the object's goal point (nearest approach within its tolerance), then hold, wait or go on.
 
         The believed pose (navigator ∘ controller) is watched every 0.1 s sim: the vehicle stops once
-        within `STOP_AT_NEAR_M` [m] of the point, or within the tolerance less `STOP_AT_MARGIN_M` [m]
-        when the distance starts growing again (it passed its nearest approach).
+        within the tolerance less `STOP_AT_MARGIN_M` [m] of the point (the mission service's own test
+        of a reached goal), or `STOP_AT_NEAR_M` [m] for a tolerance smaller than that margin.
         """
-        best = math.inf
+        reach = max(target.tolerance - STOP_AT_MARGIN_M, STOP_AT_NEAR_M)
         while True:
             pose = self.belief.world()
             if pose is not None:
                 d = math.hypot(pose[0] - target.x, pose[1] - target.y)
-                if d <= STOP_AT_NEAR_M or (d <= target.tolerance - STOP_AT_MARGIN_M and d > best + 0.05):
+                if d <= reach:
                     break
-                best = min(best, d)
             await self.m.clock.sleep(0.1)
         self.holding_at = target.object_id
         log.info("obstacle_stop: at %s (%.2f m from its goal point): %s", target.object_id, d, target.action)

@@ -6,13 +6,15 @@ It sleeps until a trigger wakes it (`ModuleSwitch(on=True)` in its inbox: "resum
 intersection", "use vision through intersection") and goes back to sleep on `ModuleSwitch(on=False)`
 ("dead reckon through intersection"). Awake, each cycle: capture a frame (laser + camera, no
 truth), note the controller's `local` pose then, segment with PERCEPTION's pipeline on the map
-objects in view, move the road into `local`, plan with the PILOT's planner along the mission's
+objects in view, send the position the road edges give to the navigator (as PERCEPTION's fixes reach
+the PILOT under CODGER), move the road into `local`, plan with the PILOT's planner along the mission's
 route (asked from the mission service) and send the path `immediate` with `sensed_at` = the capture stamp.
 """
 
 from __future__ import annotations
 
 import argparse
+import asyncio
 import logging
 import sys
 
@@ -23,6 +25,7 @@ from eddie.messages.modules import MissionRoute, RouteQuery
 from eddie.errors import EddieError
 from eddie.modules.args import parse_pose
 from eddie.modules.errors import NoRoadPath
+from eddie.modules.landmark_matching import calibration_fix, fix_message
 from eddie.modules.road_following import RoadFollowingConfig, plan_road_path, route_ahead, route_to_local
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
 from eddie.modules.switched import Switch, run_switched
@@ -48,6 +51,9 @@ CLIENT, PRIORITY = "road_following", 2
 #: resume-vision gate sits at the exit; a path ending there could stop short of it).
 DEAD_RECKON_BEYOND_M = 4.0
 
+#: The planner's budget per path [s wall] and [iterations] (the PILOT's is 5 s and 20,000).
+PLAN_WALL_S, PLAN_ITERATIONS = 0.5, 4000
+
 
 class RoadFollowing:
     """The vision road following loop on one module endpoint."""
@@ -61,7 +67,11 @@ class RoadFollowing:
         self.switch = Switch(awake)
         self.belief = Belief(m, start)
         self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=self.cfg.speed_mps)
-        self.planner = LocalPathPlanner(pilot_config_for(vehicle).planner, seed=seed)
+        # the PILOT's planner with a budget a control cycle can afford: a path late by seconds of wall
+        # (a minute of sim at RTF 20) is worse than dead reckoning along the route until the next frame
+        pc = pilot_config_for(vehicle).planner
+        self.planner = LocalPathPlanner(pc.model_copy(update={"max_wall_s": PLAN_WALL_S, "max_iterations": min(pc.max_iterations, PLAN_ITERATIONS)}),
+                                        seed=seed)
         self.route: MissionRoute | None = None
 
     async def _route(self) -> MissionRoute | None:
@@ -97,15 +107,20 @@ class RoadFollowing:
             return "no controller pose at the capture"
         img = colored_range_image(frame)
         objs = objects_in_view(self.map, tuple(prior))
-        out = self.pipeline.process(img, objs, tuple(prior), error_allowance=0.5)
+        # perception and planning run in a worker thread: the loop keeps beating and reading its inbox meanwhile
+        out = await asyncio.to_thread(self.pipeline.process, img, objs, tuple(prior), error_allowance=0.5)
+        fix = calibration_fix(out, frame.stamp)
+        if fix is not None:
+            # the road edges and landmarks PERCEPTION matched place the vehicle: the navigator gates and takes it
+            await self.m.send("navigator", fix_message(fix, tuple(at_capture), CLIENT))
         route = route_to_local(np.asarray(self.route.points), tuple(inverse(self.belief.world_from_local)))
         speed = self._route_speed(prior)
         now = self.belief.local
         try:
             if out.navigable is None:
                 raise NoRoadPath(f"no road seen ({out.failure or 'nothing found'})")
-            path = plan_road_path(self.planner, tuple(now), out.navigable, tuple(at_capture), route, frame.stamp,
-                                  self.cfg.model_copy(update={"speed_mps": speed}))
+            path = await asyncio.to_thread(plan_road_path, self.planner, tuple(now), out.navigable, tuple(at_capture), route,
+                                           frame.stamp, self.cfg.model_copy(update={"speed_mps": speed}))
         except NoRoadPath as exc:
             # vision lost the road (an intersection, a turn): dead-reckon slowly along the route until it sees it again
             ahead = route_ahead(route, now[:2], self.cfg.lookahead_m)
@@ -115,6 +130,8 @@ class RoadFollowing:
                                                         points=tuple((float(x), float(y)) for x, y in ahead),
                                                         speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
             return f"{exc}; dead reckoning along the route"
+        if self.m.pending():
+            return "inbox first"  # a trigger came while planning: it may have put vision to sleep
         await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                     points=tuple((p[0], p[1]) for p in path.poses), speed=path.speed_mps,
                                                     sensed_at=path.sensed_at))

@@ -5,7 +5,8 @@ drives the route the triggers shape. The mission service only keeps the mission'
 CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit` reads the same
 states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
 controller `local` pose): reached within `reach_m` of the step's goal → succeeded; no progress for
-`stall_s` [s] sim → failed. Routes come from the MAP NAVIGATOR's route selection on the robot's map,
+`stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
+onto the step's route, shrinking by `progress_m`). Routes come from the MAP NAVIGATOR's route selection on the robot's map,
 one step after the other from the previous goal, as the mission compiler lays them out.
 """
 
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+from shapely.geometry import LineString, Point
 from pydantic import BaseModel, ConfigDict, Field
 
 from eddie.modules.errors import EddieModuleError
@@ -72,6 +74,7 @@ class MissionProgress:
         self._best = math.inf
         self._best_at = 0.0
         self._wait_until: float | None = None
+        self._lines: dict[int, LineString] = {}
 
     @property
     def status(self) -> MissionStatus:
@@ -107,12 +110,22 @@ class MissionProgress:
             if d <= max(self.goals[i].reach_m - self.margin_m, 0.2):
                 return self._apply(self.run.step_finished(StepResult(
                     mission_id=mid, step_index=i, success=True, reason=f"reached within {d:.2f} m of the goal"), now), now)
-            if d < self._best - self.progress_m:
-                self._best, self._best_at = d, now
+            # progress is measured along the route: a route may lead away from its goal for a while
+            left = self._route_left(i, world_xy)
+            if left < self._best - self.progress_m:
+                self._best, self._best_at = left, now
         if now - self._best_at > self.stall_s:
-            why = f"no progress towards the goal for {self.stall_s:.0f} s"
+            left = "" if math.isinf(self._best) else f"; {self._best:.1f} m of its route left"
+            why = f"no progress along the route for {self.stall_s:.0f} s (the believed position, navigator ∘ controller{left})"
             return self._apply(self.run.step_finished(StepResult(mission_id=mid, step_index=i, success=False, reason=why), now), now)
         return False
+
+    def _route_left(self, i: int, world_xy: tuple[float, float]) -> float:
+        """Return how much of step `i`'s route [m] is left past the believed position's projection onto it."""
+        line = self._lines.get(i)
+        if line is None:
+            line = self._lines[i] = LineString(self.goals[i].route)
+        return float(line.length - line.project(Point(world_xy)))
 
     def cancel(self, now: float, reason: str = "cancelled by request") -> None:
         """Cancel the mission at sim time `now` [s]."""

@@ -45,11 +45,19 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, i
         try:
             done, _ = await asyncio.wait({main_task, stop_task}, return_when=asyncio.FIRST_COMPLETED)
             if main_task in done:
-                exc = main_task.exception()
-                if exc is not None:
+                exc = None if main_task.cancelled() else main_task.exception()
+                if main_task.cancelled():
+                    log.error("%s: its body was cancelled", name)
+                    print(f"{name}: error: its body was cancelled", file=sys.stderr, flush=True)
+                    code = 1
+                elif exc is not None:
                     log.error("%s failed: %s", name, exc, exc_info=exc)
                     print(f"{name}: error: {exc}", file=sys.stderr, flush=True)
                     code = 1
+                else:
+                    print(f"{name}: its body returned; stopping", file=sys.stderr, flush=True)
+            else:
+                print(f"{name}: stop signal; stopping", file=sys.stderr, flush=True)
         finally:
             stop_task.cancel()
             if not main_task.done():

@@ -67,6 +67,29 @@ def test_a_vehicle_that_stands_still_fails_the_step_after_the_stall_time(campus)
     assert "no progress" in st.steps[0].reason and st.steps[1].state == "cancelled"
 
 
+def test_progress_is_judged_along_the_route_even_where_it_leads_away_from_the_goal() -> None:
+    from eddie.modules.mission_progress import StepGoal
+
+    mission = load_mission(WORLDS_DIR / "amv-delivery.yaml").model_copy(update={"mission_id": "u-turn"})
+    # a U: 60 m north, 10 m east, 60 m south to a goal 10 m east of the start — the first minute leads away from it
+    route = ((0.0, 0.0), (0.0, 60.0), (10.0, 60.0), (10.0, 0.0))
+    prog = MissionProgress(mission, [StepGoal(step_index=0, route=route, goal=(10.0, 0.0), reach_m=1.5)], stall_s=20.0)
+    prog.start(0.0)
+    t = 0.0
+    for p in _along(route, 1.0):  # 1 m/s
+        t += 1.0
+        prog.update(t, p)
+    st = prog.status
+    assert st.state == "succeeded", st
+    # standing still on the way still fails, and says what it waited for
+    prog = MissionProgress(mission, [StepGoal(step_index=0, route=route, goal=(10.0, 0.0), reach_m=1.5)], stall_s=20.0)
+    prog.start(0.0)
+    for k in range(1, 40):
+        prog.update(float(k), (0.0, 30.0))
+    st = prog.status
+    assert st.state == "failed" and "along the route" in st.steps[0].reason and "100.0 m of its route left" in st.steps[0].reason
+
+
 def test_a_step_to_an_unknown_place_names_the_step(campus) -> None:
     text = "mission: lost\nsteps:\n  - name: nowhere\n    destination: atlantis\n"
     mission = parse_mission(text.encode(), source="t")

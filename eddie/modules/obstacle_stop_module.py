@@ -67,9 +67,10 @@ class ObstacleStop:
 
     async def cycle(self) -> str:
         """Check one range image along the controller's path; stop or release the controller when the verdict changes."""
+        taken = self.switch.taken
         frame = await capture_frame(self.m)
-        if self.m.pending():
-            return "inbox first"  # a trigger may have switched detection off while the frame came
+        if self.switch.taken != taken or not self.switch.awake:
+            return "a trigger came while the frame did"  # it may have switched detection off
         pose = self.belief.local_at(frame.stamp)
         if pose is None:
             return "no controller pose at the capture"

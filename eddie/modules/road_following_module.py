@@ -99,9 +99,8 @@ class RoadFollowing:
             self.route = await self._route()
             if self.route is None:
                 return "no mission route"
+        taken = self.switch.taken
         frame = await capture_frame(self.m)
-        if self.m.pending():
-            return "inbox first"  # a trigger (dead reckoning, a new speed) came while the frame did: act on it first
         at_capture, prior = self.belief.local_at(frame.stamp), self.belief.world_at(frame.stamp)
         if at_capture is None or prior is None:
             return "no controller pose at the capture"
@@ -123,6 +122,8 @@ class RoadFollowing:
                                            frame.stamp, self.cfg.model_copy(update={"speed_mps": speed}))
         except NoRoadPath as exc:
             # vision lost the road (an intersection, a turn): dead-reckon slowly along the route until it sees it again
+            if self.switch.taken != taken or not self.switch.awake:
+                return f"{exc}; a trigger came meanwhile"
             ahead = route_ahead(route, now[:2], self.cfg.lookahead_m)
             if len(ahead) < 2:
                 return f"{exc}; at the route's end"
@@ -130,8 +131,8 @@ class RoadFollowing:
                                                         points=tuple((float(x), float(y)) for x, y in ahead),
                                                         speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
             return f"{exc}; dead reckoning along the route"
-        if self.m.pending():
-            return "inbox first"  # a trigger came while planning: it may have put vision to sleep
+        if self.switch.taken != taken or not self.switch.awake:
+            return "a trigger came while perceiving: this path is not sent"  # it may have put vision to sleep
         await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                     points=tuple((p[0], p[1]) for p in path.poses), speed=path.speed_mps,
                                                     sensed_at=path.sensed_at))

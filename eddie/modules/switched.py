@@ -9,6 +9,7 @@ perception modules (mode). Any other trigger data is kept in `Switch.last` for t
 
 from __future__ import annotations
 
+import asyncio
 import logging
 from typing import Awaitable, Callable
 
@@ -53,6 +54,8 @@ class Switch:
         self.awake = awake
         self.mode = ""
         self.last: Message | None = None
+        #: how many triggers and switches were taken so far (a cycle compares it across its slow part)
+        self.taken = 0
 
     def _set(self, name: str, on: bool, mode: str, why: str) -> None:
         self.awake, self.mode = on, mode
@@ -61,11 +64,13 @@ class Switch:
     def take(self, name: str, msg: Message) -> None:
         """Apply an inbox message: a `ModuleSwitch`, or a trigger; anything else is ignored."""
         if isinstance(msg, ModuleSwitch):
+            self.taken += 1
             self._set(name, msg.on, msg.mode, msg.reason)
             return
         data = trigger_data(msg)
         if data is None:
             return
+        self.taken += 1
         self.last = data
         kind = message_name(data)
         why = f"trigger {getattr(msg, 'annotation_id', '?')} {kind}"
@@ -78,27 +83,41 @@ class Switch:
 
 async def run_switched(m: Module, switch: Switch, cycle: Callable[[], Awaitable[str]], *, period_s: float,
                        on_data: Callable[[Message], Awaitable[None]] | None = None) -> None:
-    """Say ready, then forever: read the inbox, sleep while asleep, else run `cycle` every `period_s` [s] sim.
+    """Say ready, then read the inbox and run `cycle` every `period_s` [s] sim while awake, side by side.
 
-    `on_data` is called with each trigger's data after the switch took it (a module's own action).
+    The inbox is read by its own task, so a trigger is acted on as it arrives even while a cycle is
+    busy perceiving or planning (seconds of sim at a high RTF); `on_data` is called with each
+    trigger's data after the switch took it (a module's own action). A cycle that must not act on
+    a switch it has not seen compares `switch.taken` before and after its slow part.
     """
     m.ready()
     await m.clock.wait_running()
+    woken = asyncio.Event()
 
-    async def take(timeout: float | None) -> None:
-        switch.last = None
-        switch.take(m.name, (await m.receive(timeout=timeout)).message)
-        if switch.last is not None and on_data is not None:
-            await on_data(switch.last)
+    async def inbox() -> None:
+        while True:
+            try:
+                inc = await m.receive()
+                switch.last = None
+                switch.take(m.name, inc.message)
+                if switch.last is not None and on_data is not None:
+                    await on_data(switch.last)
+            except EddieError as exc:  # a bad message: log it, read on
+                log.warning("%s: %s", m.name, exc)
+            if switch.awake:
+                woken.set()
 
-    while True:
-        try:
-            while m.pending():
-                await take(0.1)
+    reader = asyncio.ensure_future(inbox())
+    try:
+        while True:
             if not switch.awake:
-                await take(None)
+                woken.clear()
+                await woken.wait()
                 continue
-            log.debug("%s: %s", m.name, await cycle())
-        except EddieError as exc:  # a bad message, a capture that failed: log it, go on
-            log.warning("%s: %s", m.name, exc)
-        await m.clock.sleep(period_s)
+            try:
+                log.debug("%s: %s", m.name, await cycle())
+            except EddieError as exc:  # a capture that failed, a refused request: log it, go on
+                log.warning("%s: %s", m.name, exc)
+            await m.clock.sleep(period_s)
+    finally:
+        reader.cancel()

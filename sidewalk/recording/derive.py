@@ -20,7 +20,7 @@ from sidewalk.recording.foxglove import (
     Time, Vector3, frame_transform, line, rgba,
 )
 
-__all__ = ["Derived", "derive_sample", "derive_token", "map_scene", "annotation_scene", "route_scene", "TF_TOPIC", "TRUTH_TF_TOPIC",
+__all__ = ["Derived", "derive_sample", "derive_token", "map_scene", "annotation_scene", "route_scene", "segment_scene", "TF_TOPIC", "TRUTH_TF_TOPIC",
            "STATIC_TF_TOPIC", "annotation_points"]
 
 TF_TOPIC = "/tf"
@@ -91,6 +91,12 @@ def annotation_scene(annotations: list[dict], t: float) -> SceneUpdate:
 def route_scene(eid: str, points: list[tuple[float, float]], t: float, *, meta: dict | None = None) -> SceneUpdate:
     """Return a route polyline (`world` [m]) as entity `eid` of topic `/scene/route`."""
     return _scene(t, [_entity(t, "world", eid, lines=[line(points, rgba(0.2, 0.4, 1.0), thickness=0.15)], meta=meta)])
+
+
+def segment_scene(points: list[tuple[float, float]] | tuple, width_m: float, t: float, *, meta: dict | None = None) -> SceneUpdate:
+    """Return the current route segment's centreline (`world` [m]) drawn `width_m` [m] wide, as entity "segment"."""
+    return _scene(t, [_entity(t, "world", "segment", lines=[line(points, rgba(0.0, 0.9, 1.0), thickness=max(0.1, width_m))],
+                              meta=meta)])
 
 
 def annotation_points(a: dict) -> list[tuple[float, float]]:
@@ -189,9 +195,8 @@ def derive_token(event: str, tok: dict, t: float) -> list[Derived]:
         pts = _line_of(a, "centreline")
         if deleted or a.get("state") == "cancelled" or len(pts) < 2:
             return [Derived("/scene/segment", _SU, _scene(t, deletions=["segment"]), t)]
-        return [Derived("/scene/segment", _SU, _scene(t, [_entity(
-            t, "world", "segment", lines=[line(pts, rgba(0.0, 0.9, 1.0), thickness=max(0.1, _num(a.get("width_m"), 1.0)))],
-            meta={"segment_id": a.get("segment_id", ""), "mode": a.get("mode", "")})]), t)]
+        return [Derived("/scene/segment", _SU, segment_scene(pts, _num(a.get("width_m"), 1.0), t,
+                                                             meta={"segment_id": a.get("segment_id", ""), "mode": a.get("mode", "")}), t)]
     if ttype == "driving_unit":
         uid = str(a.get("unit_id", tok.get("id")))
         status = str(a.get("status", "pending"))

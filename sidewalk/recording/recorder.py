@@ -12,7 +12,8 @@ What is recorded:
 - the map and world the simulator serves (`/sim/map`, `/sim/world`, answers to queries) and EDDIE's
   annotations (`/eddie/annotations`, the map manager's answer once its liveliness token appears);
 - Foxglove views of all this (`derive`): `/tf`, `/tf/truth`, `/tf_static`, `/scene/*`, `/camera/image`,
-  `/colored_range/image`, and the map, world and annotations as `foxglove.GeoJSON` (`/geojson/*`, in
+  `/colored_range/image`; under EDDIE the route (`/scene/route`) and the current segment (`/scene/segment`,
+  `eddie_segment`) from the route annotations; and the map, world and annotations as `foxglove.GeoJSON` (`/geojson/*`, in
   WGS84 about `geo_anchor.GEO_ORIGIN`) for Foxglove's Map panel.
 
 Zenoh callbacks only append to a deque; one writer thread decodes, converts and writes, so the
@@ -34,8 +35,8 @@ from typing import Any
 from blackboard import BlackboardClient, BlackboardError, Spec, Token
 from modules.vocabulary import TOKEN_TYPES
 from sidewalk.recording.channels import Family, decode_payload, family_of, topic_of
-from sidewalk.annotated_route import AnnotatedRoute, route_legs
 from sidewalk.recording.derive import annotation_points, annotation_scene, derive_sample, derive_token, map_scene, route_scene
+from sidewalk.recording.eddie_segment import EddieSegment
 from sidewalk.recording.geo_anchor import GEO_ORIGIN, annotations_geojson, map_geojson
 from sidewalk.recording.foxglove import foxglove_schema
 from sidewalk.recording.schemas import ALIVE_SCHEMA, token_schema
@@ -78,6 +79,7 @@ class RunRecorder:
         self._skip_key: str | None = None
         self._schemas: dict[str, dict] = {}
         self._eddie_seen = False
+        self._segment = EddieSegment()
         self._sim_seen = False
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stopped = False
@@ -242,7 +244,10 @@ class RunRecorder:
         topic = topic_of(rel)
         cid = self.sink.channel(topic, fam.schema_name, self._schema(fam), metadata={"key": key})
         log_t = self.sink.write(cid, topic, log_t, value, publish_s=own)
-        for d in derive_sample(rel, value, log_t):
+        derived = derive_sample(rel, value, log_t)
+        if rel.startswith("eddie/pub/") and isinstance(value, dict):
+            derived += self._segment.on_stream(rel[len("eddie/pub/"):], value, log_t)
+        for d in derived:
             self._write_derived(d.topic, d.schema, d.message, max(log_t, d.stamp), d.stamp)
 
     def _call_soon(self, fn: Any) -> None:
@@ -293,6 +298,7 @@ class RunRecorder:
             anns = [a for a in value if isinstance(a, dict)]
             self._write_derived("/scene/annotations", "foxglove.SceneUpdate", annotation_scene(anns, log_t), log_t, log_t)
             self._write_derived("/geojson/annotations", "foxglove.GeoJSON", annotations_geojson(anns, annotation_points), log_t, log_t)
-            route = AnnotatedRoute(route_legs(anns)).polyline()
+            self._segment.set_annotations(anns)
+            route = self._segment.route.polyline()
             if len(route) >= 2:
                 self._write_derived("/scene/route", "foxglove.SceneUpdate", route_scene("eddie-route", route, log_t), log_t, log_t)

@@ -7,6 +7,7 @@ One run per architecture serves its tests (module-scoped fixtures): the page is 
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -291,26 +292,17 @@ def test_run_mcap_holds_every_channel_and_every_message(monitored_run):
     assert {t: tuple(v) for t, v in got.items()} == stored
 
 
-@pytest.mark.e2e
-@pytest.mark.timeout(300)
-def test_replay_draws_the_recording(monitored_run, browser):
-    monitored_run.finish()
-    port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "sidewalk", "replay", str(monitored_run.out / "run.mcap"), "--speed", "40",
-                             "--port", str(port)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+@contextlib.contextmanager
+def _replay_page(browser, recording: Path, speed: str):
+    """Play `recording` into the monitor page (`sidewalk replay`); yield the page; the replay must exit 0 on SIGINT."""
+    proc = subprocess.Popen([sys.executable, "-m", "sidewalk", "replay", str(recording), "--speed", speed, "--port", str(free_port())],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = Lines(proc.stdout)
     try:
         url = lines.wait_for(r"replay: (http://\S+)", 60).group(1)
         page = browser.new_page()
         page.goto(url)
-        page.wait_for_function("""(() => { const s = window.monitorState;
-            return s.connected && s.replay && s.map.features > 10 && s.route.points >= 2 && s.units.count >= 1
-                   && s.vehicle !== null && s.modules.length >= 8; })()""", timeout=120_000)
-        first = page.evaluate("window.monitorState.vehicle")
-        page.wait_for_function("""(p) => { const s = window.monitorState, v = s.vehicle;
-            return (s.progress && s.progress.done) || Math.hypot(v.x - p.x, v.y - p.y) > 0.5; }""", arg=first, timeout=120_000)
-        assert page.locator("#badge").inner_text() == "REPLAY"
-        page.screenshot(path=str(monitored_run.out / "replay.png"))
+        yield page
         page.close()
     finally:
         proc.send_signal(signal.SIGINT)
@@ -320,6 +312,21 @@ def test_replay_draws_the_recording(monitored_run, browser):
             proc.kill()
             code = None
     assert code == 0, lines.text()[-2000:]
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_replay_draws_the_recording(monitored_run, browser):
+    monitored_run.finish()
+    with _replay_page(browser, monitored_run.out / "run.mcap", "40") as page:
+        page.wait_for_function("""(() => { const s = window.monitorState;
+            return s.connected && s.replay && s.map.features > 10 && s.route.points >= 2 && s.units.count >= 1
+                   && s.vehicle !== null && s.modules.length >= 8; })()""", timeout=120_000)
+        first = page.evaluate("window.monitorState.vehicle")
+        page.wait_for_function("""(p) => { const s = window.monitorState, v = s.vehicle;
+            return (s.progress && s.progress.done) || Math.hypot(v.x - p.x, v.y - p.y) > 0.5; }""", arg=first, timeout=120_000)
+        assert page.locator("#badge").inner_text() == "REPLAY"
+        page.screenshot(path=str(monitored_run.out / "replay.png"))
     keep = os.environ.get("SIDEWALK_KEEP_SCREENSHOTS")
     if keep:  # a developer's copy of the screenshots (e.g. for docs/monitor.png)
         for name in ("monitor.png", "replay.png"):
@@ -430,24 +437,8 @@ def _coords(g: dict) -> list:
 @pytest.mark.timeout(200)
 def test_replay_draws_an_eddie_recording(eddie_run, browser):
     eddie_run.finish()
-    port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "sidewalk", "replay", str(eddie_run.out / "run.mcap"), "--speed", "20",
-                             "--port", str(port)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    lines = Lines(proc.stdout)
-    try:
-        url = lines.wait_for(r"replay: (http://\S+)", 60).group(1)
-        page = browser.new_page()
-        page.goto(url)
+    with _replay_page(browser, eddie_run.out / "run.mcap", "20") as page:
         page.wait_for_function("""(() => { const s = window.monitorState;
             return s.connected && s.replay && s.annotations.count >= 5 && s.route.points >= 2 && s.segment.drawn
                    && s.triggers.fired >= 1 && s.vehicle !== null && s.modules.some(r => r.name === "map_manager"); })()""",
                                timeout=120_000)
-        page.close()
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            code = proc.wait(timeout=30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            code = None
-    assert code == 0, lines.text()[-2000:]

@@ -6,6 +6,8 @@ The contract with the EDDIE modules (msgpack maps; extra fields are ignored, mis
   `v` [m/s], `curvature` [1/m], the active `client`, the `mode`;
 - `eddie/pub/controller/path`: the path the controller tracks, `path` (or `poses`, `points`): [x, y]
   pairs or {x, y} maps [m] in `local` (or the `frame` it names);
+- `eddie/pub/controller/events`: `stamp`, `kind` (accepted, refused, stop, …), `client`, `detail` — listed
+  with the simulator's events;
 - `eddie/pub/navigator/world_from_local`: `stamp`, `x`, `y`, `yaw`: world←local;
 - `eddie/pub/map_manager/triggers` (`TriggerFired`): `stamp`, `annotation_id`, `trigger_type`, `destination`,
   world `x`, `y`, `text`, `event` (fired, skipped or rearmed), `via`;
@@ -38,7 +40,8 @@ __all__ = ["EddieInterpreter", "EddieLive", "STREAMS", "LATEST_STREAMS"]
 log = logging.getLogger(__name__)
 
 #: (module, stream) pairs the monitor follows.
-STREAMS = (("controller", "state"), ("controller", "path"), ("navigator", "world_from_local"), ("map_manager", "triggers"))
+STREAMS = (("controller", "state"), ("controller", "path"), ("controller", "events"), ("navigator", "world_from_local"),
+           ("map_manager", "triggers"))
 #: Streams where only the newest sample matters (the others: every sample).
 LATEST_STREAMS = (("controller", "state"), ("controller", "path"), ("navigator", "world_from_local"))
 
@@ -67,6 +70,9 @@ class EddieInterpreter:
             self._follow_route()
         elif stream == "controller/path":
             m.controller_path(points_of(v.get("path") or v.get("poses") or v.get("points")), frame=str(v.get("frame", "local")))
+        elif stream == "controller/events":
+            m.event({"stamp": t, "kind": f"controller {v.get('kind', '?')}", "object_id": str(v.get("client", "")),
+                     "detail": str(v.get("detail", ""))})
         elif stream == "navigator/world_from_local":
             m.set_world_from_local(XYPose(t=t, x=_f(v.get("x")), y=_f(v.get("y")), yaw=_f(v.get("yaw"))))
             self._follow_route()

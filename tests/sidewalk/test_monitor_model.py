@@ -127,6 +127,9 @@ def test_eddie_route_and_current_segment_from_the_route_annotations():
                                                    "destination": "controller", "x": 5.0, "y": 0.0, "event": "skipped", "via": "jump"})
     (t,) = m.section("triggers")
     assert (t["event"], t["via"]) == ("skipped", "jump")
+    e.on_sample("eddie/pub/controller/events", {"stamp": 6.0, "kind": "refused", "client": "vision", "detail": "lower priority"})
+    (ev,) = m.section("events")
+    assert (ev["kind"], ev["object_id"], ev["detail"]) == ("controller refused", "vision", "lower priority")
 
 
 def test_module_health_alive_wedged_gone_and_position_error():

@@ -12,7 +12,8 @@ MONITOR with one page open in Debian's headless chromium (Playwright). Prints on
 - `mission_*`: the same over the mission alone (from its first to its last status on `/mission/events`;
   the simulator runs from the start, so the recording also holds the processes' start-up):
   `mission_window_sim_s`, `mission_messages_per_sim_min`, `mission_mcap_bytes_per_sim_min` (the file's
-  size shared out by each message's JSON size: the chunks are zstd-compressed as a whole);
+  size shared out by each message's JSON size: the chunks are zstd-compressed as a whole),
+  `mission_recorder_cpu_s_per_sim_min` (from the recorder's heartbeats within the mission);
 - `others_cpu_s_with`, `others_cpu_s_without`: the CPU of every other process of the run with and
   without the recorder [s] (what its subscriptions cost the publishers);
 - `rtf_with`, `rtf_without`, `success_with`, `success_without`: the missions themselves;
@@ -100,11 +101,14 @@ def _mission(out: Path, mission: str, rtf: float, seed: int, record: bool, arch:
     return asyncio.run(run_mission(cfg))
 
 
-def _usage(msgs: list, *, wall: Optional[tuple[float, float]] = None) -> Optional[tuple[float, float, float]]:
-    """Return (Δcpu [s], Δsim [s], Δwall [s]) between the first and last heartbeat (within `wall`, if given)."""
+def _usage(msgs: list, *, wall: Optional[tuple[float, float]] = None,
+           sim: Optional[tuple[float, float]] = None) -> Optional[tuple[float, float, float]]:
+    """Return (Δcpu [s], Δsim [s], Δwall [s]) between the first and last heartbeat (within `wall` / `sim`, if given)."""
     beats = [m.value for m in msgs if isinstance(m.value.get("usage"), dict) and m.value.get("sim_time") is not None]
     if wall is not None:
         beats = [b for b in beats if wall[0] <= b["wall_time"] <= wall[1]]
+    if sim is not None:
+        beats = [b for b in beats if sim[0] <= b["sim_time"] <= sim[1]]
     if len(beats) < 2:
         return None
     a, b = beats[0], beats[-1]
@@ -171,6 +175,9 @@ def run(*, mission: str = DEFAULT_MISSION, rtf: float = 20.0, seed: int = 3, arc
                 "mission_messages_per_sim_min": round(len(inside) / wmin),
                 "mission_mcap_bytes_per_sim_min": round(path.stat().st_size * sum(inside) / max(1, sum(n for _, n in sizes)) / wmin),
             })
+            u = _usage(beats["recorder"], sim=(w0, w1))
+            if u and u[1] > 0:
+                result["mission_recorder_cpu_s_per_sim_min"] = round(u[0] / u[1] * 60.0, 4)
         steady = _usage(beats["recorder"])
         if steady and steady[1] > 0:
             result["recorder_steady_cpu_s_per_sim_min"] = round(steady[0] / steady[1] * 60.0, 4)

@@ -63,6 +63,8 @@ class TriggerView(Message):
     trigger_type: str
     destination: str
     text: str = ""
+    #: fired, skipped (a position jump passed it) or rearmed: only fired ones go into the report
+    event: str = "fired"
 
 
 def _reader(model: type[BaseModel], stream: str, on: Any):
@@ -87,5 +89,5 @@ def subscribe_eddie(link: Link, keys: EddieKeys, pose: Any, triggers: list[Fired
     link.subscribe(keys.topic(n_mod, n_stream), _reader(
         TransformView, f"{n_mod}/{n_stream}", lambda m: pose.set_world_from_local((m.x, m.y, m.yaw))))
     link.subscribe(keys.topic(t_mod, t_stream), _reader(
-        TriggerView, f"{t_mod}/{t_stream}", lambda m: triggers.append(FiredTrigger(
+        TriggerView, f"{t_mod}/{t_stream}", lambda m: m.event == "fired" and triggers.append(FiredTrigger(
             sim_s=m.stamp, x=m.x, y=m.y, annotation=m.annotation_id, kind=m.trigger_type, destination=m.destination, text=m.text))))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import json
+import os
 from typing import Annotated
 
 import typer
@@ -64,12 +65,22 @@ def bench_record(
     mission: Annotated[str, typer.Option(help="Mission name or file (default: the tests' short mission)")] = "",
     rtf: Annotated[float, typer.Option(help="Real-time factor of the runs")] = 20.0,
     without: Annotated[bool, typer.Option("--without/--no-without", help="Also run the mission without the recorder")] = True,
+    arch: Annotated[str, typer.Option(help="codger or eddie")] = "codger",
+    perception: Annotated[bool, typer.Option("--perception/--no-perception", help="Run the perception modules")] = True,
+    monitor: Annotated[bool, typer.Option("--monitor/--no-monitor",
+                                          help="Also serve the monitor with one page open in headless chromium; measure its CPU")] = False,
+    seed: Annotated[int, typer.Option(help="Seed of the runs")] = 3,
 ) -> None:
-    """The recorder's CPU and the MCAP size per minute of sim: a short mission with and without the recorder."""
+    """The recorder's CPU and the MCAP size per minute of sim (with and without the recorder); with --monitor, the monitor's CPU."""
     mod = importlib.import_module("bench.record")
     if rtf <= 0:
         raise typer.BadParameter(f"--rtf must be > 0, got {rtf}")
-    _emit(mod.run(mission=mission or mod.DEFAULT_MISSION, rtf=rtf, without=without), as_json)
+    if arch not in ("codger", "eddie"):
+        raise typer.BadParameter(f"--arch must be codger or eddie, got {arch!r}")
+    if monitor and not os.access(mod.CHROMIUM, os.X_OK):
+        raise typer.BadParameter(f"--monitor needs Debian's chromium at {mod.CHROMIUM} (apt-get install -y chromium)")
+    _emit(mod.run(mission=mission or mod.DEFAULT_MISSION, rtf=rtf, seed=seed, arch=arch, perception=perception, without=without,
+                  monitor=monitor), as_json)
 
 
 @bench_app.command("eddie")

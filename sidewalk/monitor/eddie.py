@@ -6,13 +6,18 @@ The contract with the EDDIE modules (msgpack maps; extra fields are ignored, mis
   `v` [m/s], `curvature` [1/m], the active `client`, the `mode`;
 - `eddie/pub/controller/path`: the path the controller tracks, `path` (or `poses`, `points`): [x, y]
   pairs or {x, y} maps [m] in `local` (or the `frame` it names);
+- `eddie/pub/controller/events`: `stamp`, `kind` (accepted, refused, stop, …), `client`, `detail` — listed
+  with the simulator's events;
 - `eddie/pub/navigator/world_from_local`: `stamp`, `x`, `y`, `yaw`: world←local;
-- `eddie/pub/map_manager/triggers`: `stamp`, `annotation_id`, `trigger_type`, `destination`, world `x`, `y`, `text`;
+- `eddie/pub/map_manager/triggers` (`TriggerFired`): `stamp`, `annotation_id`, `trigger_type`, `destination`,
+  world `x`, `y`, `text`, `event` (fired, skipped or rearmed), `via`;
 - `eddie/svc/map_manager/query`: asked `{"type": null, "polygon": null}` (JSON: every annotation), answers
-  a list of annotations (or `{"annotations": [...]}`), each with an id, a type and a point, line or
-  polygon in `world` (see `sidewalk.recording.derive.annotation_points`).
+  `{"annotations": [...]}` (or a bare list), each with an id, a type and a point, line or polygon in
+  `world` (see `sidewalk.recording.derive.annotation_points`), and its data base64-encoded.
 
-The estimated pose is world←local ∘ the controller's pose.
+The estimated pose is world←local ∘ the controller's pose. The route and the current route segment
+are the mission's `route` annotations (`sidewalk.annotated_route`): the current one is the one
+the estimated pose is on.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import logging
 from typing import Any
 
 from sidewalk.values import num as _f, points_of
+from sidewalk.annotated_route import AnnotatedRoute, route_legs
 from sidewalk.monitor.model import MonitorModel, XYPose
 from sidewalk.recording.channels import decode_payload
 from sidewalk.recording.derive import annotation_points
@@ -34,7 +40,8 @@ __all__ = ["EddieInterpreter", "EddieLive", "STREAMS", "LATEST_STREAMS"]
 log = logging.getLogger(__name__)
 
 #: (module, stream) pairs the monitor follows.
-STREAMS = (("controller", "state"), ("controller", "path"), ("navigator", "world_from_local"), ("map_manager", "triggers"))
+STREAMS = (("controller", "state"), ("controller", "path"), ("controller", "events"), ("navigator", "world_from_local"),
+           ("map_manager", "triggers"))
 #: Streams where only the newest sample matters (the others: every sample).
 LATEST_STREAMS = (("controller", "state"), ("controller", "path"), ("navigator", "world_from_local"))
 
@@ -42,8 +49,12 @@ LATEST_STREAMS = (("controller", "state"), ("controller", "path"), ("navigator",
 class EddieInterpreter:
     """Turn EDDIE's decoded stream samples and annotations into model updates."""
 
+    #: the model's route key for EDDIE's route
+    ROUTE_KEY = "eddie-route"
+
     def __init__(self, model: MonitorModel) -> None:
         self.model = model
+        self.route = AnnotatedRoute()
 
     def on_sample(self, rel: str, v: Any) -> bool:
         """Handle a decoded sample of key `rel` (below `sidewalk/<ns>/`); return whether it was EDDIE's."""
@@ -56,14 +67,20 @@ class EddieInterpreter:
             m.set_controller({"t": t, "v": _f(v.get("v")), "curvature": _f(v.get("curvature")),
                               "client": str(v.get("client", v.get("active_client", ""))), "mode": str(v.get("mode", ""))})
             m.set_local_pose(XYPose(t=t, x=_f(v.get("x")), y=_f(v.get("y")), yaw=_f(v.get("yaw"))))
+            self._follow_route()
         elif stream == "controller/path":
             m.controller_path(points_of(v.get("path") or v.get("poses") or v.get("points")), frame=str(v.get("frame", "local")))
+        elif stream == "controller/events":
+            m.event({"stamp": t, "kind": f"controller {v.get('kind', '?')}", "object_id": str(v.get("client", "")),
+                     "detail": str(v.get("detail", ""))})
         elif stream == "navigator/world_from_local":
             m.set_world_from_local(XYPose(t=t, x=_f(v.get("x")), y=_f(v.get("y")), yaw=_f(v.get("yaw"))))
+            self._follow_route()
         elif stream == "map_manager/triggers":
             m.trigger({"t": t, "annotation_id": str(v.get("annotation_id", v.get("id", ""))),
                        "type": str(v.get("trigger_type", v.get("type", ""))), "destination": str(v.get("destination", "")),
-                       "x": _f(v.get("x")), "y": _f(v.get("y")), "text": str(v.get("text", ""))})
+                       "x": _f(v.get("x")), "y": _f(v.get("y")), "text": str(v.get("text", "")),
+                       "event": str(v.get("event", "fired")), "via": str(v.get("via", ""))})
         else:
             return False
         return True
@@ -81,6 +98,23 @@ class EddieInterpreter:
                 out.append({"id": str(a.get("id", a.get("annotation_id", f"a{i}"))), "type": str(a.get("type", a.get("kind", ""))),
                             "points": [[round(x, 3), round(y, 3)] for x, y in pts], "text": str(a.get("text", ""))})
         self.model.set_annotations(out)
+        legs = route_legs([a for a in anns if isinstance(a, dict)] if isinstance(anns, list) else [])
+        if [leg.id for leg in legs] != [leg.id for leg in self.route.legs]:
+            self.route = AnnotatedRoute(legs)
+            if legs:
+                self.model.route_plan(self.ROUTE_KEY, self.route.polyline())
+            else:
+                self.model.drop_route(self.ROUTE_KEY)
+            self._follow_route()
+
+    def _follow_route(self) -> None:
+        """Make the route leg the estimated pose is on the model's current segment (when it changed)."""
+        est = self.model.estimate
+        if est is None or not self.route.legs:
+            return
+        leg = self.route.locate(est.x, est.y)
+        if leg is not None and (self.model.segment is None or self.model.segment.get("id") != leg.id):
+            self.model.set_segment(self.route.as_dict(leg))
 
 
 class EddieLive:

@@ -20,7 +20,7 @@ from sidewalk.recording.foxglove import (
     Time, Vector3, frame_transform, line, rgba,
 )
 
-__all__ = ["Derived", "derive_sample", "derive_token", "map_scene", "annotation_scene", "TF_TOPIC", "TRUTH_TF_TOPIC",
+__all__ = ["Derived", "derive_sample", "derive_token", "map_scene", "annotation_scene", "route_scene", "segment_scene", "TF_TOPIC", "TRUTH_TF_TOPIC",
            "STATIC_TF_TOPIC", "annotation_points"]
 
 TF_TOPIC = "/tf"
@@ -88,6 +88,17 @@ def annotation_scene(annotations: list[dict], t: float) -> SceneUpdate:
     return _scene(t, ents)
 
 
+def route_scene(eid: str, points: list[tuple[float, float]], t: float, *, meta: dict | None = None) -> SceneUpdate:
+    """Return a route polyline (`world` [m]) as entity `eid` of topic `/scene/route`."""
+    return _scene(t, [_entity(t, "world", eid, lines=[line(points, rgba(0.2, 0.4, 1.0), thickness=0.15)], meta=meta)])
+
+
+def segment_scene(points: list[tuple[float, float]] | tuple, width_m: float, t: float, *, meta: dict | None = None) -> SceneUpdate:
+    """Return the current route segment's centreline (`world` [m]) drawn `width_m` [m] wide, as entity "segment"."""
+    return _scene(t, [_entity(t, "world", "segment", lines=[line(points, rgba(0.0, 0.9, 1.0), thickness=max(0.1, width_m))],
+                              meta=meta)])
+
+
 def annotation_points(a: dict) -> list[tuple[float, float]]:
     """Return the outline (x, y) [m] of an EDDIE annotation, wherever its location is (tolerant of field names)."""
     for k in ("polygon", "points", "line", "location", "geometry"):
@@ -153,7 +164,7 @@ def _derive_eddie(stream: str, v: dict, t: float) -> list[Derived]:
         if len(pts) >= 2:
             return [Derived("/scene/controller_path", _SU, _scene(s, [_entity(s, str(v.get("frame", "local")), "path",
                                                                                lines=[line(pts, rgba(1.0, 0.4, 0.0), thickness=0.12)])]), s)]
-        return []
+        return [Derived("/scene/controller_path", _SU, _scene(s, deletions=["path"]), s)]  # no path any more
     if stream == "map_manager/triggers":
         x, y = _num(v.get("x")), _num(v.get("y"))
         aid = str(v.get("annotation_id", v.get("id", "trigger")))
@@ -179,15 +190,13 @@ def derive_token(event: str, tok: dict, t: float) -> list[Derived]:
         pts = _line_of(a, "polyline")
         if deleted or len(pts) < 2:
             return [Derived("/scene/route", _SU, _scene(t, deletions=[eid]), t)] if deleted else []
-        return [Derived("/scene/route", _SU, _scene(t, [_entity(t, "world", eid, lines=[line(pts, rgba(0.2, 0.4, 1.0), thickness=0.15)],
-                                                                meta={"revision": a.get("revision", 0)})]), t)]
+        return [Derived("/scene/route", _SU, route_scene(eid, pts, t, meta={"revision": a.get("revision", 0)}), t)]
     if ttype == "route_segment":
         pts = _line_of(a, "centreline")
         if deleted or a.get("state") == "cancelled" or len(pts) < 2:
             return [Derived("/scene/segment", _SU, _scene(t, deletions=["segment"]), t)]
-        return [Derived("/scene/segment", _SU, _scene(t, [_entity(
-            t, "world", "segment", lines=[line(pts, rgba(0.0, 0.9, 1.0), thickness=max(0.1, _num(a.get("width_m"), 1.0)))],
-            meta={"segment_id": a.get("segment_id", ""), "mode": a.get("mode", "")})]), t)]
+        return [Derived("/scene/segment", _SU, segment_scene(pts, _num(a.get("width_m"), 1.0), t,
+                                                             meta={"segment_id": a.get("segment_id", ""), "mode": a.get("mode", "")}), t)]
     if ttype == "driving_unit":
         uid = str(a.get("unit_id", tok.get("id")))
         status = str(a.get("status", "pending"))

@@ -1,7 +1,7 @@
 """The Foxglove message schemas a recording uses, as frozen pydantic models, and their JSON schemas.
 
 Foxglove Studio (and Rerun) recognise a JSON channel by its schema *name* (`foxglove.FrameTransform`,
-`foxglove.SceneUpdate`, `foxglove.CompressedImage`); the field names and shapes here follow
+`foxglove.SceneUpdate`, `foxglove.CompressedImage`, `foxglove.GeoJSON`); the field names and shapes here follow
 Foxglove's published schemas (docs.foxglove.dev, "Message schemas"). Times are `{sec, nsec}` of sim
 time since the simulator started; lengths [m]; frames are Sidewalk's (`world`, `local`, `vehicle`,
 and `vehicle_truth` for the true pose, which must not share `vehicle`'s parent chain).
@@ -18,7 +18,7 @@ from pydantic import BaseModel, ConfigDict, Field
 __all__ = [
     "Time", "Duration", "Vector3", "Quaternion", "Pose", "Point3", "Color", "KeyValuePair",
     "FrameTransform", "LinePrimitive", "TextPrimitive", "SpherePrimitive", "SceneEntity", "SceneEntityDeletion",
-    "SceneUpdate", "CompressedImage", "FOXGLOVE_MODELS", "foxglove_schema", "inline_refs",
+    "SceneUpdate", "CompressedImage", "GeoJSON", "FOXGLOVE_MODELS", "foxglove_schema", "inline_refs",
     "LINE_STRIP", "LINE_LOOP", "LINE_LIST", "yaw_quaternion", "frame_transform", "line", "rgba",
 ]
 
@@ -205,11 +205,19 @@ class CompressedImage(BaseModel):
         return cls(timestamp=Time.of(t), frame_id=frame_id, data=base64.b64encode(data).decode(), format=fmt)
 
 
+class GeoJSON(BaseModel):
+    """A GeoJSON FeatureCollection as text, in WGS84 longitude/latitude [deg] (Foxglove's Map panel draws it)."""
+
+    model_config = _F
+    geojson: str
+
+
 #: Schema name → model of every Foxglove message a recording writes.
 FOXGLOVE_MODELS: dict[str, type[BaseModel]] = {
     "foxglove.FrameTransform": FrameTransform,
     "foxglove.SceneUpdate": SceneUpdate,
     "foxglove.CompressedImage": CompressedImage,
+    "foxglove.GeoJSON": GeoJSON,
 }
 
 

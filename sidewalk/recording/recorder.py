@@ -10,9 +10,11 @@ What is recorded:
   blackboard client with one monitor matching every type; tokens already there when it starts are
   recorded as `present`;
 - the map and world the simulator serves (`/sim/map`, `/sim/world`, answers to queries) and EDDIE's
-  annotations (`/eddie/annotations`);
+  annotations (`/eddie/annotations`, the map manager's answer once its liveliness token appears);
 - Foxglove views of all this (`derive`): `/tf`, `/tf/truth`, `/tf_static`, `/scene/*`, `/camera/image`,
-  `/colored_range/image`.
+  `/colored_range/image`; under EDDIE the route (`/scene/route`) and the current segment (`/scene/segment`,
+  `eddie_segment`) from the route annotations; and the map, world and annotations as `foxglove.GeoJSON` (`/geojson/*`, in
+  WGS84 about `geo_anchor.GEO_ORIGIN`) for Foxglove's Map panel.
 
 Zenoh callbacks only append to a deque; one writer thread decodes, converts and writes, so the
 recorder never holds up a publisher (nothing is dropped either: the deque is unbounded).
@@ -33,7 +35,9 @@ from typing import Any
 from blackboard import BlackboardClient, BlackboardError, Spec, Token
 from modules.vocabulary import TOKEN_TYPES
 from sidewalk.recording.channels import Family, decode_payload, family_of, topic_of
-from sidewalk.recording.derive import annotation_scene, derive_sample, derive_token, map_scene
+from sidewalk.recording.derive import annotation_points, annotation_scene, derive_sample, derive_token, map_scene, route_scene
+from sidewalk.recording.eddie_segment import EddieSegment
+from sidewalk.recording.geo_anchor import GEO_ORIGIN, annotations_geojson, map_geojson
 from sidewalk.recording.foxglove import foxglove_schema
 from sidewalk.recording.schemas import ALIVE_SCHEMA, token_schema
 from sidewalk.recording.sink import McapSink
@@ -66,7 +70,7 @@ class RunRecorder:
         self.link = link
         self.keys = Keys(ns)
         self.root = self.keys.root + "/"
-        self.sink = McapSink(path, metadata={"namespace": ns, **(metadata or {})})
+        self.sink = McapSink(path, metadata={"namespace": ns, "geo_origin": f"{GEO_ORIGIN[0]},{GEO_ORIGIN[1]}", **(metadata or {})})
         self._q: collections.deque[tuple] = collections.deque()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="recorder-writer", daemon=True)
@@ -75,6 +79,7 @@ class RunRecorder:
         self._skip_key: str | None = None
         self._schemas: dict[str, dict] = {}
         self._eddie_seen = False
+        self._segment = EddieSegment()
         self._sim_seen = False
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stopped = False
@@ -171,7 +176,7 @@ class RunRecorder:
 
     async def _fetch_annotations(self) -> None:
         key = self.keys.eddie.service("map_manager", "query")
-        for _ in range(5):
+        for _ in range(30):  # the token comes with the queryable; a loaded machine may answer late
             replies = await self.link.get(key, payload=json.dumps({"type": None, "polygon": None}).encode(), timeout=5.0, as_json=True)
             ok = [r for r in replies if r.ok]
             if ok:
@@ -239,11 +244,11 @@ class RunRecorder:
         topic = topic_of(rel)
         cid = self.sink.channel(topic, fam.schema_name, self._schema(fam), metadata={"key": key})
         log_t = self.sink.write(cid, topic, log_t, value, publish_s=own)
-        for d in derive_sample(rel, value, log_t):
+        derived = derive_sample(rel, value, log_t)
+        if rel.startswith("eddie/pub/") and isinstance(value, dict):
+            derived += self._segment.on_stream(rel[len("eddie/pub/"):], value, log_t)
+        for d in derived:
             self._write_derived(d.topic, d.schema, d.message, max(log_t, d.stamp), d.stamp)
-        if rel.startswith("eddie/pub/") and not self._eddie_seen:
-            self._eddie_seen = True
-            self._call_soon(self._fetch_annotations)
 
     def _call_soon(self, fn: Any) -> None:
         with contextlib.suppress(RuntimeError):
@@ -275,6 +280,9 @@ class RunRecorder:
         if alive and key == self.keys.sim.alive and not self._sim_seen:
             self._sim_seen = True
             self._call_soon(self._fetch_map)
+        if alive and key == self.keys.alive("map_manager") and not self._eddie_seen:
+            self._eddie_seen = True
+            self._call_soon(self._fetch_annotations)
 
     def _write_static(self, rel: str, value: Any) -> None:
         topic = "/" + rel
@@ -282,7 +290,15 @@ class RunRecorder:
         cid = self.sink.channel(topic, fam.schema_name, self._schema(fam))
         log_t = self.sink.write(cid, topic, self.clock, value if isinstance(value, dict) else {"payload": value})
         if rel in ("sim/map", "sim/world") and isinstance(value, dict):
-            topic2 = "/scene/map" if rel == "sim/map" else "/scene/world_truth"
-            self._write_derived(topic2, "foxglove.SceneUpdate", map_scene(value, log_t, truth=rel == "sim/world"), log_t, log_t)
+            truth = rel == "sim/world"
+            self._write_derived("/scene/world_truth" if truth else "/scene/map", "foxglove.SceneUpdate",
+                                map_scene(value, log_t, truth=truth), log_t, log_t)
+            self._write_derived("/geojson/world_truth" if truth else "/geojson/map", "foxglove.GeoJSON", map_geojson(value), log_t, log_t)
         elif rel == ANNOTATIONS_TOPIC[1:] and isinstance(value, list):
-            self._write_derived("/scene/annotations", "foxglove.SceneUpdate", annotation_scene(value, log_t), log_t, log_t)
+            anns = [a for a in value if isinstance(a, dict)]
+            self._write_derived("/scene/annotations", "foxglove.SceneUpdate", annotation_scene(anns, log_t), log_t, log_t)
+            self._write_derived("/geojson/annotations", "foxglove.GeoJSON", annotations_geojson(anns, annotation_points), log_t, log_t)
+            self._segment.set_annotations(anns)
+            route = self._segment.route.polyline()
+            if len(route) >= 2:
+                self._write_derived("/scene/route", "foxglove.SceneUpdate", route_scene("eddie-route", route, log_t), log_t, log_t)

@@ -57,3 +57,10 @@ def test_record_refuses_a_directory_and_a_bad_arch(tmp_path):
     assert r.exit_code == 2 and "directory" in _one_line(r) and "--out" in _one_line(r)
     r = runner.invoke(app, ["record", "--arch", "x", "--out", str(tmp_path / "r.mcap")])
     assert r.exit_code == 2 and "--arch must be one of" in _one_line(r)
+
+
+def test_bench_record_refuses_a_bad_arch_and_rtf():
+    r = runner.invoke(app, ["bench", "record", "--arch", "blackboard"])
+    assert r.exit_code == 2 and "--arch must be codger or eddie" in _one_line(r)
+    r = runner.invoke(app, ["bench", "record", "--rtf", "0"])
+    assert r.exit_code == 2 and "--rtf must be > 0" in _one_line(r)

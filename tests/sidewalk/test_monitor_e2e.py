@@ -1,11 +1,13 @@
 """End to end: a short mission run with `--monitor`, watched in Debian's headless chromium (Playwright), its
-`run.mcap` read back and checked against what was published, then replayed into the page.
+`run.mcap` read back and checked against what was published, then replayed into the page — under the
+CODGER blackboard and under EDDIE (`--arch eddie --no-perception`).
 
-One run serves the three tests (module-scoped fixture): the page is loaded while the mission drives.
+One run per architecture serves its tests (module-scoped fixtures): the page is loaded while the mission drives.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
@@ -33,6 +35,7 @@ CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
                  "--disable-background-networking", "--disable-component-update", "--disable-sync"]
 PROCESSES = {"router", "blackboard", "recorder", "monitor", "sim", "helm", "perception", "pilot", "map_navigator", "captain"}
+EDDIE_PROCESSES = {"router", "recorder", "monitor", "sim", "controller", "navigator", "map_manager", "mission_service"}
 RUN_TIMEOUT_S = 300.0
 
 
@@ -111,12 +114,12 @@ class MonitoredRun:
         return self.returncode
 
 
-@pytest.fixture(scope="module")
-def monitored_run(tmp_path_factory):
-    out = tmp_path_factory.mktemp("monitored")
+def _monitored(out: Path, *extra: str, rtf: str = "6"):
+    """Start a short mission with --monitor; yield it once its page is served and a tap listens to every key."""
     port = free_port()
     cmd = [sys.executable, "-m", "sidewalk", "run", "--world", "campus", "--mission", str(DATA / "short-hop.yaml"),
-           "--rtf", "6", "--seed", "3", "--out", str(out), "--max-wall-time", "240", "--monitor", "--monitor-port", str(port)]
+           "--rtf", rtf, "--seed", "3", "--out", str(out), "--max-wall-time", "240", "--monitor", "--monitor-port", str(port),
+           *extra]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env={**os.environ, "COLUMNS": "200"})
     run = MonitoredRun(proc=proc, out=out, err=Lines(proc.stderr), tap=Tap())
     try:
@@ -136,6 +139,16 @@ def monitored_run(tmp_path_factory):
                 proc.kill()
         if run.session is not None:
             run.session.close()
+
+
+@pytest.fixture(scope="module")
+def monitored_run(tmp_path_factory):
+    yield from _monitored(tmp_path_factory.mktemp("monitored"))
+
+
+@pytest.fixture(scope="module")
+def eddie_run(tmp_path_factory):
+    yield from _monitored(tmp_path_factory.mktemp("monitored-eddie"), "--arch", "eddie", "--no-perception", rtf="10")
 
 
 @pytest.fixture(scope="module")
@@ -279,26 +292,17 @@ def test_run_mcap_holds_every_channel_and_every_message(monitored_run):
     assert {t: tuple(v) for t, v in got.items()} == stored
 
 
-@pytest.mark.e2e
-@pytest.mark.timeout(300)
-def test_replay_draws_the_recording(monitored_run, browser):
-    monitored_run.finish()
-    port = free_port()
-    proc = subprocess.Popen([sys.executable, "-m", "sidewalk", "replay", str(monitored_run.out / "run.mcap"), "--speed", "40",
-                             "--port", str(port)], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+@contextlib.contextmanager
+def _replay_page(browser, recording: Path, speed: str):
+    """Play `recording` into the monitor page (`sidewalk replay`); yield the page; the replay must exit 0 on SIGINT."""
+    proc = subprocess.Popen([sys.executable, "-m", "sidewalk", "replay", str(recording), "--speed", speed, "--port", str(free_port())],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines = Lines(proc.stdout)
     try:
         url = lines.wait_for(r"replay: (http://\S+)", 60).group(1)
         page = browser.new_page()
         page.goto(url)
-        page.wait_for_function("""(() => { const s = window.monitorState;
-            return s.connected && s.replay && s.map.features > 10 && s.route.points >= 2 && s.units.count >= 1
-                   && s.vehicle !== null && s.modules.length >= 8; })()""", timeout=120_000)
-        first = page.evaluate("window.monitorState.vehicle")
-        page.wait_for_function("""(p) => { const s = window.monitorState, v = s.vehicle;
-            return (s.progress && s.progress.done) || Math.hypot(v.x - p.x, v.y - p.y) > 0.5; }""", arg=first, timeout=120_000)
-        assert page.locator("#badge").inner_text() == "REPLAY"
-        page.screenshot(path=str(monitored_run.out / "replay.png"))
+        yield page
         page.close()
     finally:
         proc.send_signal(signal.SIGINT)
@@ -308,8 +312,133 @@ def test_replay_draws_the_recording(monitored_run, browser):
             proc.kill()
             code = None
     assert code == 0, lines.text()[-2000:]
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_replay_draws_the_recording(monitored_run, browser):
+    monitored_run.finish()
+    with _replay_page(browser, monitored_run.out / "run.mcap", "40") as page:
+        page.wait_for_function("""(() => { const s = window.monitorState;
+            return s.connected && s.replay && s.map.features > 10 && s.route.points >= 2 && s.units.count >= 1
+                   && s.vehicle !== null && s.modules.length >= 8; })()""", timeout=120_000)
+        first = page.evaluate("window.monitorState.vehicle")
+        page.wait_for_function("""(p) => { const s = window.monitorState, v = s.vehicle;
+            return (s.progress && s.progress.done) || Math.hypot(v.x - p.x, v.y - p.y) > 0.5; }""", arg=first, timeout=120_000)
+        assert page.locator("#badge").inner_text() == "REPLAY"
+        page.screenshot(path=str(monitored_run.out / "replay.png"))
     keep = os.environ.get("SIDEWALK_KEEP_SCREENSHOTS")
     if keep:  # a developer's copy of the screenshots (e.g. for docs/monitor.png)
         for name in ("monitor.png", "replay.png"):
             if (monitored_run.out / name).exists():
                 shutil.copy(monitored_run.out / name, Path(keep) / name)
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_monitor_page_draws_a_live_eddie_mission(eddie_run, browser):
+    page = browser.new_page()
+    page.goto(eddie_run.url)
+    page.wait_for_function("window.monitorState.connected && window.monitorState.map.features > 10", timeout=60_000)
+    # EDDIE's processes listed alive with their heartbeat age, while the run goes on
+    page.wait_for_function("""(names) => { const m = window.monitorState.modules;
+        return names.every(n => m.some(r => r.name === n && r.alive && r.state === "ready" && r.age !== null)); }""",
+                           arg=sorted(EDDIE_PROCESSES), timeout=120_000)
+    page.wait_for_function("window.monitorState.vehicle !== null && window.monitorState.truth !== null", timeout=60_000)
+    first = page.evaluate("window.monitorState.vehicle")
+    # the vehicle marker (world←local ∘ the controller's pose) moves
+    page.wait_for_function("""(p) => { const v = window.monitorState.vehicle;
+        return v && Math.hypot(v.x - p.x, v.y - p.y) > 3.0 && Math.hypot(v.sx - p.sx, v.sy - p.sy) > 2; }""",
+                           arg=first, timeout=120_000)
+    # the annotations, the route they lay out, the current segment, and a trigger as it fired
+    page.wait_for_function("""(() => { const s = window.monitorState;
+        return s.annotations.count >= 5 && s.route.points >= 2 && s.segment.drawn && s.triggers.fired >= 1
+               && s.series.speed >= 2 && s.series.pos_error >= 2 && s.mission !== null; })()""", timeout=120_000)
+    st = page.evaluate("window.monitorState")
+    assert st["arch"] == "eddie" and not st["replay"] and st["segment"]["id"].startswith("route.")
+    assert st["units"]["count"] == 0 and st["plan"]["points"] == 0  # no blackboard: no driving units, no PILOT plan
+    listed = page.locator("#triggers li").first.inner_text()
+    assert st["triggers"]["last"]["type"] in listed and "→" in listed
+    page.screenshot(path=str(eddie_run.out / "monitor.png"))
+    page.close()
+    assert (eddie_run.out / "monitor.png").stat().st_size > 20_000
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_eddie_run_mcap_holds_every_message_on_eddies_keys(eddie_run):
+    code = eddie_run.finish()
+    out = eddie_run.out
+    report = json.loads((out / "report.json").read_text())
+    assert code == 0 and report["architecture"] == "eddie", eddie_run.err.text()[-3000:]
+    assert report["exit_codes"]["recorder"] == 0 and report["exit_codes"]["monitor"] == 0
+    rec = open_recording(out / "run.mcap")
+    channels = rec.channels()
+    ns_root = f"sidewalk/{eddie_run.ns}/"
+    with eddie_run.tap.lock:
+        heard = {"/" + k[len(ns_root):]: n for k, n in eddie_run.tap.counts.items()}
+    assert set(heard) <= set(channels), set(heard) - set(channels)
+    assert not any(t.startswith(("/bb/", "/tokens/")) for t in channels)  # no blackboard anywhere
+    expected = {"/eddie/pub/controller/state", "/eddie/pub/controller/path", "/eddie/pub/navigator/world_from_local",
+                "/eddie/pub/map_manager/triggers", "/eddie/inbox/controller", "/eddie/annotations", "/mission/events", "/alive",
+                "/tf", "/tf/truth", "/scene/map", "/scene/annotations", "/scene/route", "/scene/segment", "/scene/triggers",
+                "/geojson/map", "/geojson/annotations", "/geojson/world_truth", "/sim/map", "/sim/world"}
+    expected |= {f"/heartbeat/{p}" for p in EDDIE_PROCESSES}
+    assert expected <= set(channels), expected - set(channels)
+    assert channels["/tf"].schema == "foxglove.FrameTransform" and channels["/geojson/map"].schema == "foxglove.GeoJSON"
+
+    per_topic: dict[str, list] = defaultdict(list)
+    for m in rec.messages():
+        per_topic[m.topic].append(m)
+    assert {t: len(v) for t, v in per_topic.items()} == {t: c.count for t, c in channels.items()}
+    for t, msgs in per_topic.items():
+        logs = [m.log_time for m in msgs]
+        assert logs == sorted(logs), t
+    # EDDIE's links and streams are reliable and the recorder was up before EDDIE's first module: every
+    # message an independent subscriber heard on EDDIE's keys is in the file, once
+    eddie_topics = {t for t in heard if t.startswith("/eddie/")}
+    assert {"/eddie/pub/controller/state", "/eddie/pub/map_manager/triggers"} <= eddie_topics
+    assert {t: len(per_topic[t]) for t in eddie_topics} == {t: heard[t] for t in eddie_topics}
+    own = [m.value["stamp"] for m in per_topic["/eddie/pub/controller/state"]]
+    # in order by the controller's own stamps (a tick that outruns the sim clock repeats a stamp)
+    assert len(own) > 100 and all(b >= a for a, b in zip(own, own[1:])) and own[-1] > own[0]
+    assert [m.publish_time for m in per_topic["/eddie/pub/controller/state"]] == pytest.approx(own)
+    # the triggers that fired are the report's, in order; each drawn for Foxglove
+    fired = [m.value for m in per_topic["/eddie/pub/map_manager/triggers"] if m.value.get("event", "fired") == "fired"]
+    assert [f["annotation_id"] for f in fired] == [t["annotation"] for t in report["triggers"]] and fired
+    assert len(per_topic["/scene/triggers"]) == len(per_topic["/eddie/pub/map_manager/triggers"])
+    # the poses as FrameTransforms: world→local from the navigator, local→vehicle from the controller
+    pairs = defaultdict(int)
+    for m in per_topic["/tf"]:
+        pairs[(m.value["parent_frame_id"], m.value["child_frame_id"])] += 1
+    assert pairs[("local", "vehicle")] == len(own) and pairs[("world", "local")] == len(per_topic["/eddie/pub/navigator/world_from_local"])
+    # the annotations: the map manager's answer, as GeoJSON in WGS84, and the route they lay out
+    anns = per_topic["/eddie/annotations"][0].value["payload"]
+    geo = json.loads(per_topic["/geojson/annotations"][0].value["geojson"])
+    assert len(geo["features"]) == len(anns) >= 5
+    assert all(-80.0 < c[0] < -79.9 and 40.4 < c[1] < 40.5 for f in geo["features"] for c in _coords(f["geometry"]))
+    segs = [e["metadata"] for m in per_topic["/scene/segment"] for e in m.value["entities"]]
+    ids = [next(kv["value"] for kv in md if kv["key"] == "segment_id") for md in segs]
+    route_ids = [a["id"] for a in anns if a["type"] == "route"]
+    assert ids and ids == sorted(ids, key=route_ids.index)  # forward along the route only
+    for p in EDDIE_PROCESSES - {"sim"}:
+        seqs = [m.value["seq"] for m in per_topic[f"/heartbeat/{p}"]]
+        assert seqs == list(range(seqs[0], seqs[0] + len(seqs))), (p, seqs)
+    states = [m.value["state"] for m in per_topic["/mission/events"]]
+    assert report["claimed_success"] and states[0] in ("queued", "running") and states[-1] == "succeeded", states
+
+
+def _coords(g: dict) -> list:
+    c = g["coordinates"]
+    return [c] if g["type"] == "Point" else (c[0] if g["type"] == "Polygon" else c)
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(200)
+def test_replay_draws_an_eddie_recording(eddie_run, browser):
+    eddie_run.finish()
+    with _replay_page(browser, eddie_run.out / "run.mcap", "20") as page:
+        page.wait_for_function("""(() => { const s = window.monitorState;
+            return s.connected && s.replay && s.annotations.count >= 5 && s.route.points >= 2 && s.segment.drawn
+                   && s.triggers.fired >= 1 && s.vehicle !== null && s.modules.some(r => r.name === "map_manager"); })()""",
+                               timeout=120_000)

@@ -88,6 +88,50 @@ def test_eddie_estimate_is_world_from_local_after_the_controller_pose():
     assert not e.on_sample("sim/truth", {"x": 1})
 
 
+def _route_annotation(aid, index, points, mode="follow-road"):
+    import base64
+
+    from eddie.messages.map_manager import RouteSegment, encode_trigger_data
+
+    data = encode_trigger_data(RouteSegment(index=index, mode=mode, points=tuple(points), width=2.5, speed=1.0))
+    # the record's own location is deliberately not the centreline: the segment's data is what counts
+    return {"id": aid, "type": "route", "kind": "line", "points": [[-50, -50], [-60, -60]], "text": f"segment {index}",
+            "data_base64": base64.b64encode(data).decode()}
+
+
+def test_eddie_route_and_current_segment_from_the_route_annotations():
+    m = MonitorModel(arch="eddie")
+    e = EddieInterpreter(m)
+    # an out-and-back route: out along y = 0, back along y = 1 (1 m apart), answered out of order
+    anns = [_route_annotation("r2", 2, [(20, 1), (0, 1)]), _route_annotation("r0", 0, [(0, 0), (10, 0)]),
+            _route_annotation("r1", 1, [(10, 0), (20, 0), (20, 1)], mode="turn-at-intersection"),
+            {"id": "s", "type": "set_speed", "points": [[5, -1], [5, 1]]}]
+    e.on_annotations({"annotations": anns})
+    (route,) = m.section("route")
+    assert route["points"] == ((0, 0), (10, 0), (20, 0), (20, 1), (0, 1))
+    assert m.section("segment") is None  # no pose yet
+    e.on_sample("eddie/pub/navigator/world_from_local", {"stamp": 0.0, "x": 0.0, "y": 0.0, "yaw": 0.0})
+
+    def at(x, y):
+        e.on_sample("eddie/pub/controller/state", {"stamp": 1.0, "x": x, "y": y, "yaw": 0.0, "v": 1.0})
+        return m.section("segment")
+
+    assert at(2.0, 0.2)["id"] == "r0"
+    seg = at(15.0, 0.3)
+    assert (seg["id"], seg["mode"], seg["width_m"]) == ("r1", "turn-at-intersection", 2.5)
+    assert seg["centreline"] == ((10, 0), (20, 0), (20, 1))
+    assert at(12.0, 0.9)["id"] == "r2"  # nearer the way back than the way out
+    assert at(5.0, 0.2)["id"] == "r2"  # a segment passed is not taken again
+    # a skipped trigger keeps its outcome
+    e.on_sample("eddie/pub/map_manager/triggers", {"stamp": 5.0, "annotation_id": "s", "trigger_type": "set_speed",
+                                                   "destination": "controller", "x": 5.0, "y": 0.0, "event": "skipped", "via": "jump"})
+    (t,) = m.section("triggers")
+    assert (t["event"], t["via"]) == ("skipped", "jump")
+    e.on_sample("eddie/pub/controller/events", {"stamp": 6.0, "kind": "refused", "client": "vision", "detail": "lower priority"})
+    (ev,) = m.section("events")
+    assert (ev["kind"], ev["object_id"], ev["detail"]) == ("controller refused", "vision", "lower priority")
+
+
 def test_module_health_alive_wedged_gone_and_position_error():
     now = [1000.0]
     m = MonitorModel(wall=lambda: now[0])

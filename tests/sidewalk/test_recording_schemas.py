@@ -28,6 +28,7 @@ FOXGLOVE_FIELDS = {
     "foxglove.FrameTransform": {"timestamp", "parent_frame_id", "child_frame_id", "translation", "rotation"},
     "foxglove.SceneUpdate": {"deletions", "entities"},
     "foxglove.CompressedImage": {"timestamp", "frame_id", "data", "format"},
+    "foxglove.GeoJSON": {"geojson"},
 }
 SCENE_ENTITY_FIELDS = {"timestamp", "frame_id", "id", "lifetime", "frame_locked", "metadata", "arrows", "cubes", "spheres",
                        "cylinders", "lines", "triangles", "texts", "models"}
@@ -210,3 +211,25 @@ def test_bad_recordings_say_so_in_one_line(tmp_path):
         open_recording(tmp_path / "text.mcap")
     with pytest.raises(RecordingError, match="not a file"):
         open_recording(tmp_path)
+
+
+def test_map_and_annotations_as_geojson_in_wgs84():
+    from sidewalk.recording.derive import annotation_points
+    from sidewalk.recording.geo_anchor import GEO_ORIGIN, annotations_geojson, lonlat, map_geojson
+
+    lon0, lat0 = lonlat(0.0, 0.0)
+    assert (lat0, lon0) == pytest.approx(GEO_ORIGIN)
+    # 111.3 km per degree of latitude; a degree of longitude is shorter by cos(latitude)
+    lon, lat = lonlat(100.0, 1000.0)
+    assert (lat - lat0) * 111_195 == pytest.approx(1000.0, rel=2e-3)
+    assert (lon - lon0) * 111_195 * math.cos(math.radians(lat0)) == pytest.approx(100.0, rel=2e-3)
+    fc = json.loads(map_geojson({"features": [
+        {"geometry": {"type": "Polygon", "coordinates": [[[0, 0], [10, 0], [10, 10], [0, 0]]]}, "properties": {"id": "b", "kind": "building", "colour": {"x": 1}}},
+        {"geometry": None}]}).geojson)
+    (f,) = fc["features"]
+    assert f["properties"] == {"id": "b", "kind": "building"} and f["geometry"]["coordinates"][0][1] == lonlat(10, 0)
+    anns = [{"id": "r0", "type": "route", "kind": "line", "points": [[0, 0], [0, 20]], "destination": "vision"},
+            {"id": "z", "type": "stop_at_object", "kind": "polygon", "points": [[0, 0], [1, 0], [1, 1]]},
+            {"id": "p", "type": "mark", "kind": "point", "points": [[3, 4]]}, {"id": "empty", "type": "x"}]
+    kinds = {g["properties"]["id"]: g["geometry"]["type"] for g in json.loads(annotations_geojson(anns, annotation_points).geojson)["features"]}
+    assert kinds == {"r0": "LineString", "z": "Polygon", "p": "Point"}

@@ -15,7 +15,7 @@ window.monitorState = {
   vehicle: null, truth: null, route: { count: 0, points: 0 }, segment: { drawn: false },
   units: { count: 0, ids: [] }, perceived: { count: 0 }, plan: { points: 0 }, controllerPath: { points: 0 },
   annotations: { count: 0 }, triggers: { count: 0 }, map: { features: 0 }, modules: [], mission: null,
-  images: {}, progress: null, view: view,
+  images: {}, series: { speed: 0, pos_error: 0 }, progress: null, view: view,
 };
 
 // ---- connection ---------------------------------------------------------------------------------
@@ -211,15 +211,22 @@ function draw() {
     if ($("l-truth").checked) stroke(S.trails.truth, "rgba(255,255,255,0.45)", 1, { dash: [2, 3] });
   }
 
-  // triggers as they fired
-  let nt = 0;
-  for (const t of S.triggers || []) {
-    const X = sx(t.x), Y = sy(t.y);
-    ctx.beginPath(); ctx.arc(X, Y, 6, 0, 2 * Math.PI); ctx.fillStyle = "#ff3b8b"; ctx.fill();
-    ctx.fillStyle = "#ffb3d1"; ctx.font = "11px system-ui"; ctx.fillText(`${t.type} → ${t.destination}`, X + 8, Y + 4);
+  // triggers as they fired (a skipped one hollow); only the newest few labelled, the rest are listed beside
+  const trigs = S.triggers || [];
+  let nt = 0, nfired = 0;
+  trigs.forEach((t, i) => {
+    const X = sx(t.x), Y = sy(t.y), fired = (t.event || "fired") === "fired";
+    ctx.beginPath(); ctx.arc(X, Y, 6, 0, 2 * Math.PI);
+    if (fired) { ctx.fillStyle = "#ff3b8b"; ctx.fill(); nfired += 1; }
+    else { ctx.strokeStyle = "#ff3b8b"; ctx.lineWidth = 2; ctx.stroke(); }
+    if (i >= trigs.length - 3) {
+      ctx.fillStyle = "#ffb3d1"; ctx.font = "11px system-ui";
+      ctx.fillText(`${fired ? "" : t.event + " "}${t.type} → ${t.destination}`, X + 8, Y + 4 + 13 * (i - trigs.length + 3));
+    }
     nt += 1;
-  }
-  st.triggers = { count: nt };
+  });
+  const last = trigs.length ? trigs[trigs.length - 1] : null;
+  st.triggers = { count: nt, fired: nfired, last: last ? { type: last.type, destination: last.destination, event: last.event || "fired", t: last.t } : null };
 
   // poses: truth (evaluation only) under the estimate
   st.truth = (S.truth && $("l-truth").checked) ? vehicle(S.truth, "#ffffff", true, "truth (evaluation only)") : null;
@@ -263,6 +270,10 @@ function panels(secs) {
       `<tr data-module="${esc(r.name)}"><td>${esc(r.name)}</td><td class="state-${esc(r.state)}">${esc(r.state)}</td>` +
       `<td>${r.age_s == null ? "–" : r.age_s.toFixed(1)}</td></tr>`).join("");
   }
+  if ("segment" in secs) {
+    const g = secs.segment;
+    $("segment").textContent = g ? `current segment: ${g.mode || ""} ${g.text || g.id || ""}`.replace(/\s+/g, " ") : "";
+  }
   if ("mission" in secs) {
     const m = secs.mission;
     st.mission = m ? { id: m.mission_id, name: m.name, state: m.state, step: m.current_step } : null;
@@ -282,6 +293,7 @@ function panels(secs) {
     }
   }
   if (secs.series) {
+    st.series = { speed: secs.series.speed.length, pos_error: secs.series.pos_error.length };
     series($("ts-speed"), secs.series.speed, "#8fd3ff");
     series($("ts-err"), secs.series.pos_error, "#ff8c1a");
     const sp = secs.series.speed, er = secs.series.pos_error;
@@ -296,7 +308,7 @@ function panels(secs) {
   if (secs.triggers) {
     if (secs.triggers.length) $("controller-panel").hidden = false;
     $("triggers").innerHTML = secs.triggers.slice(-30).reverse().map((t) =>
-      `<li>${t.t.toFixed(1)} s ${esc(t.type)} → ${esc(t.destination)} ${esc(t.text)}</li>`).join("");
+      `<li>${t.t.toFixed(1)} s ${(t.event && t.event !== "fired") ? "<b>" + esc(t.event) + "</b> " : ""}${esc(t.type)} → ${esc(t.destination)} ${esc(t.text)}</li>`).join("");
   }
   if (secs.events) {
     $("events").innerHTML = secs.events.slice().reverse().map((e) =>

@@ -1,7 +1,8 @@
 """`sidewalk run --arch eddie --secure DIR`: EDDIE's processes under TLS, passwords and the router's access control.
 
-The run's own processes (router, recorder, simulator, controller, navigator, map manager, mission
-service, road following, landmark matching, obstacle stop) start secure, each as its own role. Before
+The run's own processes (router, simulator, controller, navigator, map manager and mission service,
+which drives the route through the controller: no perception, to keep the test light) start secure,
+each as its own role. The perception modules' credentials are used by the test itself. Before
 the mission, every EDDIE module's credentials but the controller's try to drive: none of their
 commands reaches the simulator's drive key (an `evaluation` reader hears the controller's own test
 command put after theirs, and the vehicle stays where it is by truth). Then the mission is
@@ -36,14 +37,14 @@ async def test_an_eddie_run_under_secure_drives_and_only_the_controller_may(tmp_
     d = tmp_path / "sec"
     init_secure_dir(d)
     ns = "eddiesec"
-    cfg = RunConfig(world="campus", mission=str(MISSION), out=tmp_path, namespace=ns, arch="eddie",
+    cfg = RunConfig(world="campus", mission=str(MISSION), out=tmp_path, namespace=ns, arch="eddie", record=False, perception=False,
                     secure=d, rtf=4.0)
     setup = prepare_run(cfg)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     plans = eddie_plans(out=tmp_path, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf,
                         seed=cfg.seed, watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth,
                         start_belief=setup.start_belief, map_file=setup.map_file,
-                        annotated_map=compile_annotated_map(setup, tmp_path), perception=True, record=True, secure=d)
+                        annotated_map=compile_annotated_map(setup, tmp_path), perception=False, record=False, secure=d)
     assert all("--secure" in p.args for p in plans)
     system = EddieSystemRun(plans, ns=ns, endpoint=endpoint, log_dir=tmp_path / "logs", secure=d)
     keys = SimKeys(ns)

@@ -56,14 +56,18 @@ EDDIE_PERCEPTION_MODULES = ("obstacle_stop", "landmark_matching", "road_followin
 def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, rtf: float, seed: int, watchdog_s: float,
                 start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
                 map_file: Path, annotated_map: Optional[Path], perception: bool, record: bool = True,
-                monitor_port: Optional[int] = None) -> list[ProcessPlan]:
-    """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard."""
-    zflags = ("--ns", ns, "--connect", endpoint)
+                monitor_port: Optional[int] = None, secure: Optional[Path] = None) -> list[ProcessPlan]:
+    """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard.
+
+    `secure`: the `sidewalk security init` directory every process gets as --secure (each its own role).
+    """
+    sec = () if secure is None else ("--secure", str(secure))  # issue 14
+    zflags = ("--ns", ns, "--connect", endpoint, *sec)
     sx, sy, syaw = start_belief
     sim_start = () if start_truth is None else (
         f"--start={start_truth[0]},{start_truth[1]},{math.degrees(start_truth[2])}",)
     plans = [
-        ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint)),
+        ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint, *sec)),
         *observer_plans(out, zflags, record=record, monitor_port=monitor_port, arch="eddie"),
         ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", world, "--vehicle", vehicle, *sim_start,
                             "--rtf", str(rtf), "--seed", str(seed), "--watchdog", str(watchdog_s), *zflags)),
@@ -122,8 +126,8 @@ class EddieSystemRun(SystemRun):
     """
 
     def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path,
-                 annotated_map: Optional[Path] = None) -> None:
-        super().__init__(plans, ns=ns, endpoint=endpoint, log_dir=log_dir)
+                 annotated_map: Optional[Path] = None, secure: Path | None = None) -> None:
+        super().__init__(plans, ns=ns, endpoint=endpoint, log_dir=log_dir, secure=secure)
         self.annotated_map = annotated_map
         self.pose = PoseComposer()
         self.triggers: list[FiredTrigger] = []

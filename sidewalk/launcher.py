@@ -370,8 +370,6 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     if cfg.arch == "eddie":
-        if cfg.secure is not None:
-            raise LaunchError("--secure: EDDIE's processes do not take --secure yet; run --arch eddie without it (or --arch codger)")
         if cfg.actors is not None:
             raise LaunchError("--actors: EDDIE's simulator plan does not place actors yet; run --arch eddie without it (or --arch codger)")
         from sidewalk.eddie_run import EddieSystemRun, compile_annotated_map, eddie_plans
@@ -381,7 +379,8 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             out=out, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
             watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
             map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
-        ), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap)
+            secure=cfg.secure,
+        ), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure)
     else:
         system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)
     progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)

@@ -169,10 +169,13 @@ def network_from_args(parser: argparse.ArgumentParser, args: argparse.Namespace,
                       who: str | None = None) -> NetworkConfig:
     """Return the NetworkConfig of parsed flags; exit through `parser.error` naming the bad flag.
 
-    The --secure identity is --role, else `who`, else the program's module (`python -m modules.helm` → helm).
+    The --secure identity is --role, else `who`, else the program's module (`python -m modules.helm` → helm,
+    `python -m eddie.modules.obstacle_stop_module` → obstacle_stop).
     """
-    if who is None:
-        who = parser.prog.rsplit(" ", 1)[-1].rsplit(".", 1)[-1] if parser.prog.startswith("python -m ") else None
+    if who is None and parser.prog.startswith("python -m "):
+        # the last dotted part that is not `__main__`, without a `_module` suffix (eddie.modules.obstacle_stop_module → obstacle_stop)
+        parts = [p for p in parser.prog.rsplit(" ", 1)[-1].split(".") if p != "__main__"]
+        who = parts[-1].removesuffix("_module") if parts else None
     try:
         return network_config(ns=args.ns, connect=args.connect, listen=args.listen, mode=args.mode, role=role,
                               secure=args.secure, who=args.role or who)

@@ -17,6 +17,7 @@ its bytes parse as a JSON object or array; replies go back in the request's form
 from __future__ import annotations
 
 import json
+import os
 import sys
 import threading
 import time
@@ -215,7 +216,21 @@ def session_stats() -> dict[str, int]:
         return {"opened": _opened, "open": len(_shared)}
 
 
+_log_started = False
+
+
+def _start_zenoh_log() -> None:
+    """Send Zenoh's own log to stderr when SIDEWALK_ZENOH_LOG names a level or filter (e.g. the router's denials:
+    `zenoh::net::routing::interceptor::access_control=debug`)."""
+    global _log_started
+    level = os.environ.get("SIDEWALK_ZENOH_LOG")
+    if level and not _log_started:
+        _log_started = True
+        zenoh.init_log_from_env_or(level)
+
+
 def _open_zenoh(net: NetworkConfig) -> "zenoh.Session":
+    _start_zenoh_log()
     try:
         return zenoh.open(zenoh.Config.from_json5(json.dumps(net.zenoh_json())))
     except Exception as exc:  # zenoh raises ZError for every failure

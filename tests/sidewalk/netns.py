@@ -42,6 +42,8 @@ class Hosts:
     tag: str = field(default_factory=lambda: f"{os.getpid() % 100000}")
     net: int = 77
     names: list[str] = field(default_factory=list)
+    #: give the bridge 10.<net>.0.254 so that this (root) namespace reaches the hosts too (the test's own observer)
+    bridge_ip: bool = False
 
     @property
     def bridge(self) -> str:
@@ -51,6 +53,11 @@ class Hosts:
         """Return the IPv4 address of host `i` (0-based)."""
         return f"10.{self.net}.0.{i + 1}"
 
+    @property
+    def bridge_addr(self) -> str:
+        """Return the root namespace's address on the bridge (with `bridge_ip`)."""
+        return f"10.{self.net}.0.254"
+
     def veth(self, i: int) -> str:
         return f"swv{self.tag}h{i}"
 
@@ -58,6 +65,8 @@ class Hosts:
         try:
             _ip("link", "add", self.bridge, "type", "bridge")
             _ip("link", "set", self.bridge, "up")
+            if self.bridge_ip:
+                _ip("addr", "add", f"{self.bridge_addr}/24", "dev", self.bridge)
             for i in range(self.n):
                 ns = f"swns{self.tag}h{i}"
                 subprocess.run(["ip", "netns", "add", ns], check=True, capture_output=True)

@@ -50,21 +50,28 @@ def test_init_issues_a_ca_certificates_and_secret_files(tmp_path) -> None:
     assert forced.returncode == 0 and (d / "ca.pem").read_bytes() != ca.public_bytes(__import__("cryptography").hazmat.primitives.serialization.Encoding.PEM)
 
 
-def test_rules_become_deny_policies_for_every_other_role(tmp_path) -> None:
+def test_rules_become_allow_policies_for_each_role_and_deny_the_rest(tmp_path) -> None:
     d = tmp_path / "sec"
     init_secure_dir(d)
-    acl = access_control(load_rules(d / "rules.yaml"))
-    assert acl["enabled"] and acl["default_permission"] == "allow"
-    drive = next(p for p in acl["policies"] if p["id"] == "drive:write")
-    denied = {s.split(":", 1)[1] for s in drive["subjects"]}
-    assert "pilot" in denied and "operator" in denied and not {"helm", "controller"} & denied
-    truth = next(p for p in acl["policies"] if p["id"] == "truth:read")
-    assert not {"evaluation", "monitor", "recorder"} & {s.split(":", 1)[1] for s in truth["subjects"]}
-    rule = next(r for r in acl["rules"] if r["id"] == "truth:read:egress")
-    assert "sidewalk/*/sim/truth_capture" in rule["key_exprs"] and "reply" in rule["messages"]
+    rules = load_rules(d / "rules.yaml")
+    acl = access_control(rules)
+    assert acl["enabled"] and acl["default_permission"] == "deny"
+    # one subject per role: its certificate AND its password (a mixed pair matches no role)
+    assert {"id": "pilot", "cert_common_names": ["pilot"], "usernames": ["pilot"]} in acl["subjects"]
+    rules_by_id = {r["id"]: r for r in acl["rules"]}
+    policy = {p["id"]: set(p["rules"]) for p in acl["policies"]}
+    drivers = {role for role, ids in policy.items() if "write:drive:ingress" in ids}
+    assert drivers == {"helm", "controller"}
+    assert rules_by_id["write:drive:ingress"]["key_exprs"] == ["sidewalk/*/sim/cmd"]
+    assert {"put", "delete"} <= set(rules_by_id["write:drive:ingress"]["messages"])
+    assert {role for role, ids in policy.items() if "ask:truth:ingress" in ids} == {"monitor", "recorder", "evaluation"}
+    assert {role for role, ids in policy.items() if "ask:missions:ingress" in ids} == {"operator"}
+    # `{role}` keys are the grantee's own: the navigator reads its inbox, not the controller's
+    assert rules_by_id["read:own-inbox@navigator:ingress"]["key_exprs"] == ["sidewalk/*/eddie/inbox/navigator"]
+    assert "read:own-inbox@navigator:ingress" not in policy["controller"]
     # a bad rules file is named, with what is wrong
-    (d / "rules.yaml").write_text("roles: [helm]\nguards:\n  - {name: drive, keys: [sim/cmd], write: [helm, ghost]}\n")
-    with pytest.raises(SecurityError, match=r"rules.yaml: .*unknown role\(s\) ghost"):
+    (d / "rules.yaml").write_text("families: {drive: {keys: [sim/cmd]}}\nroles:\n  helm: {write: [drive, ghost]}\n")
+    with pytest.raises(SecurityError, match=r"rules.yaml: .*roles.helm.write: unknown family ghost"):
         load_rules(d / "rules.yaml")
     r = _sidewalk("security", "acl", str(d))
     assert r.returncode == 2 and "ghost" in r.stderr and "Traceback" not in r.stderr

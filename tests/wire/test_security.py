@@ -151,18 +151,18 @@ def test_only_evaluation_monitor_and_recorder_read_truth(router, secure_dir) -> 
     pilot, recorder = _session(router, secure_dir, "pilot"), _session(router, secure_dir, "recorder")
     try:
         stolen: list[bytes] = []
-        pilot_odom: list[bytes] = []
+        pilot_clock: list[bytes] = []
         seen: list[bytes] = []
         pilot_ready, recorder_ready = threading.Event(), threading.Event()
         _collect(pilot, K.sim.truth, stolen)
         _collect(pilot, "sidewalk/**", stolen)  # a wildcard subscription must not get truth either
-        _collect(pilot, K.sim.odom, pilot_odom, pilot_ready, 5)  # declared after: once it hears, so would the others
+        _collect(pilot, K.sim.clock, pilot_clock, pilot_ready, 5)  # declared after: once it hears, so would the others
         _collect(recorder, K.sim.truth, seen, recorder_ready, 5)
         i = 0
         while not (pilot_ready.is_set() and recorder_ready.is_set()) and i < 20000:
             i += 1
             sim.put(K.sim.truth, b"truth %d" % i)
-            sim.put(K.sim.odom, b"odom %d" % i)
+            sim.put(K.sim.clock, b"clock %d" % i)
             pilot_ready.wait(0.005)
         assert pilot_ready.is_set() and recorder_ready.is_set()
         assert not [p for p in stolen if p.startswith(b"truth")], "the PILOT read truth"
@@ -188,7 +188,10 @@ def test_only_evaluation_monitor_and_recorder_read_truth(router, secure_dir) -> 
 
 
 def test_a_stolen_password_under_another_certificate_cannot_drive(router, secure_dir) -> None:
-    """The PILOT's certificate with the HELM's user and password connects, but is denied drive commands."""
+    """The PILOT's certificate with the HELM's user and password connects, but matches no role: it may do nothing.
+
+    The HELM's own command, put after the mixed session's, arrives; none of the mixed session's does.
+    """
     helm_pw = next(line.split(":", 1)[1] for line in (secure_dir / "credentials.txt").read_text().splitlines()
                    if line.startswith("helm:"))
     cfg = {"mode": "client", "scouting": {"multicast": {"enabled": False}}, "connect": {"endpoints": [router.replace("tcp/", "tls/")]},
@@ -197,19 +200,26 @@ def test_a_stolen_password_under_another_certificate_cannot_drive(router, secure
                                           "connect_private_key": str(secure_dir / "roles" / "pilot.key")}},
                          "auth": {"usrpwd": {"user": "helm", "password": helm_pw}}}}
     mixed = zenoh.open(zenoh.Config.from_json5(json.dumps(cfg)))
-    sim = _session(router, secure_dir, "sim")
+    sim, helm = _session(router, secure_dir, "sim"), _session(router, secure_dir, "helm")
     try:
-        cmds: list[bytes] = []
-        probes: list[bytes] = []
+        cmds: list[DriveCommand] = []
         heard = threading.Event()
-        _collect(sim, K.sim.cmd, cmds)
-        _collect(sim, K.bench("probe"), probes, heard, 3)
-        for i in range(2000):
+
+        def on_cmd(sample) -> None:
+            cmds.append(decode(DriveCommand, sample.payload))
+            if cmds[-1].seq == 10_000:
+                heard.set()
+
+        sim.subscribe(K.sim.cmd, on_cmd)
+        for i in range(500):
             mixed.put(K.sim.cmd, encode(DriveCommand(speed=1.0, curvature=0.0, seq=i + 1)))
-            mixed.put(K.bench("probe"), b"probe")  # after the command on the same link: once probes arrive, so would commands
-            if heard.wait(0.01):
-                break
-        assert heard.is_set() and cmds == []
+            if i % 50 == 49:  # the HELM's command after the mixed ones: once it arrives, theirs would have
+                helm.put(K.sim.cmd, encode(DriveCommand(speed=0.0, curvature=0.0, seq=10_000)))
+                if heard.wait(0.2):
+                    break
+        assert heard.is_set(), "the HELM's own command never reached the simulator"
+        assert {c.seq for c in cmds} == {10_000}, "a drive command of the mixed credentials reached the simulator"
     finally:
         sim.close()
+        helm.close()
         mixed.close()

@@ -129,6 +129,34 @@ class Captain:
                 tok = found[0]
         e.status_token = await self.bb.post(st, stamp=self._now())
 
+    async def fail_orphans(self) -> list[str]:
+        """Fail every mission the blackboard shows queued or running that this CAPTAIN does not know; return their ids.
+
+        A CAPTAIN that restarted lost its missions' progress: left alone, their statuses would say
+        `running` forever with nobody working on them. Their open steps are withdrawn too, so the
+        MAP NAVIGATOR stops driving them.
+        """
+        out = []
+        for tok in await self.bb.retrieve(Spec(type="mission_status", where=(AttrPredicate(path="state", op="in", value=["queued", "running"]),))):
+            st = tok.attrs
+            if not isinstance(st, MissionStatus) or st.mission_id in self._entries:
+                continue
+            reason = ("the CAPTAIN restarted while this mission was " + st.state
+                      + ": its progress was lost; submit it again")
+            done = st.model_copy(update={"state": "failed", "reason": reason, "finished_at": self._now()})
+            try:
+                await self.bb.update(tok.id, done, expected_version=tok.version, stamp=self._now())
+            except VersionConflictError:
+                continue
+            for step_tok in await self.bb.retrieve(Spec(type="mission_step", where=(
+                    AttrPredicate(path="mission_id", op="==", value=st.mission_id),
+                    AttrPredicate(path="state", op="==", value="active")))):
+                await self._withdraw(step_tok, step_tok.attrs)
+            self.rt.link.put(self.rt.keys.mission_events, done.model_dump_json().encode(), as_json=True)
+            log.warning("mission %s: %s", st.mission_id, reason)
+            out.append(st.mission_id)
+        return out
+
     # ---- running missions -----------------------------------------------------------------
 
     async def run(self) -> None:
@@ -246,7 +274,7 @@ class Captain:
             if cancel in done:
                 return ("cancel", e.cancel_reason)
             if lost in done:
-                return ("fail", lost.result())
+                return ("fail", f"step {index + 1}: {lost.result()} while the step waited for its result")
             if unacked is not None and unacked in done and unacked.result() is not None:
                 return ("fail", unacked.result())
             return ("fail", f"step {index + 1} timed out after {self.options.step_timeout_s:.0f} s of sim time")

@@ -248,6 +248,10 @@ def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
         raise LaunchError(str(exc)) from None
     if mission.world is not None and mission.world != world.name:
         raise LaunchError(f"mission {mission.name!r} is for world {mission.world!r}, not {world.name!r}")
+    for i, step in enumerate(mission.steps):  # an unknown destination is refused before anything starts
+        if step.destination.place is not None and _destination_xy(world, step.destination) is None:
+            raise LaunchError(f"{mpath}: steps[{i}].destination: unknown place {step.destination.place!r} in world "
+                              f"{world.name!r}; known places: {', '.join(sorted(world.place_names()))}")
     if cfg.actors:  # issue 12: a bad actors file fails here, not in the simulator
         from vehicle_sim.actors import ActorError, load_actors
 

@@ -13,13 +13,13 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
-from blackboard import AttrPredicate, Spec, VersionConflictError
+from blackboard import AttrPredicate, BlackboardError, Spec, VersionConflictError
 
-from modules.captain.missionfile import MissionFileError, parse_mission
+from modules.captain.missionfile import MissionFileError, MissionProblem, parse_mission
 from modules.captain.sequencer import MissionRun
 from modules.captain.wire import Rejection, SubmitAccepted, WireError, new_mission_id, parse_cancel, rejection_from
 from modules.runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
-from modules.vocabulary import Mission, MissionStatus, StepResult
+from modules.vocabulary import MapPlaces, Mission, MissionStatus, StepResult
 
 __all__ = ["Captain", "CaptainOptions", "new_mission_id"]
 
@@ -128,6 +128,28 @@ class Captain:
                     break
                 tok = found[0]
         e.status_token = await self.bb.post(st, stamp=self._now())
+
+    async def check_places(self, mission: Mission, *, source: str) -> None:
+        """Raise MissionFileError for a step whose destination the MAP NAVIGATOR's map does not know by name.
+
+        The map's places come from the `map_places` token the MAP NAVIGATOR posts; before it did (or
+        with the blackboard away) nothing can be checked here, and the step fails at run time instead.
+        """
+        try:
+            found = await self.bb.retrieve(Spec(type="map_places"))
+        except BlackboardError as exc:
+            log.warning("cannot check the destinations of %s: %s", mission.name, exc)
+            return
+        known = next((t.attrs for t in found if isinstance(t.attrs, MapPlaces)), None)
+        if known is None:
+            return
+        listed = ", ".join(known.places[:30]) + (", …" if len(known.places) > 30 else "")
+        problems = [MissionProblem(None, None, f"steps[{i}].destination", f"unknown place {s.destination.place!r} on map "
+                                   f"{known.map_name!r}; known places: {listed}")
+                    for i, s in enumerate(mission.steps)
+                    if s.destination.place is not None and not known.knows(s.destination.place)]
+        if problems:
+            raise MissionFileError(source, problems)
 
     async def fail_orphans(self) -> list[str]:
         """Fail every mission the blackboard shows queued or running that this CAPTAIN does not know; return their ids.
@@ -274,7 +296,8 @@ class Captain:
             if cancel in done:
                 return ("cancel", e.cancel_reason)
             if lost in done:
-                return ("fail", f"step {index + 1}: {lost.result()} while the step waited for its result")
+                who = self.options.navigator.upper().replace("_", " ")
+                return ("fail", f"step {index + 1}: the {who} went away ({lost.result()}) while the step waited for its result")
             if unacked is not None and unacked in done and unacked.result() is not None:
                 return ("fail", unacked.result())
             return ("fail", f"step {index + 1} timed out after {self.options.step_timeout_s:.0f} s of sim time")
@@ -299,6 +322,7 @@ class Captain:
         """Answer a mission submission: YAML or JSON text → mission id, or a rejection naming lines and fields."""
         try:
             mission = parse_mission(req.payload, source="submitted mission")
+            await self.check_places(mission, source="submitted mission")
         except MissionFileError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=rejection_from(exc).to_bytes())
         acc = await self.accept(mission)

@@ -50,7 +50,7 @@ class ModuleWatch:
             while self.alive is False:
                 left = grace_s - (time.monotonic() - gone_at)
                 if left <= 0:
-                    return f"the {self.name.upper().replace('_', ' ')} ({self.name}) went away (no liveliness for {grace_s:.0f} s)"
+                    return f"{self.name} stopped (no liveliness for {grace_s:.0f} s)"
                 self._changed.clear()
                 try:
                     await asyncio.wait_for(self._changed.wait(), left)

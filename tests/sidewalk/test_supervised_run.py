@@ -118,7 +118,7 @@ async def test_a_crash_looping_map_navigator_is_backed_off_given_up_and_the_miss
         codes = await system.close()
     # the CAPTAIN did not leave the mission running: it failed, naming who went away and what the step waited for
     assert final.state == "failed"
-    assert "MAP NAVIGATOR (map_navigator) went away" in final.reason and "step 1" in final.reason, final.reason
+    assert "the MAP NAVIGATOR went away (map_navigator stopped" in final.reason and "step 1" in final.reason, final.reason
     # three restarts, each after a longer back-off, none ready; then the supervisor gave up
     assert [r.delay_s for r in system.sup.restarts] == [0.5, 1.0, 2.0]
     assert [r.ready for r in system.sup.restarts] == [False, False, False]

@@ -27,6 +27,7 @@ from wire.session import session_stats, traffic
 
 from eddie.errors import BadMessage, LinkError, LinkTimeout, NoSuchModule, ServiceError
 from eddie.toolkit.message import Message, decode_body, decode_envelope, encode_body, encode_envelope
+from wire.ratelimit import warn_limited
 
 __all__ = ["Module", "Incoming", "ServiceHandler"]
 
@@ -178,7 +179,7 @@ class Module:
                 env, msg = decode_envelope(req.payload, where=where)
                 reply = await handler(Incoming(sender=env.sender, stamp=env.stamp, message=msg))
             except BadMessage as exc:
-                log.warning("%s: %s", where, exc)
+                warn_limited(log, f"bad-message:{where}", "%s: %.200s", where, exc)
                 return QueryAnswer(ok=False, payload=str(exc).encode())
             except Exception as exc:  # noqa: BLE001 - an error reply, never a crashed module
                 from eddie.errors import EddieError
@@ -202,7 +203,7 @@ class Module:
             try:
                 msg = decode_body(model, payload, sender=module)
             except BadMessage as exc:
-                log.warning("%s: stream %s/%s: %s", self.name, module, stream, exc)
+                warn_limited(log, f"bad-stream:{module}/{stream}", "%s: stream %s/%s: %.200s", self.name, module, stream, exc)
                 return
             on_message(msg)  # type: ignore[arg-type]
 
@@ -215,13 +216,13 @@ class Module:
             self._inbox.put_nowait(payload)
         except asyncio.QueueFull:
             self.dropped += 1
-            log.warning("%s: inbox full, message dropped (%d so far)", self.name, self.dropped)
+            warn_limited(log, "inbox-full", "%s: inbox full, message dropped (%d so far)", self.name, self.dropped)
 
     def _on_clock(self, _key: str, payload: bytes) -> None:
         try:
             self.clock.advance(decode_clock(payload))
         except ClockPayloadError as exc:
-            log.warning("%s: bad sim clock sample: %s", self.name, exc)
+            warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
 
     def _beat(self, state: str | None = None) -> None:
         hb = Heartbeat(module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(),

@@ -336,7 +336,7 @@ class Captain:
                 (self.rt.keys.mission_status(s.mission_id), s.model_dump_json().encode()) for s in self.statuses()))
         st = self.status(mid)
         if st is None:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid!r} known to this CAPTAIN").to_bytes())
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid[:80]!r} known to this CAPTAIN").to_bytes())
         return QueryAnswer(as_json=True, ok=True, payload=st.model_dump_json().encode(), key=self.rt.keys.mission_status(mid))
 
     async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
@@ -347,7 +347,7 @@ class Captain:
         except WireError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
         except KeyError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {exc.args[0]!r} known to this CAPTAIN").to_bytes())
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {str(exc.args[0])[:80]!r} known to this CAPTAIN").to_bytes())
         except ValueError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="finished", message=str(exc)).to_bytes())
         return QueryAnswer(as_json=True, ok=True, payload=st.model_dump_json().encode())

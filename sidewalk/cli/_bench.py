@@ -98,3 +98,19 @@ def bench_soak(
                                  f"(got {minutes}, {rate}, {monitors}, {keep})")
     mod = importlib.import_module("bench.soak")
     _emit(mod.run(minutes=minutes, rate=rate, monitors=monitors, keep=keep), as_json)
+
+
+@bench_app.command("fuzz")
+def bench_fuzz(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    payloads: Annotated[int, typer.Option(help="Generated payloads per key")] = 10_000,
+    seed: Annotated[int, typer.Option(help="Seed of the payload generator")] = 0,
+) -> None:
+    """Generated payloads to every queryable and subscribed key of a live system; typed errors only, every process still serving."""
+    if payloads < 1:
+        raise typer.BadParameter(f"must be ≥ 1, got {payloads}", param_hint="--payloads")
+    mod = importlib.import_module("bench.fuzz")
+    result = mod.run(payloads=payloads, seed=seed)
+    _emit(result, as_json)
+    if result["violation_count"] or not all(result["still_serving"].values()) or not all(result["alive"].values()):
+        raise typer.Exit(1)

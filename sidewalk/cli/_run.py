@@ -238,13 +238,18 @@ def submit(
     net: NetworkConfig = None,  # type: ignore[assignment]
 ) -> None:
     """Send a mission to the CAPTAIN over Zenoh and follow its progress."""
+    from modules.captain.missionfile import MissionFileError, load_mission
     from sidewalk.launcher import mission_path
 
     try:
         path = mission_path(file)
+        load_mission(path)  # checked here first: a bad or huge file is named and never sent
         text = path.read_text()
     except (FileNotFoundError, OSError) as exc:
         raise typer.BadParameter(str(exc), param_hint="FILE") from None
+    except MissionFileError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
     raise typer.Exit(asyncio.run(_submit(net, text, follow, timeout)))
 
 

@@ -60,6 +60,7 @@ from blackboard.registry import TypeRegistry, default_registry
 from blackboard.replies import FrameListing, NodeStats
 from blackboard.spec import Spec, parse_spec
 from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_wire
+from wire.ratelimit import warn_limited
 
 __all__ = ["BlackboardClient", "MonitorStream"]
 
@@ -402,14 +403,14 @@ class BlackboardClient:
                 else:
                     self._on_acks(acks)
         except (BlackboardError, TypeError, ValueError):
-            log.warning("malformed message from the node on %s", self.keys.to_client(self.client_id))
+            warn_limited(log, "malformed-message", "malformed message from the node on %s", self.keys.to_client(self.client_id))
 
     def _on_acks(self, acks: list) -> None:
         try:
             for rid, results in acks:
                 self._on_ack(rid, results)
         except (TypeError, ValueError):
-            log.warning("malformed acknowledgement from the node on %s", self.keys.to_client(self.client_id))
+            warn_limited(log, "malformed-ack", "malformed acknowledgement from the node on %s", self.keys.to_client(self.client_id))
 
     def _on_ack(self, rid: Any, results: Any) -> None:
         """Resolve the futures of the write batch `rid` with its results (a list, or one error object)."""
@@ -560,7 +561,7 @@ class BlackboardClient:
             try:
                 tok = self._token(ev["token"])
             except (BlackboardError, KeyError, TypeError):
-                log.warning("monitor %s: an event with a token this client cannot decode", mid)
+                warn_limited(log, "undecodable-event", "monitor %s: an event with a token this client cannot decode", mid)
                 continue
             mon._push(_trusted(MonitorEvent, {"kind": ev["kind"], "token": tok}, _EVENT_FIELDS))
 

@@ -15,6 +15,7 @@ __all__ = [
     "PastExtrapolationError",
     "FutureExtrapolationError",
     "NodeUnavailableError",
+    "StoreOpenError",
     "error_from_wire",
 ]
 
@@ -31,6 +32,12 @@ class BlackboardError(Exception):
     def to_wire(self) -> dict:
         """Return the wire form {"error": code, "message": text}."""
         return {"error": self.code, "message": self.message}
+
+
+class StoreOpenError(BlackboardError):
+    """The node's database cannot be opened: held by another node, unreadable, or not a database."""
+
+    code = "store_open"
 
 
 class BadRequestError(BlackboardError):

@@ -55,6 +55,7 @@ from wire.keys import BlackboardKeys
 from wire.network import NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry
 from blackboard.store import Store, SyncMode
+from wire.ratelimit import warn_limited
 
 __all__ = ["BlackboardNode", "serve"]
 
@@ -99,6 +100,7 @@ class BlackboardNode:
         heartbeat_period: float = 1.0,
         dispatch: Literal["inline", "loop"] = "inline",
         test_hold_after_journal: str | None = None,
+        client_confirm_s: float = 15.0,
     ) -> None:
         if dispatch not in ("inline", "loop"):
             raise ValueError(f"dispatch must be 'inline' or 'loop', not {dispatch!r}")
@@ -134,6 +136,12 @@ class BlackboardNode:
         #: clients back after their monitors were dropped: every message to them carries the resync
         #: notice until they register a monitor again (a notice may reach a client before its subscriber)
         self._resync_due: dict[str, None] = {}
+        #: clients whose liveliness token is alive now
+        self._live_clients: set[str] = set()
+        #: clients holding monitors that never declared liveliness: when [s, time.monotonic] first seen;
+        #: their monitors are reclaimed after `client_confirm_s` [s] wall (nobody would ever drop them)
+        self._unconfirmed: dict[str, float] = {}
+        self.client_confirm_s = client_confirm_s
         #: test hook (durability tests only): hold after a commit's journal append while this file exists
         self._hold_path = test_hold_after_journal
         self._stop = asyncio.Event()
@@ -163,6 +171,7 @@ class BlackboardNode:
             s.liveliness_subscribe(
                 f"{k.client_alive_prefix}/*",
                 lambda key, alive: self._submit(self._client_back if alive else self._client_gone, (key,), False),
+                history=True,  # clients alive before this node started count as alive (their monitors are kept)
             )
             s.liveliness_token(k.alive)
             hb = asyncio.create_task(self._heartbeat())
@@ -198,6 +207,8 @@ class BlackboardNode:
                 module="blackboard", seq=self._hb_seq, wall_time=time.time(), period_s=self.heartbeat_period,
                 pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"],
                 usage=process_usage(traffic()), epoch=self.epoch)))
+            if self._unconfirmed:
+                self._submit(self._reclaim_unconfirmed, (), False)
             await asyncio.sleep(self.heartbeat_period)
 
     # ------------------------------------------------------------------ dispatch
@@ -297,11 +308,11 @@ class BlackboardNode:
                 msg = decode(payload)
         except BlackboardError as exc:
             stats.errors += 1
-            log.warning("undecodable write batch from %s: %s", client, exc.message)
+            warn_limited(log, "undecodable-batch", "undecodable write batch from %s: %.200s", client, exc.message)
             return
         if type(msg) is not list or len(msg) != 2:
             stats.errors += 1
-            log.warning("write batch from %s is not [request_id, ops]: %.200r", client, msg)
+            warn_limited(log, "malformed-batch", "write batch from %s is not [request_id, ops]: %.200r", client, msg)
             return
         rid, ops = msg
         done = self._acked.get(client)
@@ -461,7 +472,7 @@ class BlackboardNode:
             try:
                 head = (b"\x92" if note is None else b"\x93") + (_packb(a) if a else b"\x90")
             except Exception:  # noqa: BLE001 - a request id msgpack cannot echo back (a foreign writer)
-                log.warning("cannot encode the acknowledgement for %s", client)
+                warn_limited(log, "ack-encode", "cannot encode the acknowledgement for %s", client)
                 continue
             data = head + (
                 pack_array_of_packed([b"\x92" + _packb(mid) + pack_array_of_packed(evs) for mid, evs in ev.items()])
@@ -504,10 +515,30 @@ class BlackboardNode:
             return
         self.core.register_monitor(req.client, req.mid, req.spec)
         self._resync_due.pop(req.client, None)
+        if req.client not in self._live_clients:
+            self._unconfirmed.setdefault(req.client, time.monotonic())
         self._reply(q, {"registered": req.mid})
+
+    def _reclaim_unconfirmed(self) -> None:
+        """Drop the monitors of clients that never declared liveliness within `client_confirm_s` [s]."""
+        now = time.monotonic()
+        for client, since in list(self._unconfirmed.items()):
+            if client in self._live_clients:
+                del self._unconfirmed[client]
+            elif now - since >= self.client_confirm_s:
+                del self._unconfirmed[client]
+                n = self.core.drop_client(client)
+                pub = self._client_pubs.pop(client, None)
+                if pub is not None and self._session is not None:
+                    self._session.undeclare(pub)
+                self._acked.pop(client, None)
+                if n:
+                    warn_limited(log, "unconfirmed-client", "client %s never declared liveliness in %.0f s: reclaimed its %d monitors",
+                                 client, self.client_confirm_s, n)
 
     def _client_gone(self, key: str) -> None:
         client = key.rsplit("/", 1)[-1]
+        self._live_clients.discard(client)
         n = self.core.drop_client(client)
         pub = self._client_pubs.pop(client, None)
         if pub is not None and self._session is not None:
@@ -523,6 +554,8 @@ class BlackboardNode:
     def _client_back(self, key: str) -> None:
         """Tell a client whose monitors were dropped while its token was gone to register them again."""
         client = key.rsplit("/", 1)[-1]
+        self._live_clients.add(client)
+        self._unconfirmed.pop(client, None)
         if client in self._dropped and self._session is not None:
             del self._dropped[client]
             self._resync_due[client] = None

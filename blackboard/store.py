@@ -37,6 +37,7 @@ from typing import Iterable, Iterator, Literal
 import msgpack
 import numpy as np
 
+from blackboard.errors import StoreOpenError
 from blackboard.geometry import coords_to_wire
 
 __all__ = ["Record", "Store", "SyncMode", "token_id", "token_rid"]
@@ -191,15 +192,21 @@ class Store:
             raise ValueError(f"sync must be 'normal' or 'full', not {sync!r}")
         self.path = path
         self.sync = sync
-        self._db = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute(f"PRAGMA synchronous={'FULL' if sync == 'full' else 'NORMAL'}")
-        # the node is the database's only user: holding the lock saves the per-transaction file
-        # locking and shared-memory WAL index of the default mode
-        self._db.execute("PRAGMA locking_mode=EXCLUSIVE")
-        self._db.execute("PRAGMA temp_store=MEMORY")
-        self._db.execute("PRAGMA cache_size=-65536")
-        self._db.executescript(_SCHEMA)
+        try:
+            self._db = sqlite3.connect(path, isolation_level=None, check_same_thread=False)
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute(f"PRAGMA synchronous={'FULL' if sync == 'full' else 'NORMAL'}")
+            # the node is the database's only user: holding the lock saves the per-transaction file
+            # locking and shared-memory WAL index of the default mode
+            self._db.execute("PRAGMA locking_mode=EXCLUSIVE")
+            self._db.execute("PRAGMA temp_store=MEMORY")
+            self._db.execute("PRAGMA cache_size=-65536")
+            self._db.executescript(_SCHEMA)  # takes the exclusive lock: a database another node holds fails here
+        except sqlite3.Error as exc:
+            if "locked" in str(exc):
+                raise StoreOpenError(f"database {path} is held by another blackboard node (SQLite: {exc}); "
+                                     "stop that node or give another --db") from None
+            raise StoreOpenError(f"cannot open database {path}: {exc}") from None
         self._db.execute("ATTACH DATABASE ':memory:' AS idx")
         self._db.execute("CREATE VIRTUAL TABLE idx.token_rtree USING rtree(rid, minx, maxx, miny, maxy)")
         self.records: dict[int, Record] = {}

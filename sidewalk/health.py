@@ -19,7 +19,7 @@ from wire.aio import Link
 from wire.health import Heartbeat, HeartbeatError, decode_heartbeat
 from wire.keys import ModuleKeys
 
-__all__ = ["ModuleHealth", "HealthState", "collect_heartbeats", "WEDGED_AFTER_S", "HeardBeat"]
+__all__ = ["ModuleHealth", "HealthState", "collect_heartbeats", "WEDGED_AFTER_S", "HeardBeat", "BeatLog"]
 
 #: A live module whose newest heartbeat is older than this [s] wall is wedged.
 WEDGED_AFTER_S = 3.0
@@ -97,3 +97,28 @@ async def collect_heartbeats(link: Link, keys: ModuleKeys, expect: set[str], wai
     finally:
         link.undeclare(sub)
     return heard
+
+
+class BeatLog:
+    """Remember, per process name, the pid and the wall time [s, time.monotonic] of its newest heartbeat."""
+
+    def __init__(self, link: Link, keys: ModuleKeys) -> None:
+        self._link = link
+        self._newest: dict[str, tuple[int, float]] = {}
+        self._sub = link.subscribe(keys.heartbeat_all, self._on_beat)
+
+    def _on_beat(self, key: str, payload: bytes) -> None:
+        try:
+            hb = decode_heartbeat(payload)
+        except HeartbeatError:
+            return
+        self._newest[key.rsplit("/", 1)[-1]] = (hb.pid, time.monotonic())
+
+    def newest(self, name: str) -> tuple[int, float] | None:
+        """Return (pid, time.monotonic() [s]) of the newest heartbeat heard from `name` (None: none)."""
+        return self._newest.get(name)
+
+    def close(self) -> None:
+        """Stop listening."""
+        if not self._link.closed:
+            self._link.undeclare(self._sub)

@@ -31,7 +31,7 @@ from modules.vocabulary import Destination, Mission, MissionStepSpec
 from sidewalk.map_error import MapErrorSummary, measure_map_error
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
 from sidewalk.run_record import FaultEvent, RecordedPlan, RunRecord, save_record
-from sidewalk.supervisor import ProcessPlan, ProcessStartError
+from sidewalk.supervisor import ProcessPlan, ProcessStartError, RestartPolicy
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
 from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
@@ -92,6 +92,8 @@ class RunConfig(BaseModel):
     # ---- issue 10: faults injected at a sim time after submission, and a speed cap for the PILOT ----
     faults: tuple[FaultSpec, ...] = ()
     max_speed: Optional[float] = Field(default=None, gt=0.0)
+    #: issue 14: how the supervisor keeps the modules running (crashed: restarted with back-off; wedged: reported, restarted)
+    supervise: RestartPolicy = RestartPolicy()
 
 
 @dataclass
@@ -246,6 +248,10 @@ def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
         raise LaunchError(str(exc)) from None
     if mission.world is not None and mission.world != world.name:
         raise LaunchError(f"mission {mission.name!r} is for world {mission.world!r}, not {world.name!r}")
+    for i, step in enumerate(mission.steps):  # an unknown destination is refused before anything starts
+        if step.destination.place is not None and _destination_xy(world, step.destination) is None:
+            raise LaunchError(f"{mpath}: steps[{i}].destination: unknown place {step.destination.place!r} in world "
+                              f"{world.name!r}; known places: {', '.join(sorted(world.place_names()))}")
     if cfg.actors:  # issue 12: a bad actors file fails here, not in the simulator
         from vehicle_sim.actors import ActorError, load_actors
 
@@ -360,6 +366,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
         blackboard=system.bb_stats, exit_codes=exit_codes, actors=cfg.actors,
         triggers=tuple(t for t in getattr(system, "triggers", ()) if kept_from <= t.sim_s <= kept_to),
         faults=faults, max_speed=cfg.max_speed,
+        restarts=tuple(system.sup.restarts), wedges=tuple(system.sup.wedges), gave_up=tuple(system.sup.gave_up),
     )
 
 
@@ -398,6 +405,9 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             await system.start(on_starting=starting)
         except ProcessStartError as exc:
             raise LaunchError(str(exc)) from None
+        notices: list[str] = []
+        system.sup.on_notice = notices.append
+        system.guard(cfg.supervise)  # issue 14: crashed modules restarted with back-off, wedged ones reported and restarted
         mission_id = await system.submit(setup.mission_file.read_text())
         submitted_wall, submitted_sim = system.submitted[mission_id]
         deadline = time.monotonic() + cfg.max_wall_time_s
@@ -407,6 +417,8 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             now_wall, now_sim = system.stamps()
             for dead in system.crashed():
                 progress.state = f"{dead} exited"
+            while notices:
+                progress.state = notices.pop(0)[:60]
             progress.sim_time_s = now_sim - submitted_sim
             progress.distance_m = system.recorder.distance_m() if system.recorder else 0.0
             progress.rtf = progress.sim_time_s / max(1e-6, now_wall - submitted_wall)
@@ -423,7 +435,10 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
                 spec = pending.pop(0)
                 progress.state = f"injecting {spec.name}"
                 fault_events.append(await inject_fault(system, spec, getattr(cfg, "arch", "codger")))
-            if progress.sim_time_s > cfg.max_sim_time_s:
+            if system.sup.gave_up:
+                g = system.sup.gave_up[0]
+                stop_reason = f"{g.module} crash-looped ({g.failures} failed lives in a row, last: {g.reason}); the supervisor gave up on it"
+            elif progress.sim_time_s > cfg.max_sim_time_s:
                 stop_reason = f"sim-time budget of {cfg.max_sim_time_s:.0f} s used up"
             elif time.monotonic() > deadline:
                 stop_reason = f"wall-time budget of {cfg.max_wall_time_s:.0f} s used up"

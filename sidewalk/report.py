@@ -23,6 +23,7 @@ from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
 from sidewalk.run_record import FaultEvent, FiredTrigger, RunRecord
 from sidewalk.stops import StopSummary, stop_summary
+from sidewalk.supervisor import GiveUp, Restart, WedgeReport
 from wire.drive import SimEvent
 
 __all__ = [
@@ -155,6 +156,10 @@ class RunReport(BaseModel):
     faults: list[FaultEvent] = []
     max_speed: Optional[float] = None
     mean_speed_m_s: Optional[float] = None
+    #: issue 14: what the supervisor of `sidewalk run` did; `at_s` [s] wall since the system started
+    restarts: list[Restart] = []
+    wedges: list[WedgeReport] = []
+    gave_up: list[GiveUp] = []
 
 
 def _final_status(rec: RunRecord) -> MissionStatus | None:
@@ -363,6 +368,9 @@ def build_report(rec: RunRecord) -> RunReport:
         faults=list(rec.faults),
         max_speed=rec.max_speed,
         mean_speed_m_s=round(path_length(truth[:, 1:3]) / sim_span, 3) if sim_span > 0 else None,
+        restarts=list(rec.restarts),
+        wedges=list(rec.wedges),
+        gave_up=list(rec.gave_up),
     )
 
 

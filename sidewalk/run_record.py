@@ -20,6 +20,7 @@ from sidewalk.errors import SidewalkError
 from sidewalk.map_error import MapErrorSummary
 from wire.drive import SimEvent
 from wire.health import ProcessUsage
+from sidewalk.supervisor import GiveUp, Restart, WedgeReport
 
 __all__ = ["RunRecord", "StampedStatus", "RecordedPlan", "ProcessCost", "FiredTrigger", "FaultEvent", "Architecture", "RunRecordError",
            "save_record", "load_record"]
@@ -145,6 +146,11 @@ class RunRecord(BaseModel):
     #: faults injected by `--fault` (issue 10), and the speed cap given by `--max-speed` [m/s] (None: the vehicle's)
     faults: tuple[FaultEvent, ...] = ()
     max_speed: Optional[float] = None
+    #: what the supervisor did (issue 14): processes restarted, wedges reported, processes given up on;
+    #: `at_s` [s] wall since the system started
+    restarts: tuple[Restart, ...] = ()
+    wedges: tuple[WedgeReport, ...] = ()
+    gave_up: tuple[GiveUp, ...] = ()
 
 
 def save_record(record: RunRecord, path: Path) -> Path:

@@ -1,20 +1,44 @@
-"""Start Sidewalk processes as separate OS processes, wait for readiness, stop them cleanly."""
+"""Start Sidewalk processes as separate OS processes, wait for readiness, keep them running, stop them cleanly.
+
+Keeping them running (`guard`): a guarded process that exits unexpectedly is started again with
+the same plan; one that stays alive but whose heartbeat went silent is reported **wedged** once
+silent for `RestartPolicy.wedged_after_s` (3 s wall, as `sidewalk status` judges it) and, if still
+silent at `restart_wedged_after_s` (10 s wall), SIGKILLed and started again. The report comes at 3 s
+but the kill waits longer, so a short stall (a GC pause, a loaded machine, the comparison's 5 s
+`wedge` fault) comes back on its own and keeps its state. Restarts back off exponentially per
+process (0.5 s, 1, 2, 4 … capped at 30 s; the count starts again once a life lasted `stable_s`),
+and after `give_up_after` failed lives in a row the supervisor gives up on that process and says so.
+A process the owner killed on purpose (`kill`, fault injection) is left to the owner until it
+starts it again.
+"""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
+import logging
 import os
 import re
 import signal
 import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Callable, Optional
 
 import psutil
-from sidewalk.errors import SidewalkError
+from pydantic import BaseModel, ConfigDict, Field
 
-__all__ = ["ProcessPlan", "ManagedProcess", "Supervisor", "ProcessStartError", "READY_RE"]
+from sidewalk.errors import SidewalkError
+from sidewalk.health import WEDGED_AFTER_S
+
+__all__ = ["ProcessPlan", "ManagedProcess", "Supervisor", "ProcessStartError", "READY_RE",
+           "RestartPolicy", "Restart", "WedgeReport", "GiveUp", "BeatSource"]
+
+log = logging.getLogger(__name__)
+
+#: (pid, wall time.monotonic() [s]) of the newest heartbeat heard from a process, by name (None: none heard).
+BeatSource = Callable[[str], Optional[tuple[int, float]]]
 
 #: A process is ready once it prints a line matching this on stdout.
 READY_RE = re.compile(r"\bready\b", re.IGNORECASE)
@@ -33,6 +57,75 @@ class ProcessPlan:
     env: tuple[tuple[str, str], ...] = ()
 
 
+class RestartPolicy(BaseModel):
+    """How the supervisor keeps guarded processes running; times are wall [s]."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    #: a live process silent this long is reported wedged
+    wedged_after_s: float = Field(default=WEDGED_AFTER_S, gt=0.0)
+    #: a live process silent this long is SIGKILLed and started again (None: only reported)
+    restart_wedged_after_s: Optional[float] = Field(default=10.0, gt=0.0)
+    #: the first restart's delay, doubled for each failure in a row up to `backoff_max_s`
+    backoff_s: float = Field(default=0.5, gt=0.0)
+    backoff_max_s: float = Field(default=30.0, gt=0.0)
+    #: a life this long ends the run of failures: the next restart waits `backoff_s` again
+    stable_s: float = Field(default=30.0, gt=0.0)
+    #: failed lives in a row after which the supervisor gives up on the process (None: never)
+    give_up_after: Optional[int] = Field(default=8, ge=1)
+    ready_timeout_s: float = Field(default=60.0, gt=0.0)
+
+    def delay(self, failures: int) -> float:
+        """Return the back-off [s] before the restart that follows `failures` (≥ 1) failed lives in a row."""
+        return min(self.backoff_max_s, self.backoff_s * 2.0 ** (max(1, failures) - 1))
+
+
+class Restart(BaseModel):
+    """One restart by the supervisor: which process, when [s wall since the supervisor started], why, after what delay [s]."""
+
+    model_config = ConfigDict(frozen=True)
+
+    module: str
+    at_s: float
+    reason: str
+    delay_s: float
+    #: whether the new life printed its ready line
+    ready: bool
+    pid: Optional[int] = None
+
+
+class WedgeReport(BaseModel):
+    """A live process whose heartbeat went silent: when it was reported [s wall since start], silent how long [s]."""
+
+    model_config = ConfigDict(frozen=True)
+
+    module: str
+    at_s: float
+    silent_s: float
+    pid: int
+
+
+class GiveUp(BaseModel):
+    """The supervisor stopped restarting a process: when [s wall since start], after how many failed lives, the last reason."""
+
+    model_config = ConfigDict(frozen=True)
+
+    module: str
+    at_s: float
+    failures: int
+    reason: str
+
+
+@dataclass
+class _Guard:
+    """What the supervisor remembers about a guarded process across its lives."""
+
+    failures: int = 0
+    reviving: Optional[asyncio.Task] = None
+    wedge_reported_pid: Optional[int] = None
+    gave_up: bool = False
+
+
 @dataclass
 class ManagedProcess:
     """A running child process and what was learnt about it."""
@@ -43,6 +136,8 @@ class ManagedProcess:
     cpu_s: float = 0.0
     exited: asyncio.Event = field(default_factory=asyncio.Event)
     expected_exit: bool = False
+    #: time.monotonic() [s] when it printed its ready line (None: not yet)
+    ready_at: Optional[float] = None
     _ps: psutil.Process | None = None
 
     @property
@@ -75,9 +170,24 @@ class Supervisor:
         self.procs: dict[str, ManagedProcess] = {}
         self.crashed: asyncio.Queue[ManagedProcess] = asyncio.Queue()
         self._tasks: list[asyncio.Task] = []
+        self.t0 = time.monotonic()
+        #: what `guard` did: restarts, wedges reported, processes given up on (in order)
+        self.restarts: list[Restart] = []
+        self.wedges: list[WedgeReport] = []
+        self.gave_up: list[GiveUp] = []
+        self._policy: RestartPolicy | None = None
+        self._beats: BeatSource | None = None
+        self._guards: dict[str, _Guard] = {}
+        self._held: set[str] = set()
+        self._wake = asyncio.Event()
+        self._guard_task: asyncio.Task | None = None
+        self._closing = False
+        #: called with a one-line notice whenever the guard reports or restarts something
+        self.on_notice: Callable[[str], None] | None = None
 
     async def start(self, plan: ProcessPlan, *, ready_timeout: float = 60.0) -> ManagedProcess:
         """Start one process and return once it printed its ready line [timeout in wall s]."""
+        self._held.discard(plan.name)
         log_path = self.log_dir / f"{plan.name}.log"
         log = open(log_path, "ab", buffering=0)
         env = dict(os.environ)
@@ -103,7 +213,9 @@ class Supervisor:
         for t in (waiter, exit_waiter):
             t.cancel()
         if ready.is_set():
+            mp.ready_at = time.monotonic()
             mp.sample_cpu()
+            self._wake.set()
             return mp
         tail = self.tail(plan.name)
         if mp.exited.is_set():
@@ -123,6 +235,7 @@ class Supervisor:
                     ready.set()
         await mp.proc.wait()
         mp.exited.set()
+        self._wake.set()
         if not mp.expected_exit:
             await self.crashed.put(mp)
 
@@ -143,7 +256,14 @@ class Supervisor:
         return mp is not None and not mp.exited.is_set()
 
     async def kill(self, name: str, sig: int = signal.SIGKILL) -> None:
-        """Send a signal to one process without marking the exit as expected (fault injection)."""
+        """Send a signal to one process without marking the exit as expected (fault injection).
+
+        The guard leaves the process to the caller until `start` runs it again.
+        """
+        self._held.add(name)
+        g = self._guards.get(name)
+        if g is not None and g.reviving is not None:
+            g.reviving.cancel()
         mp = self.procs[name]
         mp.sample_cpu()
         with contextlib.suppress(ProcessLookupError):
@@ -167,7 +287,12 @@ class Supervisor:
         return mp.proc.returncode
 
     async def stop_all(self, *, grace: float = 8.0) -> dict[str, int | None]:
-        """Stop every process in reverse start order; return exit codes by name."""
+        """Stop guarding, then stop every process in reverse start order; return exit codes by name."""
+        self._closing = True
+        pending = [t for t in [self._guard_task, *(g.reviving for g in self._guards.values())] if t is not None]
+        for t in pending:
+            t.cancel()
+        await asyncio.gather(*pending, return_exceptions=True)
         codes: dict[str, int | None] = {}
         for name in reversed(list(self.procs)):
             codes[name] = await self.stop(name, grace=grace)
@@ -175,3 +300,102 @@ class Supervisor:
             t.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
         return codes
+
+    # ---- keeping processes running ------------------------------------------------------------
+
+    def guard(self, names: list[str] | tuple[str, ...], policy: RestartPolicy = RestartPolicy(), *,
+              beats: BeatSource | None = None) -> None:
+        """Keep the named processes running under `policy`; `beats` tells their newest heartbeats (None: no wedge watch)."""
+        self._policy = policy
+        self._beats = beats
+        for n in names:
+            self._guards.setdefault(n, _Guard())
+        if self._guard_task is None:
+            self._guard_task = asyncio.create_task(self._guard_loop(), name="supervisor-guard")
+
+    def _since(self) -> float:
+        return round(time.monotonic() - self.t0, 3)
+
+    def _notice(self, text: str, *, level: int = logging.WARNING) -> None:
+        log.log(level, "%s", text)
+        if self.on_notice is not None:
+            self.on_notice(text)
+
+    async def _guard_loop(self) -> None:
+        """Wake on every exit, start and heartbeat deadline; restart what died, report and restart what is wedged."""
+        assert self._policy is not None
+        pol = self._policy
+        while not self._closing:
+            self._wake.clear()
+            now = time.monotonic()
+            next_check = now + 1.0  # heartbeats arrive at 1 Hz: look again at least that often
+            for name, g in self._guards.items():
+                mp = self.procs.get(name)
+                if mp is None or g.gave_up or name in self._held or (g.reviving is not None and not g.reviving.done()):
+                    continue
+                if mp.exited.is_set():
+                    if not mp.expected_exit:
+                        self._revive(name, g, f"exited with code {mp.proc.returncode}")
+                    continue
+                beat = self._beats(name) if self._beats is not None else None
+                if beat is None or beat[0] != mp.pid or mp.ready_at is None:
+                    continue  # judged only once this life was heard beating
+                silent = now - beat[1]
+                if silent >= pol.wedged_after_s and g.wedge_reported_pid != mp.pid:
+                    g.wedge_reported_pid = mp.pid
+                    self.wedges.append(WedgeReport(module=name, at_s=self._since(), silent_s=round(silent, 3), pid=mp.pid))
+                    self._notice(f"{name} is wedged: alive (pid {mp.pid}) but no heartbeat for {silent:.1f} s")
+                if pol.restart_wedged_after_s is not None and silent >= pol.restart_wedged_after_s:
+                    self._revive(name, g, f"wedged: no heartbeat for {silent:.1f} s", kill=mp)
+                    continue
+                due = [beat[1] + pol.wedged_after_s] if g.wedge_reported_pid != mp.pid else []
+                if pol.restart_wedged_after_s is not None:
+                    due.append(beat[1] + pol.restart_wedged_after_s)
+                next_check = min([next_check, *due])
+            with contextlib.suppress(asyncio.TimeoutError):
+                await asyncio.wait_for(self._wake.wait(), max(0.01, next_check - time.monotonic()))
+
+    def _revive(self, name: str, g: _Guard, reason: str, *, kill: ManagedProcess | None = None) -> None:
+        g.reviving = asyncio.create_task(self._revive_task(name, g, reason, kill), name=f"revive-{name}")
+        g.reviving.add_done_callback(lambda _t: self._wake.set())
+
+    async def _revive_task(self, name: str, g: _Guard, reason: str, kill: ManagedProcess | None) -> None:
+        """Start `name` again after its back-off, until a life prints its ready line or the policy gives up."""
+        assert self._policy is not None
+        pol = self._policy
+        if kill is not None:
+            kill.expected_exit = True  # the supervisor's own kill is no crash
+            with contextlib.suppress(ProcessLookupError):
+                kill.proc.send_signal(signal.SIGKILL)
+            await kill.exited.wait()
+        last = self.procs[name]
+        if last.ready_at is not None and (time.monotonic() - last.ready_at) >= pol.stable_s:
+            g.failures = 0
+        while True:
+            g.failures += 1
+            if pol.give_up_after is not None and g.failures > pol.give_up_after:
+                g.gave_up = True
+                self.gave_up.append(GiveUp(module=name, at_s=self._since(), failures=g.failures - 1, reason=reason))
+                self._notice(f"{name} crash-looped: {g.failures - 1} lives failed in a row (last: {reason}); "
+                             "the supervisor gave up on it", level=logging.ERROR)
+                return
+            delay = pol.delay(g.failures)
+            self._notice(f"{name} {reason}: restarting it in {delay:.1f} s (failure {g.failures} in a row)")
+            await asyncio.sleep(delay)  # the back-off itself: nothing to wait for but time
+            if self._closing or name in self._held:
+                return
+            at = self._since()
+            try:
+                mp = await self.start(self.plans_by_name(name), ready_timeout=pol.ready_timeout_s)
+            except ProcessStartError as exc:
+                self.restarts.append(Restart(module=name, at_s=at, reason=reason, delay_s=delay, ready=False,
+                                             pid=self.procs[name].pid))
+                reason = str(exc).splitlines()[0].removeprefix(f"{name} ")
+                continue
+            self.restarts.append(Restart(module=name, at_s=at, reason=reason, delay_s=delay, ready=True, pid=mp.pid))
+            self._notice(f"{name} restarted (pid {mp.pid})", level=logging.INFO)
+            return
+
+    def plans_by_name(self, name: str) -> ProcessPlan:
+        """Return the plan the named process was last started with."""
+        return self.procs[name].plan

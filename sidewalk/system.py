@@ -19,9 +19,14 @@ from wire.network import SecureConfig
 from modules.vocabulary import MissionStatus, RoutePlan
 from sidewalk.recorder import Recorder
 from sidewalk.run_record import RecordedPlan, StampedStatus
-from sidewalk.supervisor import ProcessPlan, Supervisor
+from sidewalk.health import BeatLog
+from sidewalk.supervisor import ProcessPlan, RestartPolicy, Supervisor
 
-__all__ = ["SystemRun"]
+__all__ = ["SystemRun", "UNGUARDED"]
+
+#: Processes the supervisor does not restart: the router (every session hangs on it), the simulator
+#: (a new one would put the vehicle back at its start: truth lost) and the observers of the run.
+UNGUARDED = frozenset({"router", "sim", "recorder", "monitor"})
 
 
 class SystemRun:
@@ -49,6 +54,7 @@ class SystemRun:
         self.recorder: Recorder | None = None
         self._status: MonitorStream | None = None
         self._crashed_seen: list[str] = []
+        self._beats: BeatLog | None = None
         self.t0 = time.monotonic()
         #: mission id → (wall [s] since construction, sim [s]) when the CAPTAIN accepted it
         self.submitted: dict[str, tuple[float, float]] = {}
@@ -94,6 +100,16 @@ class SystemRun:
                 if loop.time() + 0.2 >= end:
                     raise
                 await asyncio.sleep(0.2)
+
+    def guard(self, policy: RestartPolicy = RestartPolicy()) -> None:
+        """Have the supervisor keep every process but `UNGUARDED` running: crashed ones restarted, wedged ones reported and restarted.
+
+        Call after `start()`: the guard hears heartbeats through the observer's session.
+        """
+        assert self.link is not None, "guard() needs start() first"
+        if self._beats is None:
+            self._beats = BeatLog(self.link, ModuleKeys(self.ns))
+        self.sup.guard([n for n in self.plans if n not in UNGUARDED], policy, beats=self._beats.newest)
 
     def stamps(self) -> tuple[float, float]:
         """Return (wall [s] since construction, newest sim time heard [s])."""
@@ -190,6 +206,8 @@ class SystemRun:
         try:
             codes = await self.sup.stop_all()
         finally:
+            if self._beats is not None:
+                self._beats.close()
             if self._operator is not None:
                 self._operator.close()
             if self.link is not None:

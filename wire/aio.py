@@ -7,6 +7,7 @@ the Zenoh thread. Close a `Link` explicitly with `close()`.
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 from dataclasses import dataclass
 from typing import Any, Awaitable, Callable
@@ -155,7 +156,8 @@ class Link:
                 ans = await handler(req)
             except Exception as exc:  # a handler bug must not leave the querier hanging
                 log.exception("query handler for %s failed", req.key)
-                ans = QueryAnswer(ok=False, payload=f"internal error: {type(exc).__name__}: {exc}".encode())
+                ans = QueryAnswer(ok=False, as_json=True, payload=json.dumps(
+                    {"error": "internal_error", "message": f"{type(exc).__name__}: {str(exc)[:300]}"}).encode())
             if self._closed:
                 return
             if ans.ok and ans.replies is not None:

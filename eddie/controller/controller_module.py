@@ -22,6 +22,7 @@ from eddie.messages.controller import (
 )
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Incoming, Module
+from wire.ratelimit import warn_limited
 
 __all__ = ["ControllerModule", "COMMANDS"]
 
@@ -49,7 +50,7 @@ class ControllerModule:
             self.core.odometry(decode(Odometry, payload))
         except DriveMessageError as exc:
             self.bad_odometry += 1
-            log.warning("controller: bad odometry: %s", exc)
+            warn_limited(log, "bad-odometry", "controller: bad odometry: %.200s", exc)
 
     def _now(self) -> float:
         return self.m.now() or 0.0
@@ -96,7 +97,7 @@ class ControllerModule:
             try:
                 inc = await self.m.receive()
             except BadMessage as exc:
-                log.warning("controller: %s", exc)
+                warn_limited(log, "bad-inbox", "controller: %.200s", exc)
                 continue
             try:
                 if isinstance(inc.message, TriggerMessage):
@@ -104,7 +105,7 @@ class ControllerModule:
                 else:
                     await self._command(inc)
             except BadMessage as exc:
-                log.warning("controller: %s", exc)
+                warn_limited(log, "bad-command", "controller: %.200s", exc)
 
     async def run(self) -> None:
         """Drive until cancelled; always leave the vehicle commanded to stop."""

@@ -24,7 +24,8 @@ from eddie.map_manager.map_manager import MapManager
 from eddie.messages.controller import ControllerState
 from eddie.messages.map_manager import AnnotationQuery, TriggerFired, TriggerMessage
 from eddie.messages.navigator import WorldFromLocal
-from eddie.toolkit.message import decode_envelope, encode_envelope
+from eddie.toolkit.message import decode_envelope, encode_envelope, error_payload
+from wire.ratelimit import warn_limited
 from eddie.toolkit.module import Module
 
 __all__ = ["MapManagerModule"]
@@ -62,7 +63,7 @@ class MapManagerModule:
                 q = AnnotationQuery.model_validate(body if isinstance(body, dict) else {})
             except (ValueError, ValidationError) as exc:
                 first = str(exc).splitlines()[0]
-                return QueryAnswer(ok=False, payload=f"{where}: bad JSON query: {first}".encode(), as_json=False)
+                return QueryAnswer(ok=False, payload=error_payload("bad_query", f"{where}: bad JSON query: {first}"), as_json=True)
             ans = self.mgr.query(q)
             payload = {"annotations": [r.model_dump(mode="json") for r in ans.annotations]}
             return QueryAnswer(ok=True, payload=json.dumps(payload).encode(), as_json=True)
@@ -72,8 +73,8 @@ class MapManagerModule:
                 raise BadMessage(f"{where}: expected an AnnotationQuery, got {type(msg).__name__}", sender=env.sender,
                                  field="type")
         except BadMessage as exc:
-            log.warning("%s", exc)
-            return QueryAnswer(ok=False, payload=str(exc).encode())
+            warn_limited(log, "bad-query", "%.200s", exc)
+            return QueryAnswer(ok=False, payload=error_payload("bad_message", str(exc)), as_json=True)
         return QueryAnswer(ok=True, payload=encode_envelope(self.m.name, self.mgr.query(msg), self.m.now()))
 
     async def _cycle(self) -> None:

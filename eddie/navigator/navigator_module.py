@@ -17,6 +17,7 @@ from eddie.messages.navigator import LineFixMessage, PointFixMessage, WorldFromL
 from eddie.navigator.navigator import Navigator
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Incoming, Module
+from wire.ratelimit import warn_limited
 
 __all__ = ["NavigatorModule", "DELIVERY_MODES"]
 
@@ -76,15 +77,15 @@ class NavigatorModule:
                 try:
                     inc = await m.receive()
                 except BadMessage as exc:
-                    log.warning("navigator: %s", exc)
+                    warn_limited(log, "bad-inbox", "navigator: %.200s", exc)
                     continue
                 if not isinstance(inc.message, (PointFixMessage, LineFixMessage)):
-                    log.warning("navigator: %s from %s is not a fix; ignored", type(inc.message).__name__, inc.sender)
+                    warn_limited(log, "not-a-fix", "navigator: %s from %.60s is not a fix; ignored", type(inc.message).__name__, inc.sender)
                     continue
                 try:
                     w: WorldFromLocal = self.nav.fix(inc.message, m.now() or inc.message.stamp)
                 except BadMessage as exc:
-                    log.warning("navigator: %s", exc)
+                    warn_limited(log, "bad-fix", "navigator: %.200s", exc)
                     continue
                 log.info("navigator: fix from %s: world←local (%.2f, %.2f, %.3f)", inc.sender, w.x, w.y, w.yaw)
                 self._push()

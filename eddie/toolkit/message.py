@@ -20,6 +20,7 @@ from eddie.errors import BadMessage, UnknownMessageType
 __all__ = [
     "Finite", "Message", "Envelope", "message_type", "message_model", "message_name", "registered_types",
     "encode_envelope", "decode_envelope", "encode_body", "decode_body", "open_envelope",
+    "error_payload", "error_text",
 ]
 
 
@@ -153,3 +154,19 @@ def decode_envelope(payload: bytes, *, where: str = "inbox") -> tuple[Envelope, 
     env = open_envelope(payload, where=where)
     cls = message_model(env.type, sender=env.sender)
     return env, _validate(cls, env.body, env.sender)
+
+
+def error_payload(code: str, message: str) -> bytes:
+    """Return the JSON wire form of an error reply: {"error": code, "message": text} (text cut to 500 characters)."""
+    return json.dumps({"error": code, "message": message[:500]}).encode()
+
+
+def error_text(payload: bytes) -> str:
+    """Return "code: message" from an error reply (its raw text if it is not the JSON form)."""
+    try:
+        obj = json.loads(payload)
+    except ValueError:
+        return payload.decode("utf-8", "replace")[:500]
+    if isinstance(obj, dict) and "message" in obj:
+        return f"{obj.get('error', 'error')}: {obj['message']}"
+    return payload.decode("utf-8", "replace")[:500]

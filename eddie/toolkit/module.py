@@ -26,7 +26,8 @@ from wire.network import NetworkConfig, check_chunk
 from wire.session import session_stats, traffic
 
 from eddie.errors import BadMessage, LinkError, LinkTimeout, NoSuchModule, ServiceError
-from eddie.toolkit.message import Message, decode_body, decode_envelope, encode_body, encode_envelope
+from eddie.toolkit.message import Message, decode_body, decode_envelope, encode_body, encode_envelope, error_payload, error_text
+from wire.ratelimit import warn_limited
 
 __all__ = ["Module", "Incoming", "ServiceHandler"]
 
@@ -162,7 +163,7 @@ class Module:
         if not r.ok and r.payload == b"Timeout" and time.monotonic() - t0 >= timeout * 0.95:  # Zenoh's own time-out reply
             raise LinkTimeout(f"request {dest}/{service}: no reply within {timeout:g} s")
         if not r.ok:
-            raise ServiceError(f"request {dest}/{service}: {r.payload.decode('utf-8', 'replace')}")
+            raise ServiceError(f"request {dest}/{service}: {error_text(r.payload)}")
         _env, reply = decode_envelope(r.payload, where=f"{self.name} (reply of {dest}/{service})")
         if reply_type is not None and not isinstance(reply, reply_type):
             raise BadMessage(f"reply of {dest}/{service}: expected {reply_type.__name__}, got {type(reply).__name__}",
@@ -178,14 +179,14 @@ class Module:
                 env, msg = decode_envelope(req.payload, where=where)
                 reply = await handler(Incoming(sender=env.sender, stamp=env.stamp, message=msg))
             except BadMessage as exc:
-                log.warning("%s: %s", where, exc)
-                return QueryAnswer(ok=False, payload=str(exc).encode())
+                warn_limited(log, f"bad-message:{where}", "%s: %.200s", where, exc)
+                return QueryAnswer(ok=False, payload=error_payload("bad_message", str(exc)), as_json=True)
             except Exception as exc:  # noqa: BLE001 - an error reply, never a crashed module
                 from eddie.errors import EddieError
 
                 if not isinstance(exc, EddieError):
                     log.exception("%s: handler failed", where)
-                return QueryAnswer(ok=False, payload=f"{type(exc).__name__}: {exc}".encode())
+                return QueryAnswer(ok=False, payload=error_payload(type(exc).__name__, str(exc)), as_json=True)
             return QueryAnswer(ok=True, payload=encode_envelope(self.name, reply, self.now()))
 
         return self._link.queryable(self.keys.service(self.name, service), answer)
@@ -202,7 +203,7 @@ class Module:
             try:
                 msg = decode_body(model, payload, sender=module)
             except BadMessage as exc:
-                log.warning("%s: stream %s/%s: %s", self.name, module, stream, exc)
+                warn_limited(log, f"bad-stream:{module}/{stream}", "%s: stream %s/%s: %.200s", self.name, module, stream, exc)
                 return
             on_message(msg)  # type: ignore[arg-type]
 
@@ -215,13 +216,13 @@ class Module:
             self._inbox.put_nowait(payload)
         except asyncio.QueueFull:
             self.dropped += 1
-            log.warning("%s: inbox full, message dropped (%d so far)", self.name, self.dropped)
+            warn_limited(log, "inbox-full", "%s: inbox full, message dropped (%d so far)", self.name, self.dropped)
 
     def _on_clock(self, _key: str, payload: bytes) -> None:
         try:
             self.clock.advance(decode_clock(payload))
         except ClockPayloadError as exc:
-            log.warning("%s: bad sim clock sample: %s", self.name, exc)
+            warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
 
     def _beat(self, state: str | None = None) -> None:
         hb = Heartbeat(module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(),

@@ -26,6 +26,7 @@ from wire.network import NetworkConfig
 
 from eddie.errors import SupervisorError
 from eddie.toolkit.system_config import ModuleSpec, SystemConfig
+from wire.ratelimit import warn_limited
 
 __all__ = ["Supervisor", "ModuleHealth", "ModuleStatus"]
 
@@ -248,7 +249,7 @@ class Supervisor:
         try:
             hb: Heartbeat = decode_heartbeat(payload)
         except HeartbeatError as exc:
-            log.warning("bad heartbeat on %s: %s", key, exc)
+            warn_limited(log, "bad-heartbeat", "bad heartbeat on %s: %.200s", key, exc)
             return
         child.period_s = hb.period_s
         child.last_beat = None if hb.state == "stopping" else time.monotonic()

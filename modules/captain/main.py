@@ -35,6 +35,7 @@ def captain_main(missions: list[Mission], options: CaptainOptions):
     async def run(rt: ModuleRuntime) -> None:
         cap = Captain(rt, options)
         cap.declare()
+        await cap.fail_orphans()
         for m in missions:
             await cap.accept(m)
         rt.ready()

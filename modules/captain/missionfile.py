@@ -29,7 +29,17 @@ from pydantic import ValidationError
 from modules.vocabulary import DEFAULT_TOLERANCE_M, Destination, Mission, MissionStart, MissionStepSpec, StepConstraints, Trigger
 from modules.captain.errors import CaptainError
 
-__all__ = ["MissionProblem", "MissionFileError", "parse_mission", "load_mission", "CONSTRAINT_NAMES"]
+__all__ = ["MissionProblem", "MissionFileError", "parse_mission", "load_mission", "CONSTRAINT_NAMES",
+           "MAX_MISSION_BYTES", "MAX_MISSION_STEPS", "MAX_MESSAGE_CHARS"]
+
+#: The largest mission text accepted [bytes] (the campus tour is under 2 KB).
+MAX_MISSION_BYTES = 256 * 1024
+#: The most steps a mission may have.
+MAX_MISSION_STEPS = 1000
+#: A problem's message is cut to this many characters: an error never echoes a huge value back.
+MAX_MESSAGE_CHARS = 200
+#: At most this many problems are listed (and counted beyond).
+_MAX_PROBLEMS = 20
 
 #: Constraint names a mission may use.
 CONSTRAINT_NAMES: tuple[str, ...] = ("keep_right", "keep_left", "avoid_stairs", "avoid_slope", "speed_limit")
@@ -63,10 +73,27 @@ class MissionFileError(CaptainError, ValueError):
 
     def __init__(self, source: str, problems: Iterable[MissionProblem]) -> None:
         self.source = source
+        every = sorted(problems, key=lambda p: (p.line if p.line is not None else -1, p.column or 0))
         self.problems: tuple[MissionProblem, ...] = tuple(
-            sorted(problems, key=lambda p: (p.line if p.line is not None else -1, p.column or 0)))
-        super().__init__("\n".join([f"{source}: invalid mission ({len(self.problems)} problem(s))"]
-                                   + [f"  {p.located(source)}" for p in self.problems]))
+            MissionProblem(p.line, p.column, p.field[:MAX_MESSAGE_CHARS], _cut(p.message)) for p in every[:_MAX_PROBLEMS])
+        more = [f"  … and {len(every) - _MAX_PROBLEMS} more"] if len(every) > _MAX_PROBLEMS else []
+        if len(every) == 1:  # one problem: one line
+            super().__init__(self.problems[0].located(source))
+        else:
+            super().__init__("\n".join([f"{source}: invalid mission ({len(every)} problem(s))"]
+                                       + [f"  {p.located(source)}" for p in self.problems] + more))
+
+
+def _cut(text: str) -> str:
+    """Return `text` cut to `MAX_MESSAGE_CHARS`, saying how much was left out."""
+    if len(text) <= MAX_MESSAGE_CHARS:
+        return text
+    return f"{text[:MAX_MESSAGE_CHARS]}… ({len(text) - MAX_MESSAGE_CHARS} more characters)"
+
+
+def _too_large(source: str, size: int) -> MissionFileError:
+    return MissionFileError(source, [MissionProblem(None, None, "", f"{size} bytes is too large for a mission "
+                                                    f"(the limit is {MAX_MISSION_BYTES} bytes)")])
 
 
 class _Collector:
@@ -312,11 +339,15 @@ def parse_mission(text: str | bytes, *, source: str = "<mission>", mission_id: s
 
     `mission_id` is stored in the result (the CAPTAIN assigns it on acceptance).
     """
+    if len(text) > MAX_MISSION_BYTES:
+        raise _too_large(source, len(text.encode("utf-8", errors="replace")) if isinstance(text, str) else len(text))
     if isinstance(text, bytes):
         try:
             text = text.decode("utf-8")
         except UnicodeDecodeError as exc:
-            raise MissionFileError(source, [MissionProblem(None, None, "", f"not UTF-8 text: {exc}")]) from None
+            raise MissionFileError(source, [MissionProblem(None, None, "", f"not UTF-8 text (a binary file?): byte {exc.start} is 0x{exc.object[exc.start]:02x}")]) from None
+    if "\x00" in text:
+        raise MissionFileError(source, [MissionProblem(None, None, "", "not text: it holds NUL bytes (a binary file?)")])
     try:
         root = yaml.compose(text, Loader=yaml.SafeLoader)
     except yaml.MarkedYAMLError as exc:
@@ -361,6 +392,8 @@ def parse_mission(text: str | bytes, *, source: str = "<mission>", mission_id: s
             c.add(snode, "steps", f"must be a list of steps, got {_kind(snode)}")
         elif not snode.value:
             c.add(snode, "steps", "needs at least one step")
+        elif len(snode.value) > MAX_MISSION_STEPS:
+            c.add(snode, "steps", f"{len(snode.value)} steps is too many (the limit is {MAX_MISSION_STEPS} steps)")
         else:
             steps = [_step(s, i, c) for i, s in enumerate(snode.value)]
     if c.problems:
@@ -376,7 +409,10 @@ def load_mission(path: str | Path, *, mission_id: str = "") -> Mission:
     """Read and validate a mission file; raise MissionFileError (also for an unreadable file)."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MissionFileError(str(p), [MissionProblem(None, None, "", f"cannot read file: {exc}")]) from None
-    return parse_mission(text, source=str(p), mission_id=mission_id)
+        size = p.stat().st_size
+        if size > MAX_MISSION_BYTES:
+            raise _too_large(str(p), size)
+        data = p.read_bytes()
+    except OSError as exc:
+        raise MissionFileError(str(p), [MissionProblem(None, None, "", f"cannot read file: {exc.strerror or exc}")]) from None
+    return parse_mission(data, source=str(p), mission_id=mission_id)

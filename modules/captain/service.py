@@ -13,13 +13,13 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
-from blackboard import AttrPredicate, Spec, VersionConflictError
+from blackboard import AttrPredicate, BlackboardError, Spec, VersionConflictError
 
-from modules.captain.missionfile import MissionFileError, parse_mission
+from modules.captain.missionfile import MissionFileError, MissionProblem, parse_mission
 from modules.captain.sequencer import MissionRun
 from modules.captain.wire import Rejection, SubmitAccepted, WireError, new_mission_id, parse_cancel, rejection_from
 from modules.runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
-from modules.vocabulary import Mission, MissionStatus, StepResult
+from modules.vocabulary import MapPlaces, Mission, MissionStatus, StepResult
 
 __all__ = ["Captain", "CaptainOptions", "new_mission_id"]
 
@@ -128,6 +128,56 @@ class Captain:
                     break
                 tok = found[0]
         e.status_token = await self.bb.post(st, stamp=self._now())
+
+    async def check_places(self, mission: Mission, *, source: str) -> None:
+        """Raise MissionFileError for a step whose destination the MAP NAVIGATOR's map does not know by name.
+
+        The map's places come from the `map_places` token the MAP NAVIGATOR posts; before it did (or
+        with the blackboard away) nothing can be checked here, and the step fails at run time instead.
+        """
+        try:
+            found = await self.bb.retrieve(Spec(type="map_places"))
+        except BlackboardError as exc:
+            log.warning("cannot check the destinations of %s: %s", mission.name, exc)
+            return
+        known = next((t.attrs for t in found if isinstance(t.attrs, MapPlaces)), None)
+        if known is None:
+            return
+        listed = ", ".join(known.places[:30]) + (", …" if len(known.places) > 30 else "")
+        problems = [MissionProblem(None, None, f"steps[{i}].destination", f"unknown place {s.destination.place!r} on map "
+                                   f"{known.map_name!r}; known places: {listed}")
+                    for i, s in enumerate(mission.steps)
+                    if s.destination.place is not None and not known.knows(s.destination.place)]
+        if problems:
+            raise MissionFileError(source, problems)
+
+    async def fail_orphans(self) -> list[str]:
+        """Fail every mission the blackboard shows queued or running that this CAPTAIN does not know; return their ids.
+
+        A CAPTAIN that restarted lost its missions' progress: left alone, their statuses would say
+        `running` forever with nobody working on them. Their open steps are withdrawn too, so the
+        MAP NAVIGATOR stops driving them.
+        """
+        out = []
+        for tok in await self.bb.retrieve(Spec(type="mission_status", where=(AttrPredicate(path="state", op="in", value=["queued", "running"]),))):
+            st = tok.attrs
+            if not isinstance(st, MissionStatus) or st.mission_id in self._entries:
+                continue
+            reason = ("the CAPTAIN restarted while this mission was " + st.state
+                      + ": its progress was lost; submit it again")
+            done = st.model_copy(update={"state": "failed", "reason": reason, "finished_at": self._now()})
+            try:
+                await self.bb.update(tok.id, done, expected_version=tok.version, stamp=self._now())
+            except VersionConflictError:
+                continue
+            for step_tok in await self.bb.retrieve(Spec(type="mission_step", where=(
+                    AttrPredicate(path="mission_id", op="==", value=st.mission_id),
+                    AttrPredicate(path="state", op="==", value="active")))):
+                await self._withdraw(step_tok, step_tok.attrs)
+            self.rt.link.put(self.rt.keys.mission_events, done.model_dump_json().encode(), as_json=True)
+            log.warning("mission %s: %s", st.mission_id, reason)
+            out.append(st.mission_id)
+        return out
 
     # ---- running missions -----------------------------------------------------------------
 
@@ -246,7 +296,8 @@ class Captain:
             if cancel in done:
                 return ("cancel", e.cancel_reason)
             if lost in done:
-                return ("fail", lost.result())
+                who = self.options.navigator.upper().replace("_", " ")
+                return ("fail", f"step {index + 1}: the {who} went away ({lost.result()}) while the step waited for its result")
             if unacked is not None and unacked in done and unacked.result() is not None:
                 return ("fail", unacked.result())
             return ("fail", f"step {index + 1} timed out after {self.options.step_timeout_s:.0f} s of sim time")
@@ -271,6 +322,7 @@ class Captain:
         """Answer a mission submission: YAML or JSON text → mission id, or a rejection naming lines and fields."""
         try:
             mission = parse_mission(req.payload, source="submitted mission")
+            await self.check_places(mission, source="submitted mission")
         except MissionFileError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=rejection_from(exc).to_bytes())
         acc = await self.accept(mission)
@@ -284,7 +336,7 @@ class Captain:
                 (self.rt.keys.mission_status(s.mission_id), s.model_dump_json().encode()) for s in self.statuses()))
         st = self.status(mid)
         if st is None:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid!r} known to this CAPTAIN").to_bytes())
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid[:80]!r} known to this CAPTAIN").to_bytes())
         return QueryAnswer(as_json=True, ok=True, payload=st.model_dump_json().encode(), key=self.rt.keys.mission_status(mid))
 
     async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
@@ -295,7 +347,7 @@ class Captain:
         except WireError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
         except KeyError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {exc.args[0]!r} known to this CAPTAIN").to_bytes())
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {str(exc.args[0])[:80]!r} known to this CAPTAIN").to_bytes())
         except ValueError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="finished", message=str(exc)).to_bytes())
         return QueryAnswer(as_json=True, ok=True, payload=st.model_dump_json().encode())

@@ -13,7 +13,7 @@ from pydantic import BaseModel, ConfigDict, ValidationError
 from modules.captain.missionfile import MissionFileError
 from modules.captain.errors import CaptainError
 
-__all__ = ["new_mission_id", "SubmitAccepted", "Rejection", "ProblemWire", "CancelRequest", "rejection_from", "parse_cancel", "WireError"]
+__all__ = ["new_mission_id", "SubmitAccepted", "Rejection", "ProblemWire", "CancelRequest", "rejection_from", "parse_cancel", "WireError", "MAX_CANCEL_BYTES"]
 
 
 class _Frozen(BaseModel):
@@ -69,8 +69,14 @@ class CancelRequest(_Frozen):
     reason: str = "cancelled by request"
 
 
+#: The largest cancel request accepted [bytes] (a mission id is a slug of at most 47 characters).
+MAX_CANCEL_BYTES = 4096
+
+
 def parse_cancel(payload: bytes) -> CancelRequest:
     """Return the cancel request in a payload: a bare mission id, or JSON {"mission_id": ..., "reason": ...}."""
+    if len(payload) > MAX_CANCEL_BYTES:
+        raise WireError(f"a cancel request of {len(payload)} bytes is too large (the limit is {MAX_CANCEL_BYTES} bytes)")
     text = payload.decode("utf-8", errors="replace").strip()
     if not text:
         raise WireError("cancel needs a mission id (text) or JSON {\"mission_id\": ...}")
@@ -78,7 +84,7 @@ def parse_cancel(payload: bytes) -> CancelRequest:
         try:
             return CancelRequest.model_validate(json.loads(text))
         except (ValueError, ValidationError) as exc:
-            raise WireError(f"bad cancel request: {exc}") from None
+            raise WireError(f"bad cancel request: {str(exc)[:300]}") from None
     return CancelRequest(mission_id=text)
 
 

@@ -18,7 +18,7 @@ from blackboard import AttrPredicate, InvalidTokenError, Point, Polygon, Polylin
 from modules.map_navigator.mapdata import MapData
 from modules.map_navigator.stepjob import NavigatorOptions, Planned, StepJob
 from modules.runtime import ModuleRuntime, ModuleWatch
-from modules.vocabulary import MissionStep, RouteSegmentDescription, SegmentResult, StepResult
+from modules.vocabulary import MapPlaces, MissionStep, RouteSegmentDescription, SegmentResult, StepResult
 
 __all__ = ["MapNavigator", "ServiceOptions"]
 
@@ -71,6 +71,7 @@ class MapNavigator:
     async def run(self) -> None:
         """Follow mission steps forever: start, cancel, and resume after a restart."""
         self.pilot = ModuleWatch(self.rt.link, self.rt.keys, self.service.pilot)
+        await self.post_places()
         if self.service.post_map:
             await self.post_map()
         try:
@@ -89,6 +90,16 @@ class MapNavigator:
             if self._job_task is not None and not self._job_task.done():
                 self._job_task.cancel()
                 await asyncio.wait({self._job_task}, timeout=5.0)
+
+    async def post_places(self) -> None:
+        """Say on the blackboard which destinations this map knows by name (the CAPTAIN refuses others at submit)."""
+        places = MapPlaces(map_name=self.map.name, places=self.map.place_names(),
+                           nodes=tuple(sorted(n.id for n in self.map.world.nodes)))
+        for tok in await self.bb.retrieve(Spec(type="map_places")):
+            if tok.attrs == places:
+                return
+            await self.bb.delete(tok.id)
+        await self.bb.post(places, stamp=self._now())
 
     async def post_map(self) -> int:
         """Store every map object on the blackboard once (skipped if this map is already there); return the count posted."""

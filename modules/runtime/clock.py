@@ -9,6 +9,7 @@ import logging
 import math
 from typing import Awaitable, TypeVar
 from modules.runtime.errors import ModuleRuntimeError
+from wire.ratelimit import warn_limited
 
 __all__ = ["SimClock", "ClockNotRunningError"]
 
@@ -41,7 +42,7 @@ class SimClock:
     def advance(self, t: float) -> None:
         """Set sim time to `t` [s] and wake every sleeper whose deadline has passed."""
         if not math.isfinite(t):
-            log.warning("ignoring non-finite sim clock tick %r", t)
+            warn_limited(log, "clock-nonfinite", "ignoring non-finite sim clock tick %r", t)
             return
         if self._now is not None and t < self._now:
             if self._now - t <= self._reset_s:

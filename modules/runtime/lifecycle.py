@@ -20,6 +20,7 @@ from modules.runtime.heartbeat import ClockPayloadError, decode_clock, encode_he
 from wire.keys import ModuleKeys
 from wire.network import check_chunk as check_name
 from modules.vocabulary import Heartbeat
+from wire.ratelimit import warn_limited
 
 __all__ = ["ModuleRuntime", "ModuleMain", "run_module", "run_module_async", "READY_PREFIX"]
 
@@ -85,7 +86,7 @@ class ModuleRuntime:
         try:
             self.clock.advance(decode_clock(payload))
         except ClockPayloadError as exc:
-            log.warning("bad sim clock sample: %s", exc)
+            warn_limited(log, "clock-sample", "bad sim clock sample: %.200s", exc)
 
     def _beat(self, state: str | None = None) -> None:
         hb = Heartbeat(

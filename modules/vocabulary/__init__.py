@@ -32,7 +32,7 @@ from modules.vocabulary.driving import (
 from modules.vocabulary.health import Heartbeat, ModuleState
 from modules.vocabulary.obstacle import ObstaclePolygon, ObstacleReport
 from modules.vocabulary.mapdata import (
-    ColourType, FlatShape, MapColour, MapObject, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
+    ColourType, FlatShape, MapColour, MapObject, MapPlaces, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
     TreeShape,
 )
 from modules.vocabulary.mission import (
@@ -50,6 +50,7 @@ from modules.vocabulary.route import (
 #: Registered token type name of each vocabulary model.
 TOKEN_TYPES: dict[type, str] = {
     MapObject: "map_object",
+    MapPlaces: "map_places",
     Mission: "mission",
     MissionStep: "mission_step",
     StepResult: "step_result",
@@ -71,7 +72,7 @@ __all__ = [
     "DrivingUnitDescription", "LocalPathConstraints", "LocalPathPlan", "PlanPose", "PositionEstimate", "UnitStatus",
     "Heartbeat", "ModuleState",
     "ObstaclePolygon", "ObstacleReport",
-    "ColourType", "MapColour", "FlatShape", "MapObject", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
+    "ColourType", "MapColour", "FlatShape", "MapObject", "MapPlaces", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
     "StairsShape", "TreeShape",
     "DEFAULT_TOLERANCE_M", "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionStart", "MissionState",
     "MissionStatus", "MissionStep", "MissionStepSpec", "StepConstraints", "StepOutcome", "StepResult", "Trigger", "TriggerAction",

@@ -15,7 +15,7 @@ from modules.vocabulary._base import XY, Frozen, NonNeg, Ring, finite
 
 __all__ = [
     "ObjectRole", "ColourType", "MapColour", "FlatShape", "SlopeShape", "StairsShape", "PrismShape",
-    "TreeShape", "PostShape", "Shape", "MapObject",
+    "TreeShape", "PostShape", "Shape", "MapObject", "MapPlaces",
 ]
 
 #: Role of an object in navigation (seed §2.3.7).
@@ -56,3 +56,16 @@ class MapObject(Frozen):
     def traversable(self) -> bool:
         """Return whether the object can be driven on (has a finite cost)."""
         return self.cost is not None
+
+
+@token_type("map_places")
+class MapPlaces(Frozen):
+    """The destinations the MAP NAVIGATOR can route to by name: the place names and path node ids of map `map_name`."""
+
+    map_name: str
+    places: tuple[str, ...]
+    nodes: tuple[str, ...] = ()
+
+    def knows(self, name: str) -> bool:
+        """Return whether a step may name `name` as its destination."""
+        return name in self.places or name in self.nodes

@@ -69,7 +69,22 @@ def main() -> None:
     from wire.errors import WireError
 
     try:
-        app()
+        code = app(standalone_mode=False)
     except WireError as exc:  # e.g. no router at the endpoint: one line, no traceback
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"error: {_one_line(str(exc))}", file=sys.stderr)
         sys.exit(3)
+    except typer.TyperException as exc:  # a bad flag or argument: one line naming it, and where to read more
+        ctx = getattr(exc, "ctx", None)
+        where = f" (see `{ctx.command_path} --help`)" if ctx is not None else ""
+        print(f"error: {_one_line(exc.format_message())}{where}", file=sys.stderr)
+        sys.exit(exc.exit_code)
+    except (typer.Abort, KeyboardInterrupt):
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
+    sys.exit(code if isinstance(code, int) else 0)
+
+
+def _one_line(text: str, limit: int = 400) -> str:
+    """Return `text` on one line, cut to `limit` characters."""
+    flat = " ".join(text.split())
+    return flat if len(flat) <= limit else flat[:limit] + "…"

@@ -93,3 +93,35 @@ def bench_eddie(
         raise typer.BadParameter(f"--samples must be ≥ 10, got {samples}")
     mod = importlib.import_module("bench.eddie")
     _emit(mod.run(samples=samples), as_json)
+
+
+@bench_app.command("soak")
+def bench_soak(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    minutes: Annotated[float, typer.Option(help="How long to hold the rate [min wall]")] = 10.0,
+    rate: Annotated[float, typer.Option(help="Posts per second [1/s]")] = 1000.0,
+    monitors: Annotated[int, typer.Option(help="Monitors held open (each sees its share of the posts)")] = 20,
+    keep: Annotated[int, typer.Option(help="Tokens kept in the store (the oldest beyond are deleted; 0: keep all)")] = 10_000,
+) -> None:
+    """A real blackboard node held at a post rate for minutes: lost notifications, p99 latency per minute, node RSS."""
+    if not (minutes > 0 and rate > 0 and monitors >= 1 and keep >= 0):
+        raise typer.BadParameter(f"wants --minutes > 0, --rate > 0, --monitors ≥ 1, --keep ≥ 0 "
+                                 f"(got {minutes}, {rate}, {monitors}, {keep})")
+    mod = importlib.import_module("bench.soak")
+    _emit(mod.run(minutes=minutes, rate=rate, monitors=monitors, keep=keep), as_json)
+
+
+@bench_app.command("fuzz")
+def bench_fuzz(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    payloads: Annotated[int, typer.Option(help="Generated payloads per key")] = 10_000,
+    seed: Annotated[int, typer.Option(help="Seed of the payload generator")] = 0,
+) -> None:
+    """Generated payloads to every queryable and subscribed key of a live system; typed errors only, every process still serving."""
+    if payloads < 1:
+        raise typer.BadParameter(f"must be ≥ 1, got {payloads}", param_hint="--payloads")
+    mod = importlib.import_module("bench.fuzz")
+    result = mod.run(payloads=payloads, seed=seed)
+    _emit(result, as_json)
+    if result["violation_count"] or not all(result["still_serving"].values()) or not all(result["alive"].values()):
+        raise typer.Exit(1)

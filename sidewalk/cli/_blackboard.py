@@ -25,6 +25,7 @@ def serve_cmd(
     dispatch: Annotated[str, typer.Option("--dispatch", help="inline: answer in the zenoh callback (fast); loop: hand every request to the asyncio loop")] = "inline",
 ) -> None:
     """Serve the blackboard until SIGINT/SIGTERM; prints one "blackboard ready …" line when serving."""
+    from blackboard.errors import StoreOpenError
     from blackboard.node import serve
 
     if sync not in ("normal", "full"):
@@ -37,3 +38,5 @@ def serve_cmd(
         serve(net, db=db, sync=sync, types=tuple(types or ("modules.vocabulary",)), history=history, dispatch=dispatch)  # type: ignore[arg-type]
     except ImportError as exc:
         raise typer.BadParameter(str(exc), param_hint="--types") from None
+    except StoreOpenError as exc:  # e.g. the database is held by another node: one line, no traceback
+        raise typer.BadParameter(exc.message, param_hint="--db") from None

@@ -35,6 +35,12 @@ UP_TARGETS: dict[str, tuple[str, str]] = {
 }
 
 
+#: RunConfig field → the `sidewalk run` flag that sets it (for errors naming the flag).
+_FLAGS = {"rtf": "--rtf", "max_sim_time_s": "--max-sim-time", "max_wall_time_s": "--max-wall-time",
+          "pose_error_m": "--pose-error", "map_error_m": "--map-error", "monitor_port": "--monitor-port",
+          "max_speed": "--max-speed", "map_file": "--map"}
+
+
 def _parse_pose_error(text: str) -> tuple[float, float]:
     parts = text.split(",")
     try:
@@ -61,7 +67,7 @@ def _monitor_preflight(cfg, console) -> Optional[str]:  # noqa: ANN001 - RunConf
     try:
         check_port("127.0.0.1", cfg.monitor_port)
     except PortInUseError as exc:
-        console.print(f"[red]error:[/red] {exc}")
+        typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
     return monitor_url(cfg.monitor_port)
 # ---- end monitor and recording ----
@@ -129,7 +135,9 @@ def run(
                         faults=fault_specs, max_speed=max_speed)  # issue 10
     except ValidationError as exc:
         e = exc.errors()[0]
-        raise typer.BadParameter(f"{e['loc'][0]}: {e['msg']}") from None
+        field = str(e["loc"][0])
+        flag = _FLAGS.get(field, f"--{field.replace('_', '-')}")
+        raise typer.BadParameter(f"{e['input']!r}: {e['msg'].lower()}", param_hint=flag) from None
     console = Console(stderr=True)
     if secure is not None:
         from wire.network import SecureConfig
@@ -140,7 +148,7 @@ def run(
     try:
         preflight(cfg)
     except LaunchError as exc:
-        console.print(f"[red]error:[/red] {exc}")
+        typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(2) from None
     url = _monitor_preflight(cfg, console)  # issue 11: the monitor's port, checked before anything starts
     with RichProgress(
@@ -175,7 +183,7 @@ def run(
         try:
             report = asyncio.run(run_mission(cfg, show))
         except LaunchError as exc:
-            console.print(f"[red]error:[/red] {exc}")
+            typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(2) from None
         except KeyboardInterrupt:
             console.print("[yellow]interrupted: every process was stopped[/yellow]")
@@ -205,8 +213,9 @@ def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, b
         cmd = get_command(getattr(sub, f"{name}_app"))
         # a Typer app with a single command collapses into that command
         args = ["serve", *argv] if hasattr(cmd, "commands") else argv
-        cmd.main(args=args, prog_name=f"sidewalk up {name}", standalone_mode=True)
-        return
+        # errors go up to the one-line handler of `sidewalk`'s main
+        rv = cmd.main(args=args, prog_name=f"sidewalk up {name}", standalone_mode=False)
+        raise typer.Exit(rv if isinstance(rv, int) else 0)
     if name not in UP_TARGETS:
         known = ", ".join(["router", "blackboard", "sim", *UP_TARGETS])
         raise typer.BadParameter(f"unknown module {module!r}; known: {known}", param_hint="MODULE")
@@ -229,13 +238,18 @@ def submit(
     net: NetworkConfig = None,  # type: ignore[assignment]
 ) -> None:
     """Send a mission to the CAPTAIN over Zenoh and follow its progress."""
+    from modules.captain.missionfile import MissionFileError, load_mission
     from sidewalk.launcher import mission_path
 
     try:
         path = mission_path(file)
+        load_mission(path)  # checked here first: a bad or huge file is named and never sent
         text = path.read_text()
     except (FileNotFoundError, OSError) as exc:
         raise typer.BadParameter(str(exc), param_hint="FILE") from None
+    except MissionFileError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(2) from None
     raise typer.Exit(asyncio.run(_submit(net, text, follow, timeout)))
 
 
@@ -255,7 +269,7 @@ async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -
             console.print(f"[red]rejected:[/red] {exc.rejection.message}")
             return 2
         except CaptainUnavailableError as exc:
-            console.print(f"[red]error:[/red] {exc}")
+            typer.echo(f"error: {exc}", err=True)
             return 3
         console.print(f"mission accepted: [bold]{acc.mission_id}[/bold]")
         if not follow:

@@ -114,5 +114,5 @@ def test_unreadable_file_is_a_mission_error(tmp_path: Path) -> None:
         load_mission(tmp_path / "missing.yaml")
     bad = tmp_path / "bad.yaml"
     bad.write_bytes(b"\xff\xfe mission")
-    with pytest.raises(MissionFileError, match="cannot read"):
+    with pytest.raises(MissionFileError, match="not UTF-8 text"):
         load_mission(bad)

@@ -74,14 +74,18 @@ async def test_a_killed_pilot_is_restarted_resumes_and_the_mission_truly_arrives
 
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
-async def test_unknown_place_fails_the_step_with_its_reason_and_the_next_mission_runs(tmp_path):
+async def test_unknown_place_is_refused_at_submit_with_its_reason_and_the_next_mission_runs(tmp_path):
+    from modules.captain.client import MissionRejected
+
     bad = tmp_path / "nowhere.yaml"
     bad.write_text("mission: nowhere\nworld: campus\nsteps:\n  - name: to atlantis\n    destination: atlantis\n")
     system, text, _, _ = await _system(tmp_path / "run", str(DATA / "short-hop.yaml"))
     try:
-        mid = await system.submit(bad.read_text())
-        final = await system.wait_status(mid, lambda s: s.terminal, timeout=60)
-        assert final.state == "failed" and "atlantis" in final.reason
+        with pytest.raises(MissionRejected) as exc:
+            await system.submit(bad.read_text())
+        (problem,) = exc.value.rejection.problems
+        assert problem.field == "steps[0].destination" and "unknown place 'atlantis'" in problem.message
+        assert "quad" in problem.message  # the places it does know
         mid2 = await system.submit(text)
         st = await system.wait_status(mid2, lambda s: s.state == "running" or s.terminal, timeout=60)
         assert st.state == "running", st.reason

@@ -73,3 +73,76 @@ async def test_stop_escalates_to_sigkill(tmp_path):
     await sup.start(ProcessPlan("stubborn", ("-c", STUBBORN)), ready_timeout=30)
     codes = await sup.stop_all(grace=0.5)
     assert codes["stubborn"] == -signal.SIGKILL
+
+
+def _notices(sup: Supervisor) -> tuple[list[str], asyncio.Event]:
+    """Collect the supervisor's notices; the event is set once it gave up on a process."""
+    notices: list[str] = []
+    gave = asyncio.Event()
+
+    def note(text: str) -> None:
+        notices.append(text)
+        if "gave up" in text:
+            gave.set()
+
+    sup.on_notice = note
+    return notices, gave
+
+
+# A child that says it is ready and exits at once: a crash loop.
+CRASHER = "import sys; print('ready', flush=True); sys.exit(7)"
+
+
+async def test_a_crash_looping_process_is_backed_off_reported_and_given_up_without_spinning(tmp_path):
+    import resource
+    import time
+
+    from sidewalk.supervisor import RestartPolicy
+
+    sup = Supervisor(tmp_path)
+    notices, gave = _notices(sup)
+    await sup.start(ProcessPlan("looper", ("-c", CRASHER)), ready_timeout=30)
+    policy = RestartPolicy(backoff_s=0.2, backoff_max_s=1.0, give_up_after=5)
+    cpu0 = resource.getrusage(resource.RUSAGE_SELF)
+    t0 = time.monotonic()
+    sup.guard(["looper"], policy)
+    try:
+        await asyncio.wait_for(gave.wait(), 60)
+        wall = time.monotonic() - t0
+        cpu1 = resource.getrusage(resource.RUSAGE_SELF)
+    finally:
+        await sup.stop_all(grace=5)
+    # five restarts, each after a longer wait (0.2, 0.4, 0.8, then capped at 1.0), then it gave up
+    assert [r.delay_s for r in sup.restarts] == [0.2, 0.4, 0.8, 1.0, 1.0]
+    assert all(r.reason == "exited with code 7" and r.module == "looper" for r in sup.restarts)
+    starts = [r.at_s for r in sup.restarts]
+    assert all(b - a >= d for a, b, d in zip(starts, starts[1:], [0.4, 0.8, 1.0, 1.0])), starts
+    assert len(sup.gave_up) == 1 and sup.gave_up[0].failures == 5 and "code 7" in sup.gave_up[0].reason
+    assert any("gave up" in n for n in notices) and any("restarting it in 0.2 s" in n for n in notices)
+    assert not sup.alive("looper")
+    # the supervisor waited, it did not spin: its own CPU is a small part of the wall time the loop took
+    cpu = (cpu1.ru_utime + cpu1.ru_stime) - (cpu0.ru_utime + cpu0.ru_stime)
+    assert cpu < 0.25 * wall, (cpu, wall)
+
+
+async def test_a_process_killed_by_its_owner_is_left_to_the_owner(tmp_path):
+    from sidewalk.supervisor import RestartPolicy
+
+    sup = Supervisor(tmp_path)
+    await sup.start(ProcessPlan("a", ("-c", SERVER)), ready_timeout=30)
+    sup.guard(["a"], RestartPolicy(backoff_s=0.05))
+    await sup.kill("a", signal.SIGKILL)  # fault injection: the caller restarts it
+    assert (await asyncio.wait_for(sup.crashed.get(), 10)).plan.name == "a"
+    # a guarded process that dies on its own is restarted; the one killed by its owner is not
+    await sup.start(ProcessPlan("b", ("-c", CRASHER)), ready_timeout=30)
+    _, gave = _notices(sup)
+    sup.guard(["b"], RestartPolicy(backoff_s=0.05, give_up_after=1))
+    await asyncio.wait_for(gave.wait(), 30)
+    try:
+        assert {r.module for r in sup.restarts} == {"b"}
+        assert not sup.alive("a")
+        await sup.start(ProcessPlan("a", ("-c", SERVER)), ready_timeout=30)
+        assert sup.alive("a")
+    finally:
+        codes = await sup.stop_all(grace=5)
+    assert codes["a"] == 0

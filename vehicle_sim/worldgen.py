@@ -460,11 +460,17 @@ def build_north_hills() -> World:
 
 
 def _offset_line(centre, d: float) -> list[tuple[float, float]]:
-    """Return the polyline `d` [m] left of `centre` (negative: right), rounded to mm."""
-    import shapely
-
-    line = shapely.LineString(centre).offset_curve(d, join_style="mitre", mitre_limit=3.0)
-    return [(round(float(x), 3), round(float(y), 3)) for x, y in line.coords]
+    """Return the polyline `d` [m] left of `centre` (negative: right), rounded to mm (mitred vertex normals)."""
+    p = np.asarray(centre, float)
+    seg = np.diff(p, axis=0)
+    seg /= np.linalg.norm(seg, axis=1, keepdims=True)
+    t = np.vstack([seg[:1], seg[:-1] + seg[1:], seg[-1:]])
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    n = np.stack([-t[:, 1], t[:, 0]], axis=1)
+    cos_half = np.ones(len(p))
+    cos_half[1:-1] = np.maximum((n[1:-1] * np.stack([-seg[:-1, 1], seg[:-1, 0]], 1)).sum(1), 0.5)
+    q = p + d * n / cos_half[:, None]
+    return [(round(float(x), 3), round(float(y), 3)) for x, y in q]
 
 
 def _clip_line(centre, x0: float, x1: float, axis: int = 0) -> list[tuple[float, float]]:
@@ -472,14 +478,14 @@ def _clip_line(centre, x0: float, x1: float, axis: int = 0) -> list[tuple[float,
     import shapely
 
     box = shapely.box(x0, -1e4, x1, 1e4) if axis == 0 else shapely.box(-1e4, x0, 1e4, x1)
-    part = shapely.LineString(np.asarray(centre, float)).intersection(box)
+    part = shapely.line_merge(shapely.LineString(np.asarray(centre, float)).intersection(box))
     return [(round(float(x), 3), round(float(y), 3)) for x, y in part.coords]
 
 
 def build_schenley() -> World:
     """Build Schenley: a marked two-lane road through a golf course (YARF's world, Navlab 1990 §2.2.2, ch. 5).
 
-    Golf Course Rd runs east from `start` through an S-bend to a four-way intersection, where a right
+    Golf Course Rd runs east from `start` through a long bend to a four-way intersection, where a right
     turn lane is added over the last 45 m; Tee Dr crosses it north–south, East Dr continues east.
     Markings: a double yellow centre line (broken to a single dashed line in a passing zone), white
     edge stripes (the north one broken along the bend), a dashed lane line beside the added lane.
@@ -537,9 +543,10 @@ def build_schenley() -> World:
         out.append(Marking(colour="white", line=((165.0, -EDGE), (214.0, -EDGE)), width=0.12, dash=(3.0, 9.0)))
         return out
 
-    # Golf Course Rd: an S-bend between x = 25 and 155 (radius >= 60 m), straight to the intersection
-    bend = [(round(float(x), 3), round(float(10.0 * math.sin(2.0 * math.pi * (x - 25.0) / 130.0)), 3))
+    # Golf Course Rd: a bend 10 m north and back between x = 25 and 155 (radius >= 85 m), straight to the intersection
+    bend = [(round(float(x), 3), round(float(10.0 * math.sin(math.pi * (x - 25.0) / 130.0) ** 2), 3))
             for x in np.linspace(30.0, 150.0, 25)]
+    bend = [(25.0, 0.0), *bend, (155.0, 0.0)]
     road("golf", "start", "x_club", via=bend, markings_for=golf_course_rd, name="Golf Course Rd")
     # the added right-turn lane (south side), tapering in over 12 m
     b.area("road_turn_lane", "road", [(165.0, -RW / 2), (214.0, -RW / 2), (214.0, -RW / 2 - 3.5), (177.0, -RW / 2 - 3.5)],
@@ -550,7 +557,7 @@ def build_schenley() -> World:
 
     # trees: a row south of Golf Course Rd (shadows fall north across it), a few north of it and along Tee Dr
     for i, x in enumerate(np.arange(8.0, 205.0, 11.0)):
-        yc = 10.0 * math.sin(2.0 * math.pi * (x - 25.0) / 130.0) if 25.0 <= x <= 155.0 else 0.0
+        yc = 10.0 * math.sin(math.pi * (x - 25.0) / 130.0) ** 2 if 25.0 <= x <= 155.0 else 0.0
         side = -1.0 if i % 4 != 3 else 1.0
         d = RW / 2 + 3.0 + float(rng.uniform(0.0, 3.0)) + (3.5 if (side < 0 and x > 160.0) else 0.0)
         b.tree(f"tree_gc{i:02d}", float(x + rng.uniform(-2.0, 2.0)), yc + side * d, rng, scale=1.15)

@@ -3,7 +3,7 @@
 The road model is a generalized stripe: features at known offsets from a spine (a double yellow
 centre line on it, white stripes at the lane edges). Each frame runs predict–segment–fit–move:
 the spine predicted from the last frame and the vehicle's motion places a window for every
-feature at several distances ahead; the trackers look in them and report found / missing /
+feature at several distances ahead (wider while the road is being acquired or was lost); the trackers look in them and report found / missing /
 clipped / illumination shift / too large; every found feature, moved back onto the spine by its
 offset, joins the points of the last three frames (carried into the current vehicle frame by the
 odometry), and the spine is the robust M-estimate through them, which rejects outliers. At the
@@ -56,12 +56,14 @@ class YarfConfig(BaseModel):
 
     lookaheads_m: tuple[float, ...] = (7.0, 8.5, 10.0, 12.0, 14.0, 16.5, 19.5, 23.0)
     window_half_m: float = Field(0.9, gt=0.0)
+    acquire_half_m: float = Field(2.2, gt=0.0)  # window half width [m] while (re)acquiring the road
     frames_fitted: int = Field(3, ge=1)
     hue_range_deg: tuple[float, float] = (40.0, 100.0)
     min_saturation: float = Field(0.1, ge=0.0, le=1.0)
     max_curvature_per_m: float = Field(1.0 / 25.0, gt=0.0)
     curvature_sigma_per_m: float = Field(0.004, gt=0.0)  # how much the curvature may change per frame [1/m]
     max_jump_m: float = Field(0.8, gt=0.0)  # largest plausible change of the spine at 12 m between frames [m]
+    acquire_jump_m: float = Field(2.5, gt=0.0)  # the same while (re)acquiring [m]
     min_points: int = Field(5, ge=3)
 
 
@@ -78,6 +80,7 @@ class Yarf:
         self._history: deque[np.ndarray] = deque(maxlen=config.frames_fitted)  # (N, 2) spine samples per frame
         self._models: dict[int, BrightnessModel] = {}
         self._last_stamp: float | None = None
+        self.tracking = False  # False: bootstrapping or lost, wide windows
 
     def _move(self, motion: VehicleMotion) -> None:
         """Carry the spine and the kept points into the new vehicle frame."""
@@ -97,7 +100,8 @@ class Yarf:
                 xs = np.linspace(x - half_len, x + half_len, 9)
                 slope = 0.5 * self.spine.curvature * 2 * xs + self.spine.slope
                 ys = self.spine.lateral(xs) + feat.offset_m * np.sqrt(1.0 + slope * slope)
-                win = predict_window(self.camera, np.stack([xs, ys], -1), cfg.window_half_m)
+                half = cfg.window_half_m if self.tracking else cfg.acquire_half_m
+                win = predict_window(self.camera, np.stack([xs, ys], -1), half)
                 if win is None:
                     continue
                 if feat.kind == "yellow":
@@ -139,7 +143,7 @@ class Yarf:
             c = float(np.clip(fit.spine.curvature, -cfg.max_curvature_per_m, cfg.max_curvature_per_m))
             # global consistency: the road cannot jump between frames; a fit that does is rejected
             jump = float(np.max(np.abs(fit.spine.lateral(np.array([0.0, 12.0])) - self.spine.lateral(np.array([0.0, 12.0])))))
-            if n_in >= cfg.min_points and fit.scale_m < 0.5 and jump <= cfg.max_jump_m:
+            if n_in >= cfg.min_points and fit.scale_m < 0.5 and jump <= (cfg.max_jump_m if self.tracking else cfg.acquire_jump_m):
                 self.spine = fit.spine.model_copy(update={"curvature": c})
                 found = True
                 # outliers found now are dropped from the kept points of this frame
@@ -147,6 +151,7 @@ class Yarf:
                 if len(cur):
                     r = np.abs(cur[:, 1] - self.spine.lateral(cur[:, 0]))
                     self._history[-1] = cur[r < 4.685 * fit.scale_m]
+        self.tracking = found
         seen = sum(r.status == "found" for r in reports)
         confidence = (seen / max(len(reports), 1)) * inlier_share if found else 0.0
         s = self.spine

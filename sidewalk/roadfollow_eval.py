@@ -143,12 +143,19 @@ def _signed_distance(p: np.ndarray, poly: np.ndarray) -> float:
 
 
 def _ahead_at(centre_v: np.ndarray, dist: float) -> np.ndarray | None:
-    """Return the first centre point (2,) ahead of the vehicle at distance `dist` [m] from it (`vehicle`)."""
-    d = np.hypot(centre_v[:, 0], centre_v[:, 1])
-    for i in range(len(centre_v) - 1):
-        if centre_v[i + 1, 0] > 0 and d[i] < dist <= d[i + 1]:
-            t = (dist - d[i]) / max(d[i + 1] - d[i], 1e-12)
-            return centre_v[i] + t * (centre_v[i + 1] - centre_v[i])
+    """Return where the centre line (N, 2) in `vehicle` first meets the circle of radius `dist` [m] ahead of the vehicle."""
+    a, b = centre_v[:-1], centre_v[1:]
+    d = b - a
+    qa = (d * d).sum(1)
+    qb = 2.0 * (a * d).sum(1)
+    qc = (a * a).sum(1) - dist * dist
+    disc = qb * qb - 4.0 * qa * qc
+    for i in np.flatnonzero(disc >= 0.0):
+        for sign in (1.0, -1.0):
+            t = (-qb[i] + sign * math.sqrt(disc[i])) / (2.0 * max(qa[i], 1e-12))
+            p = a[i] + t * d[i]
+            if 0.0 <= t <= 1.0 and p[0] > 0.0:
+                return p
     return None
 
 

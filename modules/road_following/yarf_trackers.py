@@ -108,7 +108,7 @@ def yellow_mask(rgb: np.ndarray, hue_range: tuple[float, float] = (40.0, 100.0),
 def shrink_and_grow(mask: np.ndarray) -> np.ndarray:
     """Return `mask` (R, W) bool after a shrink and a grow along the rows' direction (isolated points removed)."""
     k = np.ones((2, 1), np.uint8) if mask.shape[0] >= 2 else np.ones((1, 2), np.uint8)
-    return cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, k).astype(bool)
+    return cv2.morphologyEx(mask.astype(np.uint8), cv2.MORPH_OPEN, k, borderType=cv2.BORDER_CONSTANT, borderValue=0).astype(bool)
 
 
 def track_yellow(image: np.ndarray, win: Window, line_width_m: float, *, hue_range: tuple[float, float] = (40.0, 100.0),

@@ -52,7 +52,7 @@ def mission_legs(world, trim_m: float = _TRIM_M) -> tuple[list[np.ndarray], list
                 route = select_route(m, start, step.destination, step.constraints, RouteOptions(vehicle=mission.vehicle or "navlab"))
             except RouteError:
                 break
-            centre = np.asarray(route.polyline(), float)
+            centre = _extended(np.asarray(route.polyline(), float))
             for leg in route.legs:
                 if leg.mode != "follow-road":
                     continue
@@ -64,6 +64,13 @@ def mission_legs(world, trim_m: float = _TRIM_M) -> tuple[list[np.ndarray], list
                     centres.append(centre)
             start = route.goal_xy
     return legs, centres
+
+
+def _extended(p: np.ndarray, metres: float = 30.0) -> np.ndarray:
+    """Return the polyline with its end segments carried on straight `metres` [m] (truth just before the start)."""
+    a = p[0] - (p[1] - p[0]) / np.linalg.norm(p[1] - p[0]) * metres
+    b = p[-1] + (p[-1] - p[-2]) / np.linalg.norm(p[-1] - p[-2]) * metres
+    return np.vstack([a, p, b])
 
 
 def _is_intersection(world, node_id: str | None) -> bool:
@@ -125,7 +132,8 @@ def _world_or_exit(world: str, seed: int, **kw) -> RouteFrames:
 def eval_cmd(
     method: Annotated[str, typer.Option(help="scarf | yarf | alvinn")],
     world: Annotated[str, typer.Option(help="World name or file (default: north_hills for scarf and alvinn, schenley for yarf)")] = "",
-    frames: Annotated[int, typer.Option(min=1, help="Frames along the mission legs")] = 150,
+    frames: Annotated[int, typer.Option(min=1, help="Frames along the mission legs (at most; they end with the legs)")] = 400,
+    step: Annotated[float, typer.Option(min=0.2, help="Distance between frames [m] (3 m: 15 km/h at 0.7 s per frame)")] = 3.0,
     seed: Annotated[int, typer.Option(help="Seed for the drive, sensor noise and odometry noise")] = 0,
     model: Annotated[str, typer.Option(help="ALVINN weights (.npz from `sidewalk roadfollow train`)")] = "",
     intersections: Annotated[bool, typer.Option("--intersections", help="SCARF: also search for branch roads")] = False,
@@ -150,7 +158,7 @@ def eval_cmd(
     src = _world_or_exit(world, seed)
     rng = np.random.default_rng(seed)
     lane = LANE_OFFSET.get(src.world.name, 0.0)
-    poses = plan_drive(src.legs, frames, rng, lane_offset_m=lane)
+    poses = plan_drive(src.legs, frames, rng, step_m=step, lane_offset_m=lane)
 
     def make(fr):
         cam = CameraGeometry.from_capture(last[0])
@@ -190,7 +198,9 @@ def dataset_cmd(
 
     src = _world_or_exit(world, seed, width=160, height=120)
     rng = np.random.default_rng(seed)
-    poses = plan_drive(src.legs, frames, rng, lane_offset_m=LANE_OFFSET.get(src.world.name, 0.0), weave_m=0.3, weave_period_m=57.0)
+    total = sum(float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) for p in src.legs)
+    poses = plan_drive(src.legs, frames, rng, step_m=total / frames, lane_offset_m=LANE_OFFSET.get(src.world.name, 0.0), weave_m=0.3,
+                       weave_period_m=57.0)
     images, centres = [], []
     cap = None
     for fr, cap in src.frames(poses, rng):

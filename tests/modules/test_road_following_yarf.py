@@ -89,8 +89,8 @@ def test_yarf_tracks_the_marked_road_through_the_bend_and_the_added_lane(schenle
     from modules.road_following import VehicleMotion
 
     rng = np.random.default_rng(4)
-    poses = plan_drive(schenley.legs[:1], 400, rng, lane_offset_m=-1.75)
-    poses = [p for p in poses if p.x > 20.0][::7]  # the bend, the passing zone, the broken edge, the added lane
+    poses = plan_drive(schenley.legs[:1], 400, rng, step_m=3.6, lane_offset_m=-1.75)
+    poses = [p for p in poses if p.x > 20.0]  # the bend, the passing zone, the broken edge, the added lane
     yarf: Yarf | None = None
     prev: DrivePose | None = None
     errs = []

@@ -3,7 +3,8 @@
 The road model is a generalized stripe: features at known offsets from a spine (a double yellow
 centre line on it, white stripes at the lane edges). Each frame runs predict–segment–fit–move:
 the spine predicted from the last frame and the vehicle's motion places a window for every
-feature at several distances ahead (wider while the road is being acquired or was lost); the trackers look in them and report found / missing /
+feature at several distances ahead (while the road is being acquired or was lost: wider windows,
+near ones only, and a straight road); the trackers look in them and report found / missing /
 clipped / illumination shift / too large; every found feature, moved back onto the spine by its
 offset, joins the points of the last three frames (carried into the current vehicle frame by the
 odometry), and the spine is the robust M-estimate through them, which rejects outliers. At the
@@ -65,6 +66,8 @@ class YarfConfig(BaseModel):
     max_jump_m: float = Field(0.8, gt=0.0)  # largest plausible change of the spine at 12 m between frames [m]
     acquire_jump_m: float = Field(2.5, gt=0.0)  # the same while (re)acquiring [m]
     min_points: int = Field(5, ge=3)
+    min_current_points: int = Field(4, ge=1)  # features found in this very frame to call the road found
+    acquire_max_m: float = Field(14.0, gt=0.0)  # while acquiring: only windows this near, and a straight road
 
 
 class Yarf:
@@ -96,6 +99,8 @@ class Yarf:
         samples = []
         for fi, feat in enumerate(self.lane.features):
             for x in cfg.lookaheads_m:
+                if not self.tracking and x > cfg.acquire_max_m:
+                    continue
                 half_len = max(0.5, 0.06 * x)
                 xs = np.linspace(x - half_len, x + half_len, 9)
                 slope = 0.5 * self.spine.curvature * 2 * xs + self.spine.slope
@@ -137,13 +142,15 @@ class Yarf:
         inlier_share = 0.0
         if len(pts) >= self.config.min_points:
             cfg = self.config
-            fit = fit_spine_robust(pts[:, 0], pts[:, 1], curvature_prior=(self.spine.curvature, cfg.curvature_sigma_per_m))
+            prior = (self.spine.curvature, cfg.curvature_sigma_per_m) if self.tracking else (0.0, 1e-4)
+            fit = fit_spine_robust(pts[:, 0], pts[:, 1], curvature_prior=prior)
             n_in = int(fit.inliers.sum())
             inlier_share = n_in / len(pts)
             c = float(np.clip(fit.spine.curvature, -cfg.max_curvature_per_m, cfg.max_curvature_per_m))
             # global consistency: the road cannot jump between frames; a fit that does is rejected
             jump = float(np.max(np.abs(fit.spine.lateral(np.array([0.0, 12.0])) - self.spine.lateral(np.array([0.0, 12.0])))))
-            if n_in >= cfg.min_points and fit.scale_m < 0.5 and jump <= (cfg.max_jump_m if self.tracking else cfg.acquire_jump_m):
+            if (n_in >= cfg.min_points and len(samples) >= cfg.min_current_points and fit.scale_m < 0.5
+                    and jump <= (cfg.max_jump_m if self.tracking else cfg.acquire_jump_m)):
                 self.spine = fit.spine.model_copy(update={"curvature": c})
                 found = True
                 # outliers found now are dropped from the kept points of this frame

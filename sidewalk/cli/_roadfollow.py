@@ -160,6 +160,8 @@ def eval_cmd(
     lane = LANE_OFFSET.get(src.world.name, 0.0)
     poses = plan_drive(src.legs, frames, rng, step_m=step, lane_offset_m=lane)
 
+    last: list = [None]  # the capture of the frame being scored: its camera model builds a fresh follower
+
     def make(fr):
         cam = CameraGeometry.from_capture(last[0])
         if method == "scarf":
@@ -167,8 +169,6 @@ def eval_cmd(
         if method == "yarf":
             return Yarf(cam, prior=Spine(offset=-lane))
         return Alvinn(cam, net)  # type: ignore[arg-type]
-
-    last: list = [None]
 
     def stream():
         for fr, cap in src.frames(poses, rng):

@@ -15,9 +15,9 @@ from modules.road_following import (
 
 @pytest.fixture(scope="module")
 def hills():
-    from sidewalk.cli._roadfollow import RouteFrames
+    from tests.modules._road_frames import route_frames
 
-    return RouteFrames("north_hills")
+    return route_frames("north_hills")
 
 
 @pytest.mark.parametrize("dy,dyaw_deg", [(0.0, 0.0), (0.8, 0.0), (-0.5, 4.0), (0.3, -6.0)])

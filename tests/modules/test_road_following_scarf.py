@@ -93,10 +93,10 @@ def test_branch_search_finds_the_side_road_of_a_t_junction() -> None:
 
 
 def test_scarf_finds_the_road_on_north_hills_from_an_off_bootstrap() -> None:
-    from sidewalk.cli._roadfollow import RouteFrames
     from sidewalk.roadfollow_eval import DrivePose, centre_at_origin, to_vehicle
+    from tests.modules._road_frames import route_frames
 
-    src = RouteFrames("north_hills")
+    src = route_frames("north_hills")
     rng = np.random.default_rng(0)
     poses = [DrivePose(leg=0, x=0.9, y=-30.0 + 3.0 * i, yaw=math.pi / 2 + math.radians(3.0), stamp=float(i)) for i in range(6)]
     scarf = None

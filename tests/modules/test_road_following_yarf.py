@@ -79,9 +79,9 @@ def test_white_tracker_finds_a_bar_not_a_shadow_edge() -> None:
 
 @pytest.fixture(scope="module")
 def schenley():
-    from sidewalk.cli._roadfollow import RouteFrames
+    from tests.modules._road_frames import route_frames
 
-    return RouteFrames("schenley")
+    return route_frames("schenley")
 
 
 def test_yarf_tracks_the_marked_road_through_the_bend_and_the_added_lane(schenley) -> None:

@@ -98,6 +98,7 @@ def derive_map(world: World, error: MapError, rng: np.random.Generator) -> World
         else:
             update["center"] = tup(move(np.asarray(o.center)) + shift)[0]
         update["appearance"] = None  # a map states colour type and nominal colour, never how the surface looks
+        update["markings"] = ()
         if isinstance(o.shape, (SlopeShape, StairsShape)) and error.rotation_deg:
             update["shape"] = o.shape.model_copy(update={"axis_deg": o.shape.axis_deg + error.rotation_deg})
         # build a fresh object (model_copy would carry cached geometry of the original over)

@@ -30,6 +30,8 @@ import numpy as np
 from scipy.ndimage import gaussian_filter
 from scipy.special import ndtri
 
+from vehicle_sim.markings import PaintRaster
+
 from typing import TYPE_CHECKING
 
 from vehicle_sim.worldfile import (
@@ -244,6 +246,11 @@ class Scene:
         self._tile_flat = np.ascontiguousarray(np.moveaxis(tile, 0, -1).reshape(-1, 3))
         self._samples = ground_samples(0.3, self.max_range)
         self._weather_setup(rng)
+        # road markings: paint over road ground (None, and no cost at all, for worlds without markings)
+        self.paint = PaintRaster.build(world.objects)
+        self._mat_painted = np.zeros(m, bool)
+        for i, o in enumerate(world.objects):
+            self._mat_painted[i + 1] = o.kind == "road"
 
     # ---------------------------------------------------------------- weather
 
@@ -312,7 +319,8 @@ class Scene:
     def add_actors(self, actors: "ActorSet") -> None:
         """Give every actor of `actors` a material (colour, reflectance, label "rock"); call once, before `at_time`."""
         per_mat = ("mat_mean", "mat_std", "mat_refl", "mat_label", "_g_z0", "_g_rise", "_g_ax", "_g_lo", "_g_inv_len",
-                   "_g_steps", "_g_a0", "_g_a1", "_g_b", "_g_tilted", "_g_normal", "_g_riser_normal", "_mat_ground_shadow")
+                   "_g_steps", "_g_a0", "_g_a1", "_g_b", "_g_tilted", "_g_normal", "_g_riser_normal", "_mat_ground_shadow",
+                    "_mat_painted")
         m0 = len(self.mat_refl)
         k = len(actors.actors)
         for name in per_mat:
@@ -763,6 +771,8 @@ class Scene:
         noise = np.take(self._tile_flat, idx, axis=0)  # (H, W, 3)
         col = np.take(self.mat_mean, m, axis=0)
         col += np.take(self.mat_std, m, axis=0) * noise
+        if self.paint is not None:
+            self.paint.paint(col, hits.xyz, np.take(self._mat_painted, m) & (hits.material != MATERIAL_SKY), noise)
         if self.weather is not None:
             self._apply_weather(col, hits, noise, stamp)
         col[hits.material == MATERIAL_SKY] = 0.0

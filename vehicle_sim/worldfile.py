@@ -17,8 +17,8 @@ from typing import Any, Iterable, Literal
 import numpy as np
 
 from wire.mapfile import (
-    COLOUR_TYPES, EDGE_END_TOLERANCE, EDGE_MODES, KIND_PRIORITY, KINDS, NODE_KINDS, OBJECT_KINDS, ROLES, SHAPES_BY_KIND,
-    WORLDS_DIR, Appearance, ColourStats, ColourType, FlatShape, MapColour, MapFile, PathEdge, PathNode, PostShape,
+    COLOUR_TYPES, EDGE_END_TOLERANCE, EDGE_MODES, KIND_PRIORITY, KINDS, MARKING_COLOURS, NODE_KINDS, OBJECT_KINDS, ROLES,
+    SHAPES_BY_KIND, WORLDS_DIR, Appearance, ColourStats, ColourType, FlatShape, MapColour, MapFile, Marking, PathEdge, PathNode, PostShape,
     PrismShape, Problem, Shape, SlopeShape, StairsShape, StartPose, Sun, TreeShape, Weather, WorldFileError, WorldObject,
     load_map_file, parse_map_file, world_path,
 )
@@ -26,7 +26,7 @@ from wire.mapfile import (
 __all__ = [
     "KINDS", "OBJECT_KINDS", "KIND_PRIORITY", "ROLES", "EDGE_MODES", "NODE_KINDS", "SHAPES_BY_KIND",
     "EDGE_END_TOLERANCE", "WorldFileError", "Problem", "COLOUR_TYPES", "ColourType", "MapColour", "ColourStats",
-    "Appearance", "Weather", "FlatShape", "SlopeShape", "StairsShape",
+    "Appearance", "Weather", "MARKING_COLOURS", "Marking", "FlatShape", "SlopeShape", "StairsShape",
     "PrismShape", "TreeShape", "PostShape", "Shape", "Sun", "StartPose", "WorldObject", "PathNode", "PathEdge",
     "World", "load_world", "parse_world", "world_path", "WORLDS_DIR",
 ]

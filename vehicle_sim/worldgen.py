@@ -1,4 +1,4 @@
-"""Generate the shipped worlds (`campus`, `north_hills`) deterministically and write them to worlds/.
+"""Generate the shipped worlds (`campus`, `north_hills`, `schenley`) deterministically and write them to worlds/.
 
 Run `python -m vehicle_sim.worldgen` to regenerate worlds/*.world.geojson and the derived
 worlds/*.map.geojson (default map error, fixed seed). Output is byte-identical run to run.
@@ -20,6 +20,7 @@ import numpy as np
 from vehicle_sim.worldfile import (
     WORLDS_DIR,
     Appearance,
+    Marking,
     ColourStats,
     FlatShape,
     MapColour,
@@ -37,7 +38,8 @@ from vehicle_sim.worldfile import (
     WorldObject,
 )
 
-__all__ = ["Material", "WEATHERING", "ROADSIDE_CLEARANCE", "build_campus", "build_north_hills", "WORLD_BUILDERS",
+__all__ = ["Material", "WEATHERING", "ROADSIDE_CLEARANCE", "build_campus", "build_north_hills", "build_schenley",
+           "WORLD_BUILDERS",
            "write_worlds", "main"]
 
 
@@ -105,10 +107,11 @@ class _Builder:
             crown = ColourStats(mean=_weathered(self.name, oid, crown, "/crown"), std=crown.std)
         return Appearance(mean=_weathered(self.name, oid, material), std=material.std, reflectance=reflectance, crown=crown)
 
-    def area(self, oid: str, kind: str, pts, *, role: str, colour: Material, shape=None, cost: float = math.inf, name: str | None = None, reflectance: float = 0.5) -> WorldObject:
+    def area(self, oid: str, kind: str, pts, *, role: str, colour: Material, shape=None, cost: float = math.inf, name: str | None = None, reflectance: float = 0.5,
+             markings: tuple[Marking, ...] = ()) -> WorldObject:
         poly = tuple((round(float(x), 3), round(float(y), 3)) for x, y in pts)
         obj = WorldObject(id=oid, kind=kind, role=role, cost=cost, colour=colour.map_colour(), appearance=self.look(oid, colour, reflectance),
-                          shape=shape or FlatShape(z=0.0), name=name, polygon=poly)
+                          shape=shape or FlatShape(z=0.0), name=name, polygon=poly, markings=markings)
         self.objects.append(obj)
         return obj
 
@@ -452,7 +455,125 @@ def build_north_hills() -> World:
     return w
 
 
-WORLD_BUILDERS = {"campus": build_campus, "north_hills": build_north_hills}
+# =========================================================================================
+# schenley: marked roads for YARF
+
+
+def _offset_line(centre, d: float) -> list[tuple[float, float]]:
+    """Return the polyline `d` [m] left of `centre` (negative: right), rounded to mm (mitred vertex normals)."""
+    p = np.asarray(centre, float)
+    seg = np.diff(p, axis=0)
+    seg /= np.linalg.norm(seg, axis=1, keepdims=True)
+    t = np.vstack([seg[:1], seg[:-1] + seg[1:], seg[-1:]])
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    n = np.stack([-t[:, 1], t[:, 0]], axis=1)
+    cos_half = np.ones(len(p))
+    cos_half[1:-1] = np.maximum((n[1:-1] * np.stack([-seg[:-1, 1], seg[:-1, 0]], 1)).sum(1), 0.5)
+    q = p + d * n / cos_half[:, None]
+    return [(round(float(x), 3), round(float(y), 3)) for x, y in q]
+
+
+def _clip_line(centre, x0: float, x1: float, axis: int = 0) -> list[tuple[float, float]]:
+    """Return the part of `centre` whose coordinate `axis` lies in [x0, x1] (ends interpolated)."""
+    import shapely
+
+    box = shapely.box(x0, -1e4, x1, 1e4) if axis == 0 else shapely.box(-1e4, x0, 1e4, x1)
+    part = shapely.line_merge(shapely.LineString(np.asarray(centre, float)).intersection(box))
+    return [(round(float(x), 3), round(float(y), 3)) for x, y in part.coords]
+
+
+def build_schenley() -> World:
+    """Build Schenley: a marked two-lane road through a golf course (YARF's world, Navlab 1990 §2.2.2, ch. 5).
+
+    Golf Course Rd runs east from `start` through a long bend to a four-way intersection, where a right
+    turn lane is added over the last 45 m; Tee Dr crosses it north–south, East Dr continues east.
+    Markings: a double yellow centre line (broken to a single dashed line in a passing zone), white
+    edge stripes (the north one broken along the bend), a dashed lane line beside the added lane.
+    Trees south of the road throw shadows across it (sun from the south-south-west).
+    """
+    rng = np.random.default_rng(1989)
+    b = _Builder("schenley")
+    RW = 7.6  # road width [m]: two 3.5 m lanes and a 0.3 m shoulder outside each edge stripe
+    EDGE = 3.55  # edge stripe centre from the spine [m]
+    XS = 12.0  # intersection square side [m]
+    b.rect("fairway", "grass", -40.0, -110.0, 330.0, 150.0, role="none", colour=GRASS, cost=5.0, reflectance=0.45)
+    xc = (220.0, 0.0)
+    b.rect("int_club", "intersection", xc[0] - XS / 2, xc[1] - XS / 2, xc[0] + XS / 2, xc[1] + XS / 2, role="path", colour=ASPHALT,
+           cost=1.0, reflectance=0.3)
+    nodes = {"x_club": b.node("x_club", *xc, "intersection", obj="int_club")}
+    for nid, (x, y) in {"start": (0.0, 0.0), "green": (220.0, 110.0), "clubhouse": (220.0, -80.0), "east_gate": (310.0, 0.0)}.items():
+        nodes[nid] = b.node(nid, x, y, "place", name=nid)
+
+    def double_yellow(centre, dash_from: float | None = None, dash_to: float | None = None) -> list[Marking]:
+        if dash_from is None:
+            return [Marking(colour="yellow", line=tuple(_offset_line(centre, d)), width=0.1) for d in (-0.12, 0.12)]
+        out = []
+        for a, c in ((-1e4, dash_from), (dash_to, 1e4)):
+            part = _clip_line(centre, a, c)
+            out += [Marking(colour="yellow", line=tuple(_offset_line(part, d)), width=0.1) for d in (-0.12, 0.12)]
+        out.append(Marking(colour="yellow", line=tuple(_clip_line(centre, dash_from, dash_to)), width=0.1, dash=(3.0, 9.0)))
+        return out
+
+    def road(eid: str, a: str, c: str, via=(), markings_for=None, name: str | None = None):
+        na, nc = nodes[a], nodes[c]
+        pts = [np.array([na.x, na.y]), *[np.array(v, dtype=float) for v in via], np.array([nc.x, nc.y])]
+        for end in (0, -1):
+            n = na if end == 0 else nc
+            if n.node_kind == "intersection":
+                nb = pts[1] if end == 0 else pts[-2]
+                u = nb - pts[end]
+                pts[end] = pts[end] + u / np.linalg.norm(u) * XS / 2
+        centre = [(round(float(p[0]), 3), round(float(p[1]), 3)) for p in pts]
+        marks = tuple(markings_for(centre)) if markings_for else ()
+        r = b.strip(f"road_{eid}", "road", centre, RW, role="path", colour=ASPHALT, cost=1.0, reflectance=0.3, markings=marks, name=name)
+        b.edge(f"e_{eid}", na, nc, mode="follow-road", objs=(r.id,), width=RW, via=via)
+        return centre
+
+    def plain(centre) -> list[Marking]:
+        return [*double_yellow(centre), *(Marking(colour="white", line=tuple(_offset_line(centre, d)), width=0.12) for d in (-EDGE, EDGE))]
+
+    def golf_course_rd(centre) -> list[Marking]:
+        out = double_yellow(centre, 55.0, 105.0)  # passing zone: one dashed yellow line
+        out.append(Marking(colour="white", line=tuple(_offset_line(_clip_line(centre, -1e4, 110.0), EDGE)), width=0.12))
+        out.append(Marking(colour="white", line=tuple(_offset_line(_clip_line(centre, 110.0, 165.0), EDGE)), width=0.12, dash=(3.0, 3.0)))
+        out.append(Marking(colour="white", line=tuple(_offset_line(_clip_line(centre, 165.0, 1e4), EDGE)), width=0.12))
+        # south edge: solid to the taper, then out along the added lane; a dashed lane line carries on
+        out.append(Marking(colour="white", line=tuple(_offset_line(_clip_line(centre, -1e4, 165.0), -EDGE)), width=0.12))
+        out.append(Marking(colour="white", line=((165.0, -EDGE), (177.0, -EDGE - 3.5), (214.0, -EDGE - 3.5)), width=0.12))
+        out.append(Marking(colour="white", line=((165.0, -EDGE), (214.0, -EDGE)), width=0.12, dash=(3.0, 9.0)))
+        return out
+
+    # Golf Course Rd: a bend 10 m north and back between x = 25 and 155 (radius >= 85 m), straight to the intersection
+    bend = [(round(float(x), 3), round(float(10.0 * math.sin(math.pi * (x - 25.0) / 130.0) ** 2), 3))
+            for x in np.linspace(30.0, 150.0, 25)]
+    bend = [(25.0, 0.0), *bend, (155.0, 0.0)]
+    road("golf", "start", "x_club", via=bend, markings_for=golf_course_rd, name="Golf Course Rd")
+    # the added right-turn lane (south side), tapering in over 12 m
+    b.area("road_turn_lane", "road", [(165.0, -RW / 2), (214.0, -RW / 2), (214.0, -RW / 2 - 3.5), (177.0, -RW / 2 - 3.5)],
+           role="path", colour=ASPHALT, cost=1.0, reflectance=0.3)
+    road("tee_n", "x_club", "green", markings_for=plain, name="Tee Dr")
+    road("tee_s", "x_club", "clubhouse", markings_for=plain, name="Tee Dr")
+    road("east", "x_club", "east_gate", markings_for=plain, name="East Dr")
+
+    # trees: a row south of Golf Course Rd (shadows fall north across it), a few north of it and along Tee Dr
+    for i, x in enumerate(np.arange(8.0, 205.0, 11.0)):
+        yc = 10.0 * math.sin(math.pi * (x - 25.0) / 130.0) ** 2 if 25.0 <= x <= 155.0 else 0.0
+        side = -1.0 if i % 4 != 3 else 1.0
+        d = RW / 2 + 3.0 + float(rng.uniform(0.0, 3.0)) + (3.5 if (side < 0 and x > 160.0) else 0.0)
+        b.tree(f"tree_gc{i:02d}", float(x + rng.uniform(-2.0, 2.0)), yc + side * d, rng, scale=1.15)
+    for i, y in enumerate(np.arange(16.0, 105.0, 13.0)):
+        b.tree(f"tree_tee{i:02d}", 220.0 - RW / 2 - 3.5 - float(rng.uniform(0.0, 2.5)), float(y), rng, scale=1.1)
+    b.rect("clubhouse_bldg", "building", 236.0, -70.0, 256.0, -52.0, role="landmark", colour=BRICK, shape=PrismShape(height=7.0),
+           name="clubhouse", reflectance=0.5)
+    b.rect("bunker_7", "driveway", 120.0, 30.0, 134.0, 38.0, role="none", colour=BUFF, cost=5.0, reflectance=0.5)
+    b.round_obj("sign_club", "sign", xc[0] - XS / 2 - 1.5, xc[1] + XS / 2 + 1.5, 0.08, role="landmark", colour=RED,
+                shape=PostShape(height=2.4), name="stop sign", reflectance=0.9)
+    b.keep_clear(("road", "intersection"), ROADSIDE_CLEARANCE)
+    return b.world(sun=Sun(azimuth_deg=200.0, elevation_deg=38.0), start=StartPose(x=0.0, y=0.0, yaw_deg=0.0, node="start"),
+                   weather=Weather(wet_cover=0.05, leaf_cover=0.02, period_s=360.0))
+
+
+WORLD_BUILDERS = {"campus": build_campus, "north_hills": build_north_hills, "schenley": build_schenley}
 
 
 def write_worlds(out_dir: Path = WORLDS_DIR) -> list[Path]:

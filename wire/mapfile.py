@@ -47,6 +47,8 @@ __all__ = [
     "ColourStats",
     "Appearance",
     "Weather",
+    "MARKING_COLOURS",
+    "Marking",
     "FlatShape",
     "SlopeShape",
     "StairsShape",
@@ -271,6 +273,41 @@ class Weather(BaseModel):
     period_s: float = Field(default=300.0, gt=0.0)
 
 
+#: Paint colours of road markings (Navlab 1990 §2.2.2: yellow centre lines, white edge stripes).
+MARKING_COLOURS: tuple[str, ...] = ("yellow", "white")
+
+
+class Marking(BaseModel):
+    """A painted stripe on a road (world files only): a polyline [m] in `world`, paint colour, width [m], dashes.
+
+    `dash` is (painted, gap) [m] along the line for a broken stripe, None for a solid one. The stripe is
+    drawn where it lies on its road; a map never states markings (a derived map drops them).
+    """
+
+    model_config = _FROZEN
+
+    colour: Literal["yellow", "white"]
+    line: tuple[tuple[float, float], ...] = Field(min_length=2)
+    width: float = Field(gt=0.02, le=1.0)
+    dash: tuple[float, float] | None = None
+
+    @field_validator("line")
+    @classmethod
+    def _line_finite(cls, v: tuple[tuple[float, float], ...]) -> tuple[tuple[float, float], ...]:
+        if not all(math.isfinite(c) for p in v for c in p):
+            raise ValueError("every position must be finite")
+        if any(p == q for p, q in zip(v, v[1:])):
+            raise ValueError("consecutive positions must differ")
+        return v
+
+    @field_validator("dash")
+    @classmethod
+    def _dash_positive(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+        if v is not None and not (v[0] > 0.0 and v[1] > 0.0 and math.isfinite(v[0] + v[1])):
+            raise ValueError(f"dash is (painted, gap) [m], both > 0, got {list(v)}")
+        return v
+
+
 def _finite(v: float, name: str) -> float:
     if not math.isfinite(v):
         raise ValueError(f"{name} must be finite")
@@ -358,6 +395,7 @@ class _ObjectProps(BaseModel):
     shape: Shape
     name: str | None = None
     radius: float | None = None
+    markings: tuple[Marking, ...] = ()
 
     @field_validator("colour", mode="before")
     @classmethod
@@ -442,6 +480,7 @@ class WorldObject(BaseModel):
     polygon: tuple[tuple[float, float], ...] | None = None
     center: tuple[float, float] | None = None
     radius: float | None = None
+    markings: tuple[Marking, ...] = ()
 
     @property
     def is_point(self) -> bool:
@@ -527,8 +566,10 @@ class WorldObject(BaseModel):
         return self.axis_extent()
 
     def as_mapped(self) -> "WorldObject":
-        """Return this object as a map states it: colour type and nominal colour, no appearance."""
-        return self if self.appearance is None else self.model_copy(update={"appearance": None})
+        """Return this object as a map states it: colour type and nominal colour, no appearance, no markings."""
+        if self.appearance is None and not self.markings:
+            return self
+        return self.model_copy(update={"appearance": None, "markings": ()})
 
     def to_feature(self) -> dict:
         """Return this object as a GeoJSON Feature dict."""
@@ -541,6 +582,8 @@ class WorldObject(BaseModel):
         props["shape"] = self.shape.model_dump(exclude_none=True)
         if self.name is not None:
             props["name"] = self.name
+        if self.markings:
+            props["markings"] = [m.model_dump(exclude_none=True) for m in self.markings]
         if self.polygon is not None:
             ring = [list(p) for p in self.polygon] + [list(self.polygon[0])]
             geom = {"type": "Polygon", "coordinates": [ring]}
@@ -963,6 +1006,8 @@ def _parse_feature(i: int, f: Any) -> WorldObject | PathNode | PathEdge:
         p = _ObjectProps.model_validate(props)
     except ValidationError as exc:
         raise _FeatureProblems(_pyd_problems(exc, i, fid, "properties")) from None
+    if p.markings and kind != "road":
+        raise bad("properties.markings", f"only road objects take markings, not a {kind}")
     if p.shape.type not in SHAPES_BY_KIND[kind]:
         raise bad("properties.shape.type", f"a {kind} cannot have shape {p.shape.type!r}; allowed: {list(SHAPES_BY_KIND[kind])}")
     cost = math.inf if p.cost is None else float(p.cost)
@@ -1019,7 +1064,7 @@ def _parse_feature(i: int, f: Any) -> WorldObject | PathNode | PathEdge:
         raise bad("geometry.coordinates", f"invalid polygon ({reason}; area {poly.area:.3g} m^2)")
     return WorldObject(
         id=p.id, kind=kind, role=p.role, cost=cost, colour=p.colour, appearance=p.appearance, shape=p.shape,
-        name=p.name, polygon=tuple(pts),
+        name=p.name, polygon=tuple(pts), markings=p.markings,
     )
 
 

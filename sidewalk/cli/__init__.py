@@ -29,6 +29,7 @@ _SUBAPPS = [
     ("sidewalk.cli._perception", "perception_app", "perception"),
     ("sidewalk.cli._security", "security_app", "security"),
     ("sidewalk.cli._eddie", "eddie_app", "eddie"),
+    ("sidewalk.cli._roadfollow", "roadfollow_app", "roadfollow"),
 ]
 _COMMANDS = [
     ("sidewalk.cli._run", "register"),

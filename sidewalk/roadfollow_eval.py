@@ -1,0 +1,232 @@
+"""Evaluate the road followers (SCARF, YARF, ALVINN) against the true road centre. Pure: frames come in as data.
+
+The composition root (`sidewalk.cli._roadfollow`) drives a vehicle along a route of the world — the
+follow-road legs of the world's shipped missions, trimmed clear of intersections — weaving across
+its lane, renders the camera at each pose, and hands the frames here with the route's centre line.
+Each leg is a run of its own: the follower is made afresh (the seed's bootstrap) at its start.
+
+Errors per frame, in `vehicle`:
+
+* SCARF, YARF — lateral: the reported road-centre offset at x = 0 minus the true one (the route
+  centre line crossed with the line x = 0); heading: the reported road direction minus the true
+  tangent there.
+* ALVINN — lateral: the distance of its road point (arc ∩ road centre) from the true centre line;
+  heading: the direction of its chord to the road point minus that of the true centre point at
+  the same look-ahead (the steering direction error).
+
+A frame fails when the follower reports no road, or its lateral error exceeds `FAIL_LATERAL_M` or
+its heading error `FAIL_HEADING_DEG`. Percentiles are over the frames that reported a road.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Callable, Iterable, Iterator
+
+import numpy as np
+
+from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
+
+__all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
+           "centre_at_origin", "score_frame", "evaluate", "summarise"]
+
+FAIL_LATERAL_M = 1.0
+FAIL_HEADING_DEG = 10.0
+
+
+@dataclass(frozen=True)
+class DrivePose:
+    """A true pose on the drive: leg index, world pose (x [m], y [m], yaw [rad]), sim time [s]."""
+
+    leg: int
+    x: float
+    y: float
+    yaw: float
+    stamp: float
+
+
+@dataclass(frozen=True)
+class EvalFrame:
+    """One frame: the pose, the camera image (H, W, 3) uint8, and the route centre line (N, 2) [m] in `world`."""
+
+    pose: DrivePose
+    image: np.ndarray
+    centre_world: np.ndarray
+
+
+@dataclass(frozen=True)
+class FrameScore:
+    """One frame's outcome: reported a road, lateral error [m], heading error [deg], wall and CPU time [ms]."""
+
+    found: bool
+    lateral_err_m: float
+    heading_err_deg: float
+    wall_ms: float
+    cpu_ms: float
+
+
+def _resample(poly: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return points every `step` [m] along `poly` (N, 2), their arc length [m] and tangent heading [rad]."""
+    seg = np.diff(poly, axis=0)
+    ln = np.linalg.norm(seg, axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(ln)])
+    s = np.arange(0.0, cum[-1] + 1e-9, step)
+    i = np.clip(np.searchsorted(cum, s, side="right") - 1, 0, len(seg) - 1)
+    t = (s - cum[i]) / np.maximum(ln[i], 1e-12)
+    pts = poly[i] + t[:, None] * seg[i]
+    return pts, s, np.arctan2(seg[i, 1], seg[i, 0])
+
+
+def plan_drive(legs: list[np.ndarray], frames: int, rng: np.random.Generator, *, step_m: float = 3.0, lane_offset_m: float = 0.0,
+               weave_m: float = 0.6, weave_period_m: float = 40.0, heading_noise_deg: float = 1.0,
+               speed_mps: float = 4.2) -> list[DrivePose]:
+    """Return up to `frames` poses every `step_m` [m] along the legs (world polylines), weaving `weave_m` [m] about the lane.
+
+    The vehicle keeps `lane_offset_m` [m] left of the centre line (negative: right), heads along its
+    weave plus a little noise, and moves at `speed_mps` [m/s] (sets the stamps): 3 m at 4.2 m/s is a
+    frame every 0.7 s, YARF's 15 km/h with under a second per frame.
+    """
+    lengths = np.array([float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) for p in legs])
+    if float(lengths.sum()) <= 0 or frames < 1:
+        return []
+    step = step_m
+    out: list[DrivePose] = []
+    phase = float(rng.uniform(0.0, 2.0 * math.pi))
+    s_run = 0.0
+    for li, poly in enumerate(legs):
+        pts, s, hd = _resample(poly, step)
+        for p, si, h in zip(pts, s, hd):
+            if len(out) >= frames:
+                return out
+            w = 2.0 * math.pi * (s_run + si) / weave_period_m + phase
+            off = lane_offset_m + weave_m * math.sin(w)
+            dpsi = math.atan(weave_m * 2.0 * math.pi / weave_period_m * math.cos(w)) + math.radians(float(rng.normal(0.0, heading_noise_deg)))
+            out.append(DrivePose(leg=li, x=float(p[0] - off * math.sin(h)), y=float(p[1] + off * math.cos(h)), yaw=float(h + dpsi),
+                                 stamp=(s_run + float(si)) / speed_mps))
+        s_run += float(lengths[li])
+    return out
+
+
+def to_vehicle(xy: np.ndarray, pose: DrivePose) -> np.ndarray:
+    """Map world points (N, 2) [m] into the `vehicle` frame of `pose`."""
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+    d = np.asarray(xy, float) - (pose.x, pose.y)
+    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+
+
+def centre_at_origin(centre_v: np.ndarray) -> tuple[float, float] | None:
+    """Return (y [m], heading [rad]) where the centre line (N, 2) in `vehicle` crosses x = 0 nearest the vehicle."""
+    x = centre_v[:, 0]
+    best = None
+    for i in np.flatnonzero((x[:-1] <= 0.0) & (x[1:] > 0.0) | (x[:-1] > 0.0) & (x[1:] <= 0.0)):
+        a, b = centre_v[i], centre_v[i + 1]
+        t = -a[0] / (b[0] - a[0])
+        y = float(a[1] + t * (b[1] - a[1]))
+        d = b - a if b[0] > a[0] else a - b
+        if best is None or abs(y) < abs(best[0]):
+            best = (y, math.atan2(float(d[1]), float(d[0])))
+    return best
+
+
+def _signed_distance(p: np.ndarray, poly: np.ndarray) -> float:
+    """Return the distance [m] from point p (2,) to the polyline (N, 2) (+ when the point is left of it)."""
+    a, b = poly[:-1], poly[1:]
+    ab = b - a
+    t = np.clip(((p - a) * ab).sum(1) / np.maximum((ab * ab).sum(1), 1e-12), 0.0, 1.0)
+    q = a + t[:, None] * ab
+    d = np.linalg.norm(p - q, axis=1)
+    i = int(np.argmin(d))
+    side = ab[i, 0] * (p[1] - a[i, 1]) - ab[i, 1] * (p[0] - a[i, 0])
+    return float(math.copysign(d[i], side))
+
+
+def _ahead_at(centre_v: np.ndarray, dist: float) -> np.ndarray | None:
+    """Return where the centre line (N, 2) in `vehicle` first meets the circle of radius `dist` [m] ahead of the vehicle."""
+    a, b = centre_v[:-1], centre_v[1:]
+    d = b - a
+    qa = (d * d).sum(1)
+    qb = 2.0 * (a * d).sum(1)
+    qc = (a * a).sum(1) - dist * dist
+    disc = qb * qb - 4.0 * qa * qc
+    for i in np.flatnonzero(disc >= 0.0):
+        for sign in (1.0, -1.0):
+            t = (-qb[i] + sign * math.sqrt(disc[i])) / (2.0 * max(qa[i], 1e-12))
+            p = a[i] + t * d[i]
+            if 0.0 <= t <= 1.0 and p[0] > 0.0:
+                return p
+    return None
+
+
+def _angle_deg(a: float) -> float:
+    return math.degrees(math.remainder(a, 2.0 * math.pi))
+
+
+def score_frame(obs: RoadObservation, centre_v: np.ndarray, cpu_ms: float) -> FrameScore | None:
+    """Score one observation against the true centre line (N, 2) in `vehicle`; None when the truth is undefined here."""
+    if obs.method == "alvinn":
+        if obs.road_point is None:
+            return FrameScore(False, math.nan, math.nan, obs.ms_per_frame, cpu_ms)
+        rp = np.asarray(obs.road_point, float)
+        target = _ahead_at(centre_v, float(np.hypot(*rp)))
+        if target is None:
+            return None
+        lat = abs(_signed_distance(rp, centre_v))
+        hd = abs(_angle_deg(math.atan2(rp[1], rp[0]) - math.atan2(target[1], target[0])))
+        return FrameScore(obs.found, lat, hd, obs.ms_per_frame, cpu_ms)
+    truth = centre_at_origin(centre_v)
+    if truth is None:
+        return None
+    if obs.lateral_offset_m is None or obs.heading_rad is None:
+        return FrameScore(False, math.nan, math.nan, obs.ms_per_frame, cpu_ms)
+    return FrameScore(obs.found, abs(obs.lateral_offset_m - truth[0]), abs(_angle_deg(obs.heading_rad - truth[1])),
+                      obs.ms_per_frame, cpu_ms)
+
+
+def evaluate(frames: Iterable[EvalFrame], make_follower: Callable[[EvalFrame], RoadFollower], *,
+             rng: np.random.Generator, odometry_noise: tuple[float, float] = (0.01, math.radians(0.1))) -> Iterator[FrameScore]:
+    """Run a fresh follower over each leg's frames and yield each frame's score; odometry is the true motion plus noise."""
+    follower: RoadFollower | None = None
+    prev: EvalFrame | None = None
+    for fr in frames:
+        p = fr.pose
+        motion = None
+        if follower is None or prev is None or prev.pose.leg != p.leg:
+            follower = make_follower(fr)
+        else:
+            d = to_vehicle(np.array([[p.x, p.y]]), prev.pose)[0]
+            motion = VehicleMotion(dx=float(d[0] + rng.normal(0.0, odometry_noise[0])), dy=float(d[1] + rng.normal(0.0, odometry_noise[0])),
+                                   dyaw=float(math.remainder(p.yaw - prev.pose.yaw, 2 * math.pi) + rng.normal(0.0, odometry_noise[1])))
+        c0 = time.thread_time()
+        obs = follower.observe(fr.image, stamp=p.stamp, motion=motion)
+        cpu = (time.thread_time() - c0) * 1e3
+        prev = fr
+        sc = score_frame(obs, to_vehicle(fr.centre_world, p), cpu)
+        if sc is not None:
+            yield sc
+
+
+def summarise(scores: list[FrameScore]) -> dict:
+    """Return the figures: lateral / heading error p50 and p95, failure rate, ms per frame (wall and CPU) p50."""
+    n = len(scores)
+    ok = [s for s in scores if s.found and math.isfinite(s.lateral_err_m)]
+    fails = sum(1 for s in scores if not s.found or not math.isfinite(s.lateral_err_m) or s.lateral_err_m > FAIL_LATERAL_M
+                or s.heading_err_deg > FAIL_HEADING_DEG)
+
+    def pct(vals: list[float], q: float) -> float | None:
+        return round(float(np.percentile(vals, q)), 4) if vals else None
+
+    lat = [s.lateral_err_m for s in ok]
+    hd = [s.heading_err_deg for s in ok]
+    return {
+        "frames": n,
+        "frames_with_road": len(ok),
+        "lateral_error_m_p50": pct(lat, 50),
+        "lateral_error_m_p95": pct(lat, 95),
+        "heading_error_deg_p50": pct(hd, 50),
+        "heading_error_deg_p95": pct(hd, 95),
+        "failure_rate": round(fails / n, 4) if n else None,
+        "ms_per_frame_p50": pct([s.wall_ms for s in scores], 50),
+        "cpu_ms_per_frame_p50": pct([s.cpu_ms for s in scores], 50),
+    }

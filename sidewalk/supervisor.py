@@ -187,7 +187,6 @@ class Supervisor:
 
     async def start(self, plan: ProcessPlan, *, ready_timeout: float = 60.0) -> ManagedProcess:
         """Start one process and return once it printed its ready line [timeout in wall s]."""
-        self._held.discard(plan.name)
         log_path = self.log_dir / f"{plan.name}.log"
         log = open(log_path, "ab", buffering=0)
         env = dict(os.environ)
@@ -205,6 +204,8 @@ class Supervisor:
         log.close()
         mp = ManagedProcess(plan=plan, proc=proc, log_path=log_path)
         self.procs[plan.name] = mp
+        # released to the guard only now: until this line the guard would see the killed life's exit as a crash
+        self._held.discard(plan.name)
         ready = asyncio.Event()
         self._tasks.append(asyncio.create_task(self._pump(mp, ready), name=f"pump-{plan.name}"))
         waiter = asyncio.create_task(ready.wait())

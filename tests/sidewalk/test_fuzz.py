@@ -36,7 +36,7 @@ def test_every_endpoint_answers_garbage_with_typed_errors_and_keeps_serving():
     assert p.returncode == 0, p.stderr[-2000:]
     # every key got its payloads, and the garbage was refused with typed errors, not merely ignored
     assert r["queryables"] >= 20 and r["subscribed"] >= 8
-    assert r["payloads"] == 300 * (r["queryables"] + r["subscribed"]) + 1  # + the CAPTAIN's 10 MB submit
+    assert r["payloads"] == 300 * (r["queryables"] + r["subscribed"])  # the CAPTAIN's 10 MB submit is one of its 300
     assert r["typed_errors"] > 0.5 * 300 * r["queryables"], r
     assert all(c == 0 for c in r["exit_codes"].values()), r["exit_codes"]
     assert "Traceback" not in p.stderr

@@ -252,7 +252,7 @@ def test_every_role_uses_only_the_key_families_the_rules_grant(deployment) -> No
     assert who("write", "clock") == {"sim"} and who("serve", "sensors") == {"sim"}
     assert who("serve", "bb-services") == {"blackboard"} and who("write", "bb-replies") == {"blackboard"}
     assert who("write", "controller-inbox") == {"map_manager", "mission_service", "road_following", "obstacle_stop"}
-    assert who("write", "navigator-inbox") == {"map_manager", "landmark_matching"}
+    assert who("write", "navigator-inbox") == {"map_manager", "landmark_matching", "road_following"}
     # every role may say it is alive and hear the others, and nothing else unless granted
     assert who("write", "health") == set(roles) and who("read", "health") == set(roles)
     assert len(seen["write"]) < len(roles) * len(rules.families) / 4

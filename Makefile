@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= runs/latest
 
-.PHONY: run test bench venv clean chromium
+.PHONY: run test bench venv clean chromium test-hosts
 
 venv: $(STAMP)
 
@@ -22,6 +22,11 @@ run: $(STAMP)
 ## The test suite (real Zenoh on loopback, real SQLite, real processes, a real browser).
 test: $(STAMP) chromium
 	$(PY) -m pytest -q
+
+## The multi-host tests (three and four hosts in network namespaces, a secure mission, a link pulled for 5 s):
+## minutes each, so kept out of `make test`'s ten minutes; CI runs them after it.
+test-hosts: $(STAMP)
+	$(PY) -m pytest -q -m hosts
 
 ## Debian's chromium, which Playwright drives in the monitor's browser test (Playwright's own download cannot work here).
 chromium:

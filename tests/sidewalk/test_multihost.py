@@ -32,7 +32,7 @@ from tests.sidewalk.netns import Hosts, available
 from wire.drive import DriveCommand, decode
 from wire.keys import SimKeys
 
-pytestmark = [pytest.mark.e2e, pytest.mark.skipif(available() is not None, reason=available() or "")]
+pytestmark = [pytest.mark.e2e, pytest.mark.hosts, pytest.mark.skipif(available() is not None, reason=available() or "")]
 
 MISSION = Path(__file__).parent / "data" / "short-hop.yaml"
 ON_A = ("router", "blackboard", "sim")

@@ -101,16 +101,19 @@ class ObstacleStop:
         """Stop at the object's goal point (nearest approach within its tolerance), then hold, wait or go on.
 
         The believed pose (navigator ∘ controller) is watched every 0.1 s sim: the vehicle stops once
-        within the tolerance less `STOP_AT_MARGIN_M` [m] of the point (the mission service's own test
-        of a reached goal), or `STOP_AT_NEAR_M` [m] for a tolerance smaller than that margin.
+        within `STOP_AT_NEAR_M` [m] of the point, or inside the tolerance less `STOP_AT_MARGIN_M` [m]
+        once the distance grows again (it passed its nearest approach); a path that ends at the point
+        stops the vehicle there first.
         """
         reach = max(target.tolerance - STOP_AT_MARGIN_M, STOP_AT_NEAR_M)
+        best = math.inf
         while True:
             pose = self.belief.world()
             if pose is not None:
                 d = math.hypot(pose[0] - target.x, pose[1] - target.y)
-                if d <= reach:
+                if d <= STOP_AT_NEAR_M or (d <= reach and d > best + 0.05):
                     break
+                best = min(best, d)
             await self.m.clock.sleep(0.1)
         self.holding_at = target.object_id
         log.info("obstacle_stop: at %s (%.2f m from its goal point): %s", target.object_id, d, target.action)

@@ -56,11 +56,15 @@ EDDIE_PERCEPTION_MODULES = ("obstacle_stop", "landmark_matching", "road_followin
 def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, rtf: float, seed: int, watchdog_s: float,
                 start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
                 map_file: Path, annotated_map: Optional[Path], perception: bool, record: bool = True,
-                monitor_port: Optional[int] = None, secure: Optional[Path] = None) -> list[ProcessPlan]:
+                monitor_port: Optional[int] = None, secure: Optional[Path] = None,
+                max_speed: Optional[float] = None) -> list[ProcessPlan]:
     """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard.
 
     `secure`: the `sidewalk security init` directory every process gets as --secure (each its own role).
+    `max_speed` [m/s]: `sidewalk run --max-speed`, EDDIE's counterpart of the PILOT's cap — the mission
+    service's route speed and the controller's top speed (so no trigger or client drives faster).
     """
+    cap = () if max_speed is None else ("--max-speed", str(max_speed))
     sec = () if secure is None else ("--secure", str(secure))  # issue 14
     zflags = ("--ns", ns, "--connect", endpoint, *sec)
     sx, sy, syaw = start_belief
@@ -71,7 +75,7 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
         *observer_plans(out, zflags, record=record, monitor_port=monitor_port, arch="eddie"),
         ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", world, "--vehicle", vehicle, *sim_start,
                             "--rtf", str(rtf), "--seed", str(seed), "--watchdog", str(watchdog_s), *zflags)),
-        ProcessPlan("controller", ("-m", "sidewalk", "up", "controller", "--vehicle", vehicle, *zflags)),
+        ProcessPlan("controller", ("-m", "sidewalk", "up", "controller", "--vehicle", vehicle, *cap, *zflags)),
         ProcessPlan("navigator", ("-m", "sidewalk", "up", "navigator", f"--start-pose={sx},{sy},{syaw}", *zflags)),
     ]
     if annotated_map is not None:
@@ -82,7 +86,8 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
                   for name in EDDIE_PERCEPTION_MODULES]
     plans.append(ProcessPlan("mission_service", (
         "-m", "sidewalk", "up", "mission_service", "--map", str(map_file),
-        *(() if annotated_map is None else ("--annotated-map", str(annotated_map))), "--vehicle", vehicle, f"--start-pose={sx},{sy},{syaw}", "--perception", "on" if perception else "off", *zflags)))
+        *(() if annotated_map is None else ("--annotated-map", str(annotated_map))), "--vehicle", vehicle, f"--start-pose={sx},{sy},{syaw}", "--perception", "on" if perception else "off",
+        *(() if max_speed is None else ("--speed", str(max_speed))), *zflags)))
     return plans
 
 

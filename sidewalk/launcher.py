@@ -386,7 +386,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             out=out, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
             watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
             map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
-            secure=cfg.secure,
+            secure=cfg.secure, max_speed=cfg.max_speed,
         ), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure)
     else:
         system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)

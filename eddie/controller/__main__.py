@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from modules.helm.tracker import tracker_config_for
@@ -23,6 +24,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vehicle", choices=["navlab", "terregator"], default="navlab", help="vehicle model (tracker limits)")
     p.add_argument("--control-hz", type=float, default=10.0, help="drive commands and state per sim second [Hz] (≥ 10)")
     p.add_argument("--nudge-tau", type=float, default=1.0, help="nudge decay time constant [s] sim")
+    p.add_argument("--max-speed", type=float, default=None,
+                   help="top speed [m/s] below the vehicle's (sidewalk run --max-speed; default: the vehicle's)")
     p.add_argument("--name", default="controller", help="module name")
     add_network_args(p)
     return p
@@ -38,7 +41,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--control-hz: must be ≥ 10 [Hz]")
     if args.nudge_tau <= 0.0:
         parser.error("--nudge-tau: must be > 0 [s]")
-    cfg = ControllerConfig(tracker=tracker_config_for(args.vehicle), control_hz=args.control_hz, nudge_tau_s=args.nudge_tau)
+    if args.max_speed is not None and not (math.isfinite(args.max_speed) and args.max_speed > 0.0):
+        parser.error("--max-speed: must be > 0 [m/s]")
+    tracker = tracker_config_for(args.vehicle)
+    if args.max_speed is not None:
+        tracker = tracker.model_copy(update={"max_speed": min(tracker.max_speed, args.max_speed)})
+    cfg = ControllerConfig(tracker=tracker, control_hz=args.control_hz, nudge_tau_s=args.nudge_tau)
 
     async def body(m: Module) -> None:
         await ControllerModule(m, cfg).run()

@@ -98,7 +98,7 @@ def run(
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
     # ---- issue 10: faults and the speed cap ----
     fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-perception, position-jump, kill-central, wedge; repeatable")] = None,
-    max_speed: Annotated[Optional[float], typer.Option("--max-speed", help="Cap the PILOT's speed (m/s) for every segment")] = None,
+    max_speed: Annotated[Optional[float], typer.Option("--max-speed", help="Cap the speed (m/s): CODGER the PILOT's for every segment, EDDIE the route's and the controller's")] = None,
 ) -> None:
     """Run a mission as OS processes on loopback Zenoh (CODGER: blackboard and modules; --arch eddie: EDDIE, no blackboard); writes run.mcap."""
     from rich.console import Console

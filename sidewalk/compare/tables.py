@@ -117,7 +117,7 @@ def render_markdown(c: Comparison, command: str = "") -> str:
     if cfg.speeds:
         out += ["## Speed sweep", "", "The PILOT's speed cap (`sidewalk run --max-speed`) raised step by step; an architecture "
                 "stops at the first cap where a seed fails. Swept: " + ", ".join(a for a in archs if a in SPEED_CAPPED)
-                + "; EDDIE's modules take no speed cap yet, so it is not swept.", ""]
+                + " (EDDIE: the mission service's route speed and the controller's top speed).", ""]
         rows = [[p.architecture, f"{p.max_speed:g}", f"{p.successes}/{p.runs}", _num(p.mean_speed_m_s), _num(p.mission_time_s)]
                 for p in c.speed_sweep]
         out += _table(["arch", "cap [m/s]", "successes", "mean speed [m/s]", "mission time [s]"], rows) + [""]

@@ -41,6 +41,28 @@ def test_the_eddie_plan_has_no_blackboard_and_the_perception_modules_only_with_p
     assert "map_manager" not in [p.name for p in _plans(False, annotated=None)]
 
 
+def test_a_speed_cap_reaches_the_route_speed_and_the_controllers_top_speed() -> None:
+    plans = eddie_plans(out=Path("/tmp/x"), ns="t1", endpoint="tcp/127.0.0.1:7447", world="campus", vehicle="navlab",
+                        rtf=8.0, seed=3, watchdog_s=1.0, start_truth=None, start_belief=(0.0, 0.0, 0.0),
+                        map_file=Path("worlds/campus.map.geojson"), annotated_map=None, perception=False, max_speed=1.5)
+    by = {p.name: p.args for p in plans}
+    assert by["controller"][by["controller"].index("--max-speed") + 1] == "1.5"
+    assert by["mission_service"][by["mission_service"].index("--speed") + 1] == "1.5"
+    assert "--max-speed" not in next(p for p in _plans(False) if p.name == "controller").args
+
+
+def test_the_controllers_speed_cap_lowers_the_trackers_top_speed_and_refuses_nonsense(capsys) -> None:
+    from eddie.controller.__main__ import build_parser
+    from modules.helm.tracker import tracker_config_for
+
+    args = build_parser().parse_args(["--vehicle", "navlab", "--max-speed", "2"])
+    assert args.max_speed == 2.0 and tracker_config_for("navlab").max_speed > 2.0
+    from eddie.controller.__main__ import main
+    with pytest.raises(SystemExit) as ex:
+        main(["--vehicle", "navlab", "--max-speed", "-1", "--connect", "tcp/127.0.0.1:1"])
+    assert ex.value.code == 2 and "--max-speed" in capsys.readouterr().err
+
+
 def test_the_belief_is_world_from_local_composed_with_the_local_pose() -> None:
     pc = PoseComposer()
     assert pc.world() is None

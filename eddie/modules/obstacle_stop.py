@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from modules.perception.obstacles import LaserScan, ObstacleConfig, path_clear_distance, path_in_vehicle
 
-__all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead"]
+__all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead", "remaining_m"]
 
 
 class ObstacleStopConfig(BaseModel):
@@ -28,6 +28,7 @@ class ObstacleStopConfig(BaseModel):
     stop_distance_m: float = Field(8.0, gt=0.0, description="stop for an obstacle this near along the path [m]")
     half_width_m: float = Field(1.5, gt=0.0, description="half the swept corridor [m] (the OBSTACLE DETECTOR's)")
     min_points: int = Field(3, ge=1, description="this many obstacle points make an obstacle (noise and mixed points do not)")
+    end_margin_m: float = Field(1.5, ge=0.0, description="looked at past the commanded path's end (the vehicle's front and its stop) [m]")
     detection: ObstacleConfig = ObstacleConfig()
 
 
@@ -41,6 +42,20 @@ class ObstacleReport(BaseModel):
     stamp: float = 0.0
 
 
+def remaining_m(path_local: np.ndarray, pose_local: tuple[float, float, float]) -> float:
+    """Return the length [m] of `path_local` (N, 2) [m, `local`] left ahead of the vehicle at `pose_local`.
+
+    From the vehicle to the path point nearest it, then along the path to its end.
+    """
+    p = np.asarray(path_local, np.float64).reshape(-1, 2)
+    if len(p) == 0:
+        return 0.0
+    here = np.array(pose_local[:2], np.float64)
+    i = int(np.argmin(np.linalg.norm(p - here, axis=1)))
+    rest = np.vstack([here, p[i:]])
+    return float(np.linalg.norm(np.diff(rest, axis=0), axis=1).sum())
+
+
 def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig(), *,
                    path_local: np.ndarray | None = None, pose_local: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> ObstacleReport:
     """Return whether an obstacle stands on the path within `stop_distance_m`.
@@ -50,5 +65,8 @@ def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig
     """
     path = path_in_vehicle(np.empty((0, 2)) if path_local is None else path_local, pose_local, cfg.stop_distance_m)
     d = path_clear_distance(scan, path, cfg.half_width_m, cfg.detection, min_points=cfg.min_points)
-    blocked = math.isfinite(d) and d <= cfg.stop_distance_m
+    # The controller stops at its path's end: an obstacle past it (a building behind the mission's goal)
+    # is not in the way.
+    reach = cfg.stop_distance_m if path_local is None else min(cfg.stop_distance_m, remaining_m(path_local, pose_local) + cfg.end_margin_m)
+    blocked = math.isfinite(d) and d <= reach
     return ObstacleReport(blocked=blocked, distance_m=float(d) if math.isfinite(d) else None, stamp=float(scan.stamp))

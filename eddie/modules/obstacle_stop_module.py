@@ -33,10 +33,11 @@ from eddie.toolkit.message import Message
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 from modules.perception.obstacles import LaserScan
+from modules.pilot import pilot_config_for
 from modules.runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
 
-__all__ = ["ObstacleStop", "main", "build_parser"]
+__all__ = ["ObstacleStop", "corridor_half_width", "main", "build_parser"]
 
 log = logging.getLogger("eddie.modules.obstacle_stop")
 
@@ -140,6 +141,15 @@ class ObstacleStop:
         await run_switched(self.m, self.switch, self.cycle, period_s=0.5, on_data=self.on_trigger)
 
 
+def corridor_half_width(vehicle: str) -> float:
+    """Return the default corridor half width [m]: the clearance the PILOT keeps from obstacles for `vehicle`.
+
+    The same clearance as CODGER's planner, so a bench beside a walk that the PILOT passes does not
+    stop EDDIE for good (the OBSTACLE DETECTOR's 1.5 m took in benches 1.5 m from a walk's centre).
+    """
+    return pilot_config_for(vehicle).navigator.obstacle_clearance
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Return the module's argument parser (network flags included)."""
     p = argparse.ArgumentParser(prog="python -m eddie.modules.obstacle_stop_module", description=__doc__.splitlines()[0])
@@ -148,6 +158,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start-pose", default="0,0,0", help="X,Y,YAW: world←local until the navigator says [m, m, rad] (for stop at object)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--stop-distance", type=float, default=ObstacleStopConfig().stop_distance_m, help="stop for an obstacle this near along the path [m]")
+    p.add_argument("--half-width", type=float, default=None,
+                   help="half the corridor swept along the path [m] (default: the PILOT's obstacle clearance for the vehicle)")
     p.add_argument("--asleep", action="store_true", help="start asleep (a trigger wakes it)")
     add_network_args(p)
     return p
@@ -161,7 +173,10 @@ def main(argv: list[str] | None = None) -> int:
     net = network_from_args(parser, args)
     if not args.stop_distance > 0:
         parser.error("--stop-distance: must be > 0 [m]")
-    cfg = ObstacleStopConfig(stop_distance_m=args.stop_distance)
+    half = corridor_half_width(args.vehicle) if args.half_width is None else args.half_width
+    if not half > 0:
+        parser.error("--half-width: must be > 0 [m]")
+    cfg = ObstacleStopConfig(stop_distance_m=args.stop_distance, half_width_m=half)
     start = parse_pose(parser, args.start_pose)
 
     async def body(m: Module) -> None:

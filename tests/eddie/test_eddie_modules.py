@@ -60,6 +60,20 @@ def test_obstacle_stop_sees_a_tree_on_the_path_and_not_the_open_walk(src: FrameS
     assert not obstacle_ahead(_scan(src, facing), cfg, path_local=swerve, pose_local=tuple(pose_local)).blocked
 
 
+def test_obstacle_stop_ignores_an_obstacle_past_the_end_of_the_commanded_path(src: FrameSource) -> None:
+    cfg = ObstacleStopConfig(stop_distance_m=8.0)  # end margin 1.5 m
+    tx, ty = _tree(src).center
+    facing = (tx - 6.0, ty, 0.0)  # 6 m west of the trunk, looking east at it
+    local_from_world = inverse(WORLD_FROM_LOCAL)
+    pose_local = tuple(compose(local_from_world, np.asarray(facing)))
+    scan = _scan(src, facing)
+    short = transform_points(local_from_world, np.array([[tx - 6.0, ty], [tx - 4.5, ty]]))  # ends 4.5 m short of the trunk
+    assert not obstacle_ahead(scan, cfg, path_local=short, pose_local=pose_local).blocked
+    long = transform_points(local_from_world, np.array([[tx - 6.0, ty], [tx - 1.0, ty]]))  # ends 1 m short of it
+    hit = obstacle_ahead(scan, cfg, path_local=long, pose_local=pose_local)
+    assert hit.blocked and 4.0 < hit.distance_m < 6.0
+
+
 def test_road_following_plans_in_local_along_the_route_inside_the_walk(src: FrameSource) -> None:
     img = _img(src, ON_WALK)
     objs = tuple(o for o in objects_in_view(src, ON_WALK) if o.shape.type == "flat")

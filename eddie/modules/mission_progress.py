@@ -4,7 +4,9 @@ EDDIE has no CAPTAIN on a blackboard: the mission is compiled into annotations, 
 drives the route the triggers shape. The mission service only keeps the mission's status (the
 CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit` reads the same
 states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
-controller `local` pose): reached within `reach_m` of the step's goal → succeeded; no progress for
+controller `local` pose): reached within `reach_m` of the step's goal, or (as the PILOT judges arrival
+under CODGER: along its path, within `progress_m` of the end) projected within `progress_m` of the
+step route's end while within 2·`reach_m` of the goal → succeeded; no progress for
 `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
 onto the step's route, shrinking by `progress_m`). Routes come from the MAP NAVIGATOR's route selection on the robot's map,
 one step after the other from the previous goal, as the mission compiler lays them out.
@@ -112,6 +114,12 @@ class MissionProgress:
                     mission_id=mid, step_index=i, success=True, reason=f"reached within {d:.2f} m of the goal"), now), now)
             # progress is measured along the route: a route may lead away from its goal for a while
             left = self._route_left(i, world_xy)
+            if left <= self.progress_m and d <= 2.0 * self.goals[i].reach_m:
+                # the belief may be off across the route by more than the reach (a wide plaza gives vision
+                # no edges); driving to the route's end is arrival, as the PILOT's along-path test
+                return self._apply(self.run.step_finished(StepResult(
+                    mission_id=mid, step_index=i, success=True,
+                    reason=f"reached the end of its route ({d:.2f} m from the goal, believed)"), now), now)
             if left < self._best - self.progress_m:
                 self._best, self._best_at = left, now
         if now - self._best_at > self.stall_s:

@@ -90,6 +90,26 @@ def test_progress_is_judged_along_the_route_even_where_it_leads_away_from_the_go
     assert st.state == "failed" and "along the route" in st.steps[0].reason and "100.0 m of its route left" in st.steps[0].reason
 
 
+def test_a_belief_off_across_the_route_arrives_at_the_routes_end_and_one_far_off_does_not() -> None:
+    from eddie.modules.mission_progress import StepGoal
+
+    mission = load_mission(WORLDS_DIR / "amv-delivery.yaml").model_copy(update={"mission_id": "offset"})
+    route = ((0.0, 0.0), (0.0, 20.0))
+    goals = [StepGoal(step_index=0, route=route, goal=(0.0, 20.0), reach_m=1.5)]
+    for offset, want in ((1.4, "succeeded"), (3.5, "failed")):
+        prog = MissionProgress(mission, goals, stall_s=20.0)
+        prog.start(0.0)
+        t = 0.0
+        for p in _along(((offset, 0.0), (offset, 20.0)), 1.0):  # the belief runs `offset` m beside the route
+            t += 1.0
+            prog.update(t, p)
+        for k in range(30):  # then stands at the end
+            prog.update(t + k + 1.0, (offset, 20.0))
+        assert prog.status.state == want, (offset, prog.status)
+        if want == "succeeded":  # 1.4 m off is outside the 1.2 m the distance test takes: the route's end decided
+            assert "end of its route" in prog.status.steps[0].reason
+
+
 def test_a_step_to_an_unknown_place_names_the_step(campus) -> None:
     text = "mission: lost\nsteps:\n  - name: nowhere\n    destination: atlantis\n"
     mission = parse_mission(text.encode(), source="t")

@@ -35,6 +35,7 @@ class RoadFollowingConfig(BaseModel):
     min_path_m: float = Field(1.5, gt=0.0, description="a goal closer than this along the route is no path [m]")
     speed_mps: float = Field(1.0, gt=0.0, description="speed the path is driven at [m/s]")
     blind_speed_mps: float = Field(0.5, gt=0.0, description="speed along the route when vision sees no road [m/s] (the seed's intersections)")
+    end_reach_m: float = Field(1.5, ge=0.0, description="the route's end (the mission's goal, e.g. a mailbox at the kerb) is the goal when this near the road seen [m]")
 
 
 class RoadPath(BaseModel):
@@ -60,6 +61,9 @@ def region_in_local(road_vehicle: BaseGeometry, local_from_vehicle: tuple[float,
 def route_goal(route_local: np.ndarray, region: BaseGeometry, start_xy: np.ndarray, cfg: RoadFollowingConfig) -> tuple[float, float, float]:
     """Return the goal pose in `local`: the farthest route point inside `region` within the look-ahead of `start_xy`.
 
+    The route's end, when within the look-ahead and `end_reach_m` of the region, is the goal even
+    outside it (the mission's goal may lie at the road's edge).
+
     `route_local` (N, 2) [m] is the route in `local`; the search starts `min_path_m` past the route
     point nearest the start and walks forward in 0.25 m steps (the sensor sees the road only some
     metres ahead, so points before the first one inside are passed over); the heading is the
@@ -77,6 +81,11 @@ def route_goal(route_local: np.ndarray, region: BaseGeometry, start_xy: np.ndarr
         elif best is not None:
             break  # the route left the road seen: the goal is the last point on it
         s += 0.25
+    if best is not None and best < line.length and line.length <= end + 1e-9 \
+            and region.distance(line.interpolate(line.length)) <= cfg.end_reach_m:
+        # the goal itself may lie at the road's edge (a mailbox at the kerb): drive to it, not to the
+        # last route point inside the shrunken road, which stops the vehicle short of its goal
+        best = line.length
     if best is None:
         raise NoRoadPath(f"the route leaves the seen road within {cfg.min_path_m:.1f} m of the vehicle")
     a, b = line.interpolate(max(best - 0.5, 0.0)), line.interpolate(min(best + 0.5, line.length))

@@ -21,11 +21,15 @@ from pydantic import BaseModel, ConfigDict, Field
 from wire.se2 import between, compose, inverse, wrap_angle
 from modules.pilot.errors import PilotError
 
-__all__ = ["OdometryNoise", "PointFix", "LineFix", "PoseFilter", "EstimatorError"]
+__all__ = ["OdometryNoise", "PointFix", "LineFix", "PoseFilter", "EstimatorError", "FixRefused"]
 
 
 class EstimatorError(PilotError, ValueError):
     """A fix or increment is unusable (non-finite, not positive definite, degenerate line)."""
+
+
+class FixRefused(EstimatorError):
+    """A fix outside the estimate's gate: refused, the estimate unchanged."""
 
 
 class OdometryNoise(BaseModel):
@@ -115,6 +119,14 @@ class PoseFilter:
         """Return the estimate's covariance (3,3) [m², m·rad, rad²]."""
         return self._ekf.P.copy()
 
+    def inflate(self, factor: float, max_sigma_xy: float, max_sigma_yaw: float) -> None:
+        """Scale the covariance by `factor` (> 1), each axis capped at `max_sigma_xy` [m] / `max_sigma_yaw` [rad] std."""
+        p = self._ekf.P * float(factor)
+        caps = np.array([max_sigma_xy, max_sigma_xy, max_sigma_yaw]) ** 2
+        scale = np.sqrt(np.minimum(1.0, np.maximum(caps, np.diag(self._ekf.P)) / np.diag(p)))
+        p = (scale[:, None] * p) * scale[None, :]
+        self._ekf.P = 0.5 * (p + p.T)
+
     def predict(self, delta: np.ndarray) -> None:
         """Apply an odometry increment (dx [m], dy [m], dyaw [rad]) expressed in the vehicle frame."""
         delta = np.asarray(delta, dtype=np.float64).reshape(3)
@@ -144,7 +156,7 @@ class PoseFilter:
             y = residual(np.asarray(z, dtype=np.float64).reshape(-1), z0)
             d2 = float(y @ np.linalg.solve(jac @ self._ekf.P @ jac.T + r, y))
             if not d2 <= self.gate:
-                raise EstimatorError(f"fix refused: squared Mahalanobis distance {d2:.1f} > gate {self.gate:g}")
+                raise FixRefused(f"fix refused: squared Mahalanobis distance {d2:.1f} > gate {self.gate:g}")
         self._ekf.dim_z = len(z0)
         self._ekf.update(
             z.reshape(-1, 1),

@@ -103,6 +103,20 @@ def test_road_following_refuses_a_route_off_the_road() -> None:
     assert region.contains(Point(g[0], g[1])) and g[0] > 19.0 and abs(g[2]) < 1e-9
 
 
+def test_a_goal_at_the_roads_edge_is_driven_to_and_one_far_off_the_road_is_not() -> None:
+    region = Polygon([(-5.0, -1.5), (60.0, -1.5), (60.0, 1.5), (-5.0, 1.5)])  # a 3 m road along x
+    cfg = RoadFollowingConfig(lookahead_m=30.0)
+    kerb = np.array([[0.0, 0.0], [20.0, 0.0], [22.0, 2.5]])  # ends 1 m beside the road (a mailbox at the kerb)
+    g = route_goal(kerb, region, np.array([0.0, 0.0]), cfg)
+    assert (g[0], g[1]) == pytest.approx((22.0, 2.5))
+    field = np.array([[0.0, 0.0], [20.0, 0.0], [22.0, 6.0]])  # ends 4.5 m off the road: the last point on it
+    g = route_goal(field, region, np.array([0.0, 0.0]), cfg)
+    assert region.contains(Point(g[0], g[1])) and g[0] < 21.0
+    far = np.array([[0.0, 0.0], [50.0, 0.0], [52.0, 2.5]])  # the end beyond the look-ahead: not yet
+    g = route_goal(far, region, np.array([0.0, 0.0]), cfg)
+    assert region.contains(Point(g[0], g[1])) and g[0] < 31.0
+
+
 def test_landmark_matching_fixes_the_position_across_the_walk(src: FrameSource) -> None:
     img = _img(src, ON_WALK)
     objs = tuple(o for o in objects_in_view(src, ON_WALK) if o.shape.type == "flat")

@@ -752,12 +752,15 @@ class Scene:
     def _commit(ctx: "_Ctx", r0: int, r1: int, c0: int, c1: int, win: np.ndarray, s_new: np.ndarray, m: int,
                 nrm: np.ndarray, tu: np.ndarray, tv: np.ndarray) -> None:
         """Write the winning hits of one solid into the depth buffer block [r0:r1, c0:c1]."""
-        sel = np.nonzero(win)
+        # masked copies into the block views: the same casts as assigning the selected values, no gathers
         blk = (slice(r0, r1), slice(c0, c1))
-        ctx.s[blk][sel] = s_new[sel]
-        ctx.mat[blk][sel] = m
-        ctx.normal[blk][sel] = np.broadcast_to(nrm, win.shape + (3,))[sel]
-        ctx.tex[blk][sel] = np.stack([np.broadcast_to(tu, win.shape)[sel], np.broadcast_to(tv, win.shape)[sel]], -1).astype(np.int32)
+        np.copyto(ctx.s[blk], s_new, casting="same_kind", where=win)
+        np.copyto(ctx.mat[blk], m, casting="unsafe", where=win)
+        np.copyto(ctx.normal[blk], nrm, casting="same_kind", where=win[..., None])
+        tex = ctx.tex[blk]
+        with np.errstate(invalid="ignore"):  # losing cells may hold NaN; they are not written
+            np.copyto(tex[..., 0], tu, casting="unsafe", where=win)
+            np.copyto(tex[..., 1], tv, casting="unsafe", where=win)
 
     # ---------------------------------------------------------------- appearance
 

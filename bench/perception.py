@@ -8,8 +8,11 @@ the simulator along the world's routes, priors off by the default pose error) an
 - `cycle_cpu_ms_p50`: the process CPU time of the same cycles [ms] (robust to other processes
   competing for the cores; `load_avg_1min` says how busy the machine was);
 - `mean_iou_focus_<method>`: the mean IoU of slope, stairs and grass on the frames that show all
-  three, per segmentation (the figures a speed-up must leave unchanged);
-- `capture_ms_p50`: the simulator's capture of the frame [ms] (for scale; not part of the cycle).
+  three, per segmentation (the figures a speed-up must leave unchanged; null without such a frame);
+- `capture_ms_p50`: the simulator's capture of the frame [ms] (for scale; not part of the cycle);
+- `resolution_steps`: how many cycles ran at each subsampling step (the monitor picks the step from
+  the measured cycle times, so a loaded machine may pick another; the IoU figures segment every frame
+  at full resolution and do not depend on it).
 """
 
 from __future__ import annotations
@@ -44,7 +47,9 @@ def run(world: str = "campus", frames: int = 60, seed: int = 0) -> dict:
         "capture_ms_p50": round(rep["capture_ms_p50"], 2),
         "load_avg_1min": round(os.getloadavg()[0], 2),
         "position_fixes": rep["position_fix"]["point"]["count"] + rep["position_fix"]["line"]["count"],
+        "resolution_steps": rep["resolution_steps"],
     }
     for method, v in rep["mean_iou_focus"].items():
-        out[f"mean_iou_focus_{method}"] = v["mean_iou"]
+        iou = v["mean_iou"]
+        out[f"mean_iou_focus_{method}"] = None if iou != iou else iou  # NaN (no focus frame) is not JSON
     return out

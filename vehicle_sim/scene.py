@@ -623,17 +623,19 @@ class Scene:
             s_cap = np.where(t < 0, (zt - ctx.oz) / t, np.inf)
             cap = (~side) & (z_in > zt) & (s_cap <= s_out[None, :])
         s_new = np.where(side, s_in, np.where(cap, s_cap, np.inf))
-        win = s_new < ctx.s[r0:r1, c0:c1]
-        if not win.any():
+        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
+        if len(wr) == 0:
             return
         ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
         hx = np.nan_to_num(ctx.ox + s_in * ca - cx)
         hy = np.nan_to_num(ctx.oy + s_in * sa - cy)
         n_side = np.stack([hx / r, hy / r, np.zeros_like(hx)], -1)
-        nrm = np.where(side[..., None], n_side, np.array([0, 0, 1], np.float32))
-        tu = np.broadcast_to(np.arctan2(hy, hx) * (r / _TEX_RES), win.shape)
-        tv = (ctx.oz + np.where(win, s_new, 0.0) * t) * (1.0 / _TEX_RES)
-        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
+        nrm = np.where(side[wr, wc][:, None], n_side[0, wc], np.array([0, 0, 1], np.float32))
+        tu = (np.arctan2(hy, hx) * (r / _TEX_RES))[0, wc]
+        sw = s_new[wr, wc]
+        tv = (ctx.oz + sw * t[wr, 0]) * (1.0 / _TEX_RES)
+        self._commit(ctx, wr + r0, wc + c0, sw, m, nrm, tu, tv)
 
     def _ellipsoid(self, ctx: "_Ctx", cx: float, cy: float, zc: float, R: float, b: float, m: int) -> None:
         found = self._circle_columns(ctx, cx, cy, R)
@@ -665,19 +667,20 @@ class Scene:
         s2 = (-B + sq) / (2 * A)
         s_new = np.where(s1 > 0, s1, s2)
         s_new = np.where(ok & (s_new > 0), s_new, np.inf)
-        win = s_new < ctx.s[r0:r1, c0:c1]
-        if not win.any():
+        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
+        if len(wr) == 0:
             return
-        ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
-        sf = np.where(win, s_new, 0.0)
+        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
+        ca, sa = ctx.ca[c0:c1][wc], ctx.sa[c0:c1][wc]
+        sf = s_new[wr, wc]
         hx = ctx.ox + sf * ca - cx
         hy = ctx.oy + sf * sa - cy
-        hz = ctx.oz + sf * t - zc
+        hz = ctx.oz + sf * t[wr, 0] - zc
         nrm = np.stack([hx * (1.0 / (R * R)), hy * (1.0 / (R * R)), hz * (1.0 / (b * b))], -1)
         nrm /= np.maximum(np.linalg.norm(nrm, axis=-1, keepdims=True), 1e-9)
         tu = (hx - hy) * (1.0 / _TEX_RES)
         tv = (hz + 0.7 * hx) * (1.0 / _TEX_RES)
-        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+        self._commit(ctx, wr + r0, wc + c0, sf, m, nrm, tu, tv)
 
     def _prism(self, ctx: "_Ctx", verts: np.ndarray, zb: float, zt: float, m: int) -> None:
         v0 = verts
@@ -729,8 +732,8 @@ class Scene:
             s_roof = np.where(t < 0, (zt - ctx.oz) / np.where(t < 0, t, -1.0), np.inf)
             roof = (~side) & (z_in > zt) & (s_roof <= s_out[None, :])
         s_new = np.where(side, s_in2, np.where(roof, s_roof, np.inf))
-        win = s_new < ctx.s[r0:r1, c0:c1]
-        if not win.any():
+        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
+        if len(wr) == 0:
             return
         jj = j_in
         en = e[jj] / np.linalg.norm(e[jj], axis=1, keepdims=True)
@@ -738,29 +741,29 @@ class Scene:
         ca, sa = ctx.ca64[c0:c1], ctx.sa64[c0:c1]
         flip = (nx * ca + ny * sa) > 0  # the wall faces the sensor
         nx, ny = np.where(flip, -nx, nx), np.where(flip, -ny, ny)
-        n_side = np.stack([nx, ny, np.zeros_like(nx)], -1)[None]
-        nrm = np.where(side[..., None], n_side, np.array([0, 0, 1], np.float32))
+        n_side = np.stack([nx, ny, np.zeros_like(nx)], -1)
+        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
+        nrm = np.where(side[wr, wc][:, None], n_side[wc], np.array([0, 0, 1], np.float32))
         sfin = np.where(miss, 0.0, s_in)
         hx = ctx.ox + sfin * ca
         hy = ctx.oy + sfin * sa
         along = (hx - v0[jj, 0]) * en[:, 0] + (hy - v0[jj, 1]) * en[:, 1]
-        tu = np.broadcast_to((along * (1.0 / _TEX_RES))[None, :], win.shape)
-        tv = (ctx.oz + np.where(win, s_new, 0.0) * t) * (1.0 / _TEX_RES)
-        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+        tu = (along * (1.0 / _TEX_RES))[wc]
+        sw = s_new[wr, wc]
+        tv = (ctx.oz + sw * t[wr, 0]) * (1.0 / _TEX_RES)
+        self._commit(ctx, wr + r0, wc + c0, sw, m, nrm, tu, tv)
 
     @staticmethod
-    def _commit(ctx: "_Ctx", r0: int, r1: int, c0: int, c1: int, win: np.ndarray, s_new: np.ndarray, m: int,
+    def _commit(ctx: "_Ctx", rows: np.ndarray, cols: np.ndarray, s_new: np.ndarray, m: int,
                 nrm: np.ndarray, tu: np.ndarray, tv: np.ndarray) -> None:
-        """Write the winning hits of one solid into the depth buffer block [r0:r1, c0:c1]."""
-        # masked copies into the block views: the same casts as assigning the selected values, no gathers
-        blk = (slice(r0, r1), slice(c0, c1))
-        np.copyto(ctx.s[blk], s_new, casting="same_kind", where=win)
-        np.copyto(ctx.mat[blk], m, casting="unsafe", where=win)
-        np.copyto(ctx.normal[blk], nrm, casting="same_kind", where=win[..., None])
-        tex = ctx.tex[blk]
-        with np.errstate(invalid="ignore"):  # losing cells may hold NaN; they are not written
-            np.copyto(tex[..., 0], tu, casting="unsafe", where=win)
-            np.copyto(tex[..., 1], tv, casting="unsafe", where=win)
+        """Write the winning hits of one solid (cells `rows`, `cols`; values per cell) into the depth buffer."""
+        at = rows * ctx.s.shape[1] + cols  # flat cell indices: one index array is the fast path of item assignment
+        ctx.s.reshape(-1)[at] = s_new
+        ctx.mat.reshape(-1)[at] = m
+        ctx.normal.reshape(-1, 3)[at] = nrm
+        tex = ctx.tex.reshape(-1, 2)
+        tex[at, 0] = tu
+        tex[at, 1] = tv
 
     # ---------------------------------------------------------------- appearance
 

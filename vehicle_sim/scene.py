@@ -610,10 +610,10 @@ class Scene:
         s_in = np.maximum(p - half, 0.05)  # NaN where the column misses
         s_out = p + half
         with np.errstate(invalid="ignore"):
-            lo = float(np.nanmin(np.minimum((zb - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
-            hi = float(np.nanmax(np.maximum((zt - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
+            lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
+            hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
         r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_in)).any():
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_in)).any():
             return
         t = ctx.tan[r0:r1, None]
         s_in = s_in[None, :]
@@ -627,8 +627,8 @@ class Scene:
         if len(wr) == 0:
             return
         ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
-        hx = np.nan_to_num(ctx.ox + s_in * ca - cx)
-        hy = np.nan_to_num(ctx.oy + s_in * sa - cy)
+        hx = _nan_to(ctx.ox + s_in * ca - cx, 0.0)
+        hy = _nan_to(ctx.oy + s_in * sa - cy, 0.0)
         n_side = np.stack([hx / r, hy / r, np.zeros_like(hx)], -1)
         # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
         nrm = np.where(side[wr, wc][:, None], n_side[0, wc], np.array([0, 0, 1], np.float32))
@@ -645,12 +645,12 @@ class Scene:
         s_near = np.maximum(p - half, 0.05)
         s_far = p + half
         with np.errstate(invalid="ignore"):
-            lo = float(np.nanmin(np.minimum((zc - b - ctx.oz) / s_near, (zc - b - ctx.oz) / s_far)))
-            hi = float(np.nanmax(np.maximum((zc + b - ctx.oz) / s_near, (zc + b - ctx.oz) / s_far)))
+            lo = float(_nanmin(np.minimum((zc - b - ctx.oz) / s_near, (zc - b - ctx.oz) / s_far)))
+            hi = float(_nanmax(np.maximum((zc + b - ctx.oz) / s_near, (zc + b - ctx.oz) / s_far)))
         r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_near)).any():
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_near)).any():
             return
-        a = np.nan_to_num(half, nan=1e-6)[None, :]
+        a = _nan_to(half.copy(), 1e-6)[None, :]
         a = np.maximum(a, 1e-6)
         bb = b * a / R
         pp = p[None, :]
@@ -719,10 +719,10 @@ class Scene:
         s_in_c = np.where(miss, np.nan, np.maximum(s_in, 0.05))
         with np.errstate(invalid="ignore"):
             s_out_c = np.where(miss, np.nan, s_out)
-            lo = float(np.nanmin(np.minimum((zb - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
-            hi = float(np.nanmax(np.maximum((zt - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
+            lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
+            hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
         r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_in_c)).any():
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_in_c)).any():
             return
         t = ctx.tan[r0:r1, None]
         s_in2 = s_in[None, :]
@@ -799,6 +799,18 @@ class Scene:
         y = hits.xyz[..., 1][sel]
         lam[sel] *= np.take(self._sunlit_flat, self._flat_index(x, y)).astype(np.float32) * np.float32(1.0 / 255.0)
         return lam
+
+
+# np.nanmin/np.nanmax/np.nan_to_num without their Python wrappers (called for every solid in view);
+# the same values for the finite-or-NaN float arrays they get here
+_nanmin = np.fmin.reduce
+_nanmax = np.fmax.reduce
+
+
+def _nan_to(a: np.ndarray, value: float) -> np.ndarray:
+    """Replace NaN by `value` in place in a float array that holds no infinity; return it."""
+    a[np.isnan(a)] = value
+    return a
 
 
 @dataclass

@@ -536,12 +536,16 @@ class Scene:
                 tex[rr, cc, 0] = (fx * np.float32(1.0 / self.res)).astype(np.int32)
                 tex[rr, cc, 1] = (fy * np.float32(1.0 / self.res)).astype(np.int32)
         # thin solids matter less far away: posts and trunks to 60 m, crowns to 100 m, buildings to `reach`
-        for j in self._visible(self.cylinders, self.cylinders[:, 2], ox, oy, az_mid, az_half, min(rmax, max(60.0, self.max_range))):
+        vis = self._visible(self.cylinders, self.cylinders[:, 2], ox, oy, az_mid, az_half, min(rmax, max(60.0, self.max_range)))
+        rays = self._circle_rays(ctx, self.cylinders[vis, 0], self.cylinders[vis, 1])
+        for k, j in enumerate(vis):
             cx, cy, r, zb, zt, m = self.cylinders[j]
-            self._cylinder(ctx, cx, cy, r, zb, zt, int(m))
-        for j in self._visible(self.ellipsoids, self.ellipsoids[:, 3], ox, oy, az_mid, az_half, min(rmax, max(100.0, self.max_range))):
+            self._cylinder(ctx, cx, cy, r, zb, zt, int(m), (rays[0][k], rays[1][k]))
+        vis = self._visible(self.ellipsoids, self.ellipsoids[:, 3], ox, oy, az_mid, az_half, min(rmax, max(100.0, self.max_range)))
+        rays = self._circle_rays(ctx, self.ellipsoids[vis, 0], self.ellipsoids[vis, 1])
+        for k, j in enumerate(vis):
             cx, cy, zc, R, b, m = self.ellipsoids[j]
-            self._ellipsoid(ctx, cx, cy, zc, R, b, int(m))
+            self._ellipsoid(ctx, cx, cy, zc, R, b, int(m), (rays[0][k], rays[1][k]))
         if len(self.prisms):
             for j in self._visible(self._prism_centre, self._prism_radius, ox, oy, az_mid, az_half, rmax):
                 verts, zb, zt, m = self.prisms[j]
@@ -588,11 +592,25 @@ class Scene:
         return r0, r1
 
     @staticmethod
-    def _circle_columns(ctx: "_Ctx", cx: float, cy: float, r: float):
-        """Return (c0, c1, p, half) for the contiguous columns whose 2-D ray meets a circle, or None."""
-        qx, qy = cx - ctx.ox, cy - ctx.oy
-        p = qx * ctx.ca + qy * ctx.sa
-        perp2 = (qx * qx + qy * qy) - p * p
+    def _circle_rays(ctx: "_Ctx", cx: np.ndarray, cy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return (p, perp2) (n, W) [m, m²]: along-ray distance to each of n centres and squared distance off each column's ray."""
+        qx, qy = (cx - ctx.ox)[:, None], (cy - ctx.oy)[:, None]
+        p = qx * ctx.ca[None, :] + qy * ctx.sa[None, :]
+        return p, (qx * qx + qy * qy) - p * p
+
+    @staticmethod
+    def _circle_columns(ctx: "_Ctx", cx: float, cy: float, r: float,
+                        rays: tuple[np.ndarray, np.ndarray] | None = None):
+        """Return (c0, c1, p, half) for the contiguous columns whose 2-D ray meets a circle, or None.
+
+        `rays` is the circle's row of `_circle_rays` when computed for many circles at once.
+        """
+        if rays is None:
+            qx, qy = cx - ctx.ox, cy - ctx.oy
+            p = qx * ctx.ca + qy * ctx.sa
+            perp2 = (qx * qx + qy * qy) - p * p
+        else:
+            p, perp2 = rays
         hit = (perp2 < r * r) & (p > 0)
         cols = np.flatnonzero(hit)
         if len(cols) == 0:
@@ -602,8 +620,9 @@ class Scene:
         half = np.where(hit[c0:c1], half, np.nan)
         return c0, c1, p[c0:c1], half
 
-    def _cylinder(self, ctx: "_Ctx", cx: float, cy: float, r: float, zb: float, zt: float, m: int) -> None:
-        found = self._circle_columns(ctx, cx, cy, r)
+    def _cylinder(self, ctx: "_Ctx", cx: float, cy: float, r: float, zb: float, zt: float, m: int,
+                  rays: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        found = self._circle_columns(ctx, cx, cy, r, rays)
         if found is None:
             return
         c0, c1, p, half = found
@@ -637,8 +656,9 @@ class Scene:
         tv = (ctx.oz + sw * t[wr, 0]) * (1.0 / _TEX_RES)
         self._commit(ctx, wr + r0, wc + c0, sw, m, nrm, tu, tv)
 
-    def _ellipsoid(self, ctx: "_Ctx", cx: float, cy: float, zc: float, R: float, b: float, m: int) -> None:
-        found = self._circle_columns(ctx, cx, cy, R)
+    def _ellipsoid(self, ctx: "_Ctx", cx: float, cy: float, zc: float, R: float, b: float, m: int,
+                   rays: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        found = self._circle_columns(ctx, cx, cy, R, rays)
         if found is None:
             return
         c0, c1, p, half = found

@@ -104,12 +104,8 @@ def _edges(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return a, b, out_n
 
 
-def _nearest_edge(q: np.ndarray, a: np.ndarray, b: np.ndarray, d: np.ndarray | None = None,
-                  l2: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    if d is None:
-        d = b - a
-    if l2 is None:
-        l2 = np.maximum((d * d).sum(1), 1e-12)
+def _nearest_edge(q: np.ndarray, a: np.ndarray, d: np.ndarray, l2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return (distance (N, M) [m], position along the edge (N, M) [0–1]) of points q to edges a → a + d (|d|² = l2)."""
     t = np.clip(((q[:, None, :] - a[None]) * d[None]).sum(-1) / l2[None], 0.0, 1.0)
     proj = a[None] + t[..., None] * d[None]
     off = q[:, None, :] - proj
@@ -173,7 +169,7 @@ def calibrate(
         for e in terms:
             p, a, on = e.p, e.a, e.on
             q = p @ R.T + x[:2]
-            dist, t = _nearest_edge(q, a, None, e.d, e.l2)
+            dist, t = _nearest_edge(q, a, e.d, e.l2)
             if e.normals is not None:
                 nw = e.normals @ R.T
                 agree = (nw @ on.T) >= normal_cos

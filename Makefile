@@ -35,12 +35,17 @@ chromium:
 	  else echo "chromium is missing and we are not root: the monitor's browser test will FAIL; install it with: sudo apt-get install chromium"; fi; \
 	fi
 
-## Benchmarks: each prints one JSON object.
+## Benchmarks: each prints one JSON object; the last two are the campus tour at RTF 50 under each architecture (report.json's figures).
 bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench blackboard --json
 	$(VENV)/bin/sidewalk bench sim --json
+	$(VENV)/bin/sidewalk bench perception --json
 	$(VENV)/bin/sidewalk bench record --json
 	$(VENV)/bin/sidewalk bench eddie --json
+	@mkdir -p runs; for arch in codger eddie; do \
+	  rm -rf runs/bench-rtf50-$$arch; $(VENV)/bin/sidewalk run --mission campus-tour --rtf 50 --arch $$arch --out runs/bench-rtf50-$$arch > runs/bench-rtf50-$$arch.log 2>&1; \
+	  $(PY) -c "import json, sys; r = json.load(open(sys.argv[1])); print(json.dumps({'mission': r['mission'], 'arch': sys.argv[2], 'rtf_requested': r['rtf_requested'], 'rtf_achieved': r['rtf_achieved'], 'success': r['success']}))" runs/bench-rtf50-$$arch/report.json $$arch; \
+	done
 
 clean:
 	rm -rf $(VENV) runs .pytest_cache

@@ -536,12 +536,16 @@ class Scene:
                 tex[rr, cc, 0] = (fx * np.float32(1.0 / self.res)).astype(np.int32)
                 tex[rr, cc, 1] = (fy * np.float32(1.0 / self.res)).astype(np.int32)
         # thin solids matter less far away: posts and trunks to 60 m, crowns to 100 m, buildings to `reach`
-        for j in self._visible(self.cylinders, self.cylinders[:, 2], ox, oy, az_mid, az_half, min(rmax, max(60.0, self.max_range))):
+        vis = self._visible(self.cylinders, self.cylinders[:, 2], ox, oy, az_mid, az_half, min(rmax, max(60.0, self.max_range)))
+        rays = self._circle_rays(ctx, self.cylinders[vis, 0], self.cylinders[vis, 1])
+        for k, j in enumerate(vis):
             cx, cy, r, zb, zt, m = self.cylinders[j]
-            self._cylinder(ctx, cx, cy, r, zb, zt, int(m))
-        for j in self._visible(self.ellipsoids, self.ellipsoids[:, 3], ox, oy, az_mid, az_half, min(rmax, max(100.0, self.max_range))):
+            self._cylinder(ctx, cx, cy, r, zb, zt, int(m), (rays[0][k], rays[1][k]))
+        vis = self._visible(self.ellipsoids, self.ellipsoids[:, 3], ox, oy, az_mid, az_half, min(rmax, max(100.0, self.max_range)))
+        rays = self._circle_rays(ctx, self.ellipsoids[vis, 0], self.ellipsoids[vis, 1])
+        for k, j in enumerate(vis):
             cx, cy, zc, R, b, m = self.ellipsoids[j]
-            self._ellipsoid(ctx, cx, cy, zc, R, b, int(m))
+            self._ellipsoid(ctx, cx, cy, zc, R, b, int(m), (rays[0][k], rays[1][k]))
         if len(self.prisms):
             for j in self._visible(self._prism_centre, self._prism_radius, ox, oy, az_mid, az_half, rmax):
                 verts, zb, zt, m = self.prisms[j]
@@ -588,11 +592,25 @@ class Scene:
         return r0, r1
 
     @staticmethod
-    def _circle_columns(ctx: "_Ctx", cx: float, cy: float, r: float):
-        """Return (c0, c1, p, half) for the contiguous columns whose 2-D ray meets a circle, or None."""
-        qx, qy = cx - ctx.ox, cy - ctx.oy
-        p = qx * ctx.ca + qy * ctx.sa
-        perp2 = (qx * qx + qy * qy) - p * p
+    def _circle_rays(ctx: "_Ctx", cx: np.ndarray, cy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Return (p, perp2) (n, W) [m, m²]: along-ray distance to each of n centres and squared distance off each column's ray."""
+        qx, qy = (cx - ctx.ox)[:, None], (cy - ctx.oy)[:, None]
+        p = qx * ctx.ca[None, :] + qy * ctx.sa[None, :]
+        return p, (qx * qx + qy * qy) - p * p
+
+    @staticmethod
+    def _circle_columns(ctx: "_Ctx", cx: float, cy: float, r: float,
+                        rays: tuple[np.ndarray, np.ndarray] | None = None):
+        """Return (c0, c1, p, half) for the contiguous columns whose 2-D ray meets a circle, or None.
+
+        `rays` is the circle's row of `_circle_rays` when computed for many circles at once.
+        """
+        if rays is None:
+            qx, qy = cx - ctx.ox, cy - ctx.oy
+            p = qx * ctx.ca + qy * ctx.sa
+            perp2 = (qx * qx + qy * qy) - p * p
+        else:
+            p, perp2 = rays
         hit = (perp2 < r * r) & (p > 0)
         cols = np.flatnonzero(hit)
         if len(cols) == 0:
@@ -602,18 +620,19 @@ class Scene:
         half = np.where(hit[c0:c1], half, np.nan)
         return c0, c1, p[c0:c1], half
 
-    def _cylinder(self, ctx: "_Ctx", cx: float, cy: float, r: float, zb: float, zt: float, m: int) -> None:
-        found = self._circle_columns(ctx, cx, cy, r)
+    def _cylinder(self, ctx: "_Ctx", cx: float, cy: float, r: float, zb: float, zt: float, m: int,
+                  rays: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        found = self._circle_columns(ctx, cx, cy, r, rays)
         if found is None:
             return
         c0, c1, p, half = found
         s_in = np.maximum(p - half, 0.05)  # NaN where the column misses
         s_out = p + half
         with np.errstate(invalid="ignore"):
-            lo = float(np.nanmin(np.minimum((zb - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
-            hi = float(np.nanmax(np.maximum((zt - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
+            lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
+            hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
         r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_in)).any():
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_in)).any():
             return
         t = ctx.tan[r0:r1, None]
         s_in = s_in[None, :]
@@ -623,32 +642,35 @@ class Scene:
             s_cap = np.where(t < 0, (zt - ctx.oz) / t, np.inf)
             cap = (~side) & (z_in > zt) & (s_cap <= s_out[None, :])
         s_new = np.where(side, s_in, np.where(cap, s_cap, np.inf))
-        win = s_new < ctx.s[r0:r1, c0:c1]
-        if not win.any():
+        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
+        if len(wr) == 0:
             return
         ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
-        hx = np.nan_to_num(ctx.ox + s_in * ca - cx)
-        hy = np.nan_to_num(ctx.oy + s_in * sa - cy)
+        hx = _nan_to(ctx.ox + s_in * ca - cx, 0.0)
+        hy = _nan_to(ctx.oy + s_in * sa - cy, 0.0)
         n_side = np.stack([hx / r, hy / r, np.zeros_like(hx)], -1)
-        nrm = np.where(side[..., None], n_side, np.array([0, 0, 1], np.float32))
-        tu = np.broadcast_to(np.arctan2(hy, hx) * (r / _TEX_RES), win.shape)
-        tv = (ctx.oz + np.where(win, s_new, 0.0) * t) * (1.0 / _TEX_RES)
-        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
+        nrm = np.where(side[wr, wc][:, None], n_side[0, wc], np.array([0, 0, 1], np.float32))
+        tu = (np.arctan2(hy, hx) * (r / _TEX_RES))[0, wc]
+        sw = s_new[wr, wc]
+        tv = (ctx.oz + sw * t[wr, 0]) * (1.0 / _TEX_RES)
+        self._commit(ctx, wr + r0, wc + c0, sw, m, nrm, tu, tv)
 
-    def _ellipsoid(self, ctx: "_Ctx", cx: float, cy: float, zc: float, R: float, b: float, m: int) -> None:
-        found = self._circle_columns(ctx, cx, cy, R)
+    def _ellipsoid(self, ctx: "_Ctx", cx: float, cy: float, zc: float, R: float, b: float, m: int,
+                   rays: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        found = self._circle_columns(ctx, cx, cy, R, rays)
         if found is None:
             return
         c0, c1, p, half = found
         s_near = np.maximum(p - half, 0.05)
         s_far = p + half
         with np.errstate(invalid="ignore"):
-            lo = float(np.nanmin(np.minimum((zc - b - ctx.oz) / s_near, (zc - b - ctx.oz) / s_far)))
-            hi = float(np.nanmax(np.maximum((zc + b - ctx.oz) / s_near, (zc + b - ctx.oz) / s_far)))
+            lo = float(_nanmin(np.minimum((zc - b - ctx.oz) / s_near, (zc - b - ctx.oz) / s_far)))
+            hi = float(_nanmax(np.maximum((zc + b - ctx.oz) / s_near, (zc + b - ctx.oz) / s_far)))
         r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_near)).any():
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_near)).any():
             return
-        a = np.nan_to_num(half, nan=1e-6)[None, :]
+        a = _nan_to(half.copy(), 1e-6)[None, :]
         a = np.maximum(a, 1e-6)
         bb = b * a / R
         pp = p[None, :]
@@ -665,19 +687,20 @@ class Scene:
         s2 = (-B + sq) / (2 * A)
         s_new = np.where(s1 > 0, s1, s2)
         s_new = np.where(ok & (s_new > 0), s_new, np.inf)
-        win = s_new < ctx.s[r0:r1, c0:c1]
-        if not win.any():
+        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
+        if len(wr) == 0:
             return
-        ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
-        sf = np.where(win, s_new, 0.0)
+        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
+        ca, sa = ctx.ca[c0:c1][wc], ctx.sa[c0:c1][wc]
+        sf = s_new[wr, wc]
         hx = ctx.ox + sf * ca - cx
         hy = ctx.oy + sf * sa - cy
-        hz = ctx.oz + sf * t - zc
+        hz = ctx.oz + sf * t[wr, 0] - zc
         nrm = np.stack([hx * (1.0 / (R * R)), hy * (1.0 / (R * R)), hz * (1.0 / (b * b))], -1)
         nrm /= np.maximum(np.linalg.norm(nrm, axis=-1, keepdims=True), 1e-9)
         tu = (hx - hy) * (1.0 / _TEX_RES)
         tv = (hz + 0.7 * hx) * (1.0 / _TEX_RES)
-        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+        self._commit(ctx, wr + r0, wc + c0, sf, m, nrm, tu, tv)
 
     def _prism(self, ctx: "_Ctx", verts: np.ndarray, zb: float, zt: float, m: int) -> None:
         v0 = verts
@@ -716,10 +739,10 @@ class Scene:
         s_in_c = np.where(miss, np.nan, np.maximum(s_in, 0.05))
         with np.errstate(invalid="ignore"):
             s_out_c = np.where(miss, np.nan, s_out)
-            lo = float(np.nanmin(np.minimum((zb - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
-            hi = float(np.nanmax(np.maximum((zt - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
+            lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
+            hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
         r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > np.nanmin(s_in_c)).any():
+        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_in_c)).any():
             return
         t = ctx.tan[r0:r1, None]
         s_in2 = s_in[None, :]
@@ -729,8 +752,8 @@ class Scene:
             s_roof = np.where(t < 0, (zt - ctx.oz) / np.where(t < 0, t, -1.0), np.inf)
             roof = (~side) & (z_in > zt) & (s_roof <= s_out[None, :])
         s_new = np.where(side, s_in2, np.where(roof, s_roof, np.inf))
-        win = s_new < ctx.s[r0:r1, c0:c1]
-        if not win.any():
+        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
+        if len(wr) == 0:
             return
         jj = j_in
         en = e[jj] / np.linalg.norm(e[jj], axis=1, keepdims=True)
@@ -738,26 +761,29 @@ class Scene:
         ca, sa = ctx.ca64[c0:c1], ctx.sa64[c0:c1]
         flip = (nx * ca + ny * sa) > 0  # the wall faces the sensor
         nx, ny = np.where(flip, -nx, nx), np.where(flip, -ny, ny)
-        n_side = np.stack([nx, ny, np.zeros_like(nx)], -1)[None]
-        nrm = np.where(side[..., None], n_side, np.array([0, 0, 1], np.float32))
+        n_side = np.stack([nx, ny, np.zeros_like(nx)], -1)
+        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
+        nrm = np.where(side[wr, wc][:, None], n_side[wc], np.array([0, 0, 1], np.float32))
         sfin = np.where(miss, 0.0, s_in)
         hx = ctx.ox + sfin * ca
         hy = ctx.oy + sfin * sa
         along = (hx - v0[jj, 0]) * en[:, 0] + (hy - v0[jj, 1]) * en[:, 1]
-        tu = np.broadcast_to((along * (1.0 / _TEX_RES))[None, :], win.shape)
-        tv = (ctx.oz + np.where(win, s_new, 0.0) * t) * (1.0 / _TEX_RES)
-        self._commit(ctx, r0, r1, c0, c1, win, s_new, m, nrm, tu, tv)
+        tu = (along * (1.0 / _TEX_RES))[wc]
+        sw = s_new[wr, wc]
+        tv = (ctx.oz + sw * t[wr, 0]) * (1.0 / _TEX_RES)
+        self._commit(ctx, wr + r0, wc + c0, sw, m, nrm, tu, tv)
 
     @staticmethod
-    def _commit(ctx: "_Ctx", r0: int, r1: int, c0: int, c1: int, win: np.ndarray, s_new: np.ndarray, m: int,
+    def _commit(ctx: "_Ctx", rows: np.ndarray, cols: np.ndarray, s_new: np.ndarray, m: int,
                 nrm: np.ndarray, tu: np.ndarray, tv: np.ndarray) -> None:
-        """Write the winning hits of one solid into the depth buffer block [r0:r1, c0:c1]."""
-        sel = np.nonzero(win)
-        blk = (slice(r0, r1), slice(c0, c1))
-        ctx.s[blk][sel] = s_new[sel]
-        ctx.mat[blk][sel] = m
-        ctx.normal[blk][sel] = np.broadcast_to(nrm, win.shape + (3,))[sel]
-        ctx.tex[blk][sel] = np.stack([np.broadcast_to(tu, win.shape)[sel], np.broadcast_to(tv, win.shape)[sel]], -1).astype(np.int32)
+        """Write the winning hits of one solid (cells `rows`, `cols`; values per cell) into the depth buffer."""
+        at = rows * ctx.s.shape[1] + cols  # flat cell indices: one index array is the fast path of item assignment
+        ctx.s.reshape(-1)[at] = s_new
+        ctx.mat.reshape(-1)[at] = m
+        ctx.normal.reshape(-1, 3)[at] = nrm
+        tex = ctx.tex.reshape(-1, 2)
+        tex[at, 0] = tu
+        tex[at, 1] = tv
 
     # ---------------------------------------------------------------- appearance
 
@@ -793,6 +819,18 @@ class Scene:
         y = hits.xyz[..., 1][sel]
         lam[sel] *= np.take(self._sunlit_flat, self._flat_index(x, y)).astype(np.float32) * np.float32(1.0 / 255.0)
         return lam
+
+
+# np.nanmin/np.nanmax/np.nan_to_num without their Python wrappers (called for every solid in view);
+# the same values for the finite-or-NaN float arrays they get here
+_nanmin = np.fmin.reduce
+_nanmax = np.fmax.reduce
+
+
+def _nan_to(a: np.ndarray, value: float) -> np.ndarray:
+    """Replace NaN by `value` in place in a float array that holds no infinity; return it."""
+    a[np.isnan(a)] = value
+    return a
 
 
 @dataclass

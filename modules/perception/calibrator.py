@@ -104,13 +104,32 @@ def _edges(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return a, b, out_n
 
 
-def _nearest_edge(q: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    d = b - a
-    l2 = np.maximum((d * d).sum(1), 1e-12)
+def _nearest_edge(q: np.ndarray, a: np.ndarray, d: np.ndarray, l2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return (distance (N, M) [m], position along the edge (N, M) [0–1]) of points q to edges a → a + d (|d|² = l2)."""
     t = np.clip(((q[:, None, :] - a[None]) * d[None]).sum(-1) / l2[None], 0.0, 1.0)
     proj = a[None] + t[..., None] * d[None]
-    dist = np.linalg.norm(q[:, None, :] - proj, axis=-1)
+    off = q[:, None, :] - proj
+    dist = np.sqrt((off * off).sum(-1))  # what np.linalg.norm(off, axis=-1) computes, without its checks
     return dist, t
+
+
+@dataclass(frozen=True)
+class _EdgeTerms:
+    """One edge observation's arrays, fixed over the iterations: points, predicted edges, normals."""
+
+    p: np.ndarray
+    a: np.ndarray
+    d: np.ndarray
+    l2: np.ndarray
+    on: np.ndarray
+    normals: np.ndarray | None
+
+    @classmethod
+    def of(cls, e: EdgeObservation) -> "_EdgeTerms":
+        a, b, on = e.edges()
+        d = b - a
+        return cls(np.asarray(e.points, dtype=np.float64), a, d, np.maximum((d * d).sum(1), 1e-12), on,
+                   None if e.normals is None else np.asarray(e.normals))
 
 
 def calibrate(
@@ -137,6 +156,7 @@ def calibrate(
     """
     x = np.array(prior, dtype=np.float64)
     prior_info = np.diag(1.0 / np.square(prior_sigma))
+    terms = [_EdgeTerms.of(e) for e in edges if len(e.points) != 0]
     H = np.zeros((3, 3))
     rms = 0.0
     n_used = 0
@@ -146,15 +166,12 @@ def calibrate(
         dR = np.array([[-math.sin(x[2]), -math.cos(x[2])], [math.cos(x[2]), -math.sin(x[2])]])
         rows_j: list[np.ndarray] = []
         rows_r: list[np.ndarray] = []
-        for e in edges:
-            if len(e.points) == 0:
-                continue
-            p = np.asarray(e.points, dtype=np.float64)
+        for e in terms:
+            p, a, on = e.p, e.a, e.on
             q = p @ R.T + x[:2]
-            a, b, on = e.edges()
-            dist, t = _nearest_edge(q, a, b)
+            dist, t = _nearest_edge(q, a, e.d, e.l2)
             if e.normals is not None:
-                nw = np.asarray(e.normals) @ R.T
+                nw = e.normals @ R.T
                 agree = (nw @ on.T) >= normal_cos
                 dist = np.where(agree, dist, np.inf)
             k = np.argmin(dist, axis=1)

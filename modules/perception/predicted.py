@@ -115,11 +115,13 @@ def visible_regions(predicted: list[PredictedObject] | tuple[PredictedObject, ..
     crossing it), so each object shows only outside the smaller overlapping objects of another class.
     """
     ground = [p for p in predicted if p.ground]
+    keys = [class_key(p, method) for p in ground]
+    fps = [p.world_footprint for p in ground]
+    areas = [f.area for f in fps]
     regions: dict[tuple, list] = {}
-    for o in ground:
-        fp = o.world_footprint
-        covers = [q.world_footprint for q in ground if q is not o and class_key(q, method) != class_key(o, method)
-                  and q.world_footprint.area < fp.area and q.world_footprint.intersects(fp)]
+    for i, (o, fp) in enumerate(zip(ground, fps)):
+        covers = [fps[j] for j, q in enumerate(ground) if q is not o and keys[j] != keys[i]
+                  and areas[j] < areas[i] and fps[j].intersects(fp)]
         vis = fp.difference(unary_union(covers)) if covers else fp
-        regions.setdefault(class_key(o, method), []).append(vis)
+        regions.setdefault(keys[i], []).append(vis)
     return {k: unary_union(v) for k, v in regions.items()}

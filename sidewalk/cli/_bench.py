@@ -49,6 +49,22 @@ def bench_sim(
     _emit(mod.run(world=world, frames=frames), as_json)
 
 
+@bench_app.command("perception")
+def bench_perception(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    world: Annotated[str, typer.Option(help="World name or file")] = "campus",
+    frames: Annotated[int, typer.Option(min=1, help="Frames to process")] = 60,
+    seed: Annotated[int, typer.Option(help="Seed for poses, sensor noise and pose errors")] = 0,
+) -> None:
+    """PERCEPTION's cycle time (captured frame to driving-unit result) at default resolution, with the IoU beside it."""
+    mod = importlib.import_module("bench.perception")
+    try:
+        result = mod.run(world=world, frames=frames, seed=seed)
+    except (FileNotFoundError, ValueError) as exc:
+        raise typer.BadParameter(f"--world {world!r}: {exc}") from None
+    _emit(result, as_json)
+
+
 @bench_app.command("secure")
 def bench_secure(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

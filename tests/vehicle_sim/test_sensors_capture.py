@@ -131,6 +131,21 @@ def test_same_seed_same_frames(scene) -> None:
     np.testing.assert_array_equal(d.laser_code, e.laser_code)
 
 
+def test_camera_rendered_beside_the_laser_is_the_sequential_render(scene) -> None:
+    """Both sensors at once (the camera renders on a side thread) give exactly the frames of one sensor after the other."""
+    pose = (0.5, -1.5, math.radians(10.0))
+    both = capture(scene, pose, 3.0, rng=np.random.default_rng(11))
+    g = np.random.default_rng(11)  # the laser draws first, then the camera's noise
+    laser = capture(scene, pose, 3.0, CaptureRequest(camera=False), rng=g)
+    camera = capture(scene, pose, 3.0, CaptureRequest(laser=False), rng=g)
+    for name in ("laser_code", "laser_range", "laser_valid", "laser_reflectance", "laser_labels", "laser_mixed"):
+        assert np.array_equal(getattr(both, name), getattr(laser, name)), name
+    assert np.array_equal(both.camera_image, camera.camera_image)
+    assert np.array_equal(both.camera_labels, camera.camera_labels)
+    other = capture(scene, pose, 3.0, CaptureRequest(laser=False), rng=np.random.default_rng(11))
+    assert not np.array_equal(other.camera_image, both.camera_image)  # the noise does depend on the draws before it
+
+
 def test_registration_maps_a_known_point_to_its_camera_pixel() -> None:
     ext = extrinsics_for("navlab")
     K = np.array([[200.0, 0.0, 159.5], [0.0, 200.0, 119.5], [0.0, 0.0, 1.0]])

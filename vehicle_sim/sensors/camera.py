@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from vehicle_sim.scene import Scene
 
-__all__ = ["CameraConfig", "CameraModel", "CameraFrame", "camera_model", "illumination_gain", "shoot"]
+__all__ = ["CameraConfig", "CameraModel", "CameraFrame", "Exposure", "camera_model", "illumination_gain", "shoot", "expose", "develop"]
 
 #: Shadowed surfaces receive only skylight: a little bluer than sunlight (multiplies the ambient term).
 _SKY_TINT = np.array([0.90, 0.96, 1.12], np.float32)
@@ -122,9 +122,23 @@ def _sky(el: np.ndarray) -> np.ndarray:
     return (horizon * (1 - t) + zenith * t).astype(np.float32)
 
 
+@dataclass(frozen=True)
+class Exposure:
+    """A camera image before its pixel noise: `light` (height, width, 3) float32 [DN], `labels`, `gain`."""
+
+    light: np.ndarray
+    labels: np.ndarray
+    gain: float
+
+
 def shoot(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: CameraModel,
           rng: np.random.Generator) -> CameraFrame:
     """Render the camera image from the camera origin (3,) [m] (world) at vehicle heading yaw [rad], sim time stamp [s]."""
+    return develop(expose(scene, origin, yaw, stamp, model), model, rng)
+
+
+def expose(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: CameraModel) -> Exposure:
+    """Render the noiseless image (see `shoot`); draws nothing from any generator, so it may run beside other work."""
     cfg = model.config
     hits = scene.cast(origin, yaw + model.grid_az, model.grid_el, reach=cfg.reach)
     alb = scene.albedo(hits, stamp)
@@ -138,7 +152,13 @@ def shoot(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: Cam
     col *= np.float32(gain)
     img = cv2.remap(col, model.map_x, model.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     labels = cv2.remap(hits.label, model.map_x, model.map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
-    if cfg.noise_sigma > 0:
+    return Exposure(light=img, labels=labels, gain=gain)
+
+
+def develop(exposure: Exposure, model: CameraModel, rng: np.random.Generator) -> CameraFrame:
+    """Add the pixel noise drawn from `rng` to an exposure (in place) and quantise it to the uint8 image."""
+    img = exposure.light
+    if model.config.noise_sigma > 0:
         img += _noise(model, rng)
     img = np.clip(img + 0.5, 0, 255).astype(np.uint8)
-    return CameraFrame(image=img, labels=labels, gain=gain)
+    return CameraFrame(image=img, labels=exposure.labels, gain=exposure.gain)

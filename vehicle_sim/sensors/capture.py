@@ -9,13 +9,15 @@ Frames: `vehicle` (x forward, y left, z up, origin on the ground), `laser`, `cam
 from __future__ import annotations
 
 import math
+import os
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
 
 from wire.capture import CaptureRequest, CaptureResult
 from vehicle_sim.scene import Scene
-from vehicle_sim.sensors.camera import CameraConfig, camera_model, shoot
+from vehicle_sim.sensors.camera import CameraConfig, camera_model, develop, expose
 from vehicle_sim.sensors.extrinsics import extrinsics_for, world_from_vehicle
 from vehicle_sim.sensors.laser import LaserConfig, laser_angles, scan
 from vehicle_sim.sensors.registration import register
@@ -26,6 +28,15 @@ __all__ = [
 
 _LASER_CFG = LaserConfig()
 _CAMERA_BASE = CameraConfig()
+_SIDE: tuple[int, ThreadPoolExecutor] | None = None
+
+
+def _side() -> ThreadPoolExecutor:
+    """Return the one worker thread that renders the camera beside the laser (a new one in a forked child)."""
+    global _SIDE
+    if _SIDE is None or _SIDE[0] != os.getpid():
+        _SIDE = (os.getpid(), ThreadPoolExecutor(max_workers=1, thread_name_prefix="camera-expose"))
+    return _SIDE[1]
 
 
 def capture(scene: Scene, pose_world: tuple[float, float, float], stamp: float,
@@ -57,15 +68,26 @@ def capture(scene: Scene, pose_world: tuple[float, float, float], stamp: float,
         camera_K=model.K.copy(), laser_az=az.astype(np.float32), laser_el=el.astype(np.float32),
     )
     lf = None
+    cam_origin = w_v.apply(np.asarray(ext.camera_position))
+    exposing = None
+    if request.laser and request.camera:  # the camera renders on the side while the laser scans
+        exposing = _side().submit(expose, scene, cam_origin, yaw, float(stamp), model)
     if request.laser:
-        lf = scan(scene, w_v.apply(np.asarray(ext.laser_position)), yaw, laser_cfg, rng)
+        try:
+            lf = scan(scene, w_v.apply(np.asarray(ext.laser_position)), yaw, laser_cfg, rng)
+        except BaseException:
+            if exposing is not None:
+                exposing.exception()  # let the side render end before the error leaves
+            raise
         xyz = lf.directions * lf.range[..., None] + np.asarray(ext.laser_position, np.float32)
         xyz[~lf.valid] = np.nan
         out.update(laser_code=lf.code, laser_range=lf.range, laser_valid=lf.valid, laser_reflectance=lf.reflectance,
                    laser_xyz=xyz.astype(np.float32), laser_labels=lf.labels, laser_range_true=lf.range_true,
                    laser_mixed=lf.mixed)
     if request.camera:
-        cf = shoot(scene, w_v.apply(np.asarray(ext.camera_position)), yaw, float(stamp), model, rng)
+        # the laser draws from `rng` first, then the camera's noise: the same order as rendering one after the other
+        exp = exposing.result() if exposing is not None else expose(scene, cam_origin, yaw, float(stamp), model)
+        cf = develop(exp, model, rng)
         out.update(camera_image=cf.image, camera_labels=cf.labels)
         if lf is not None:
             cr = register(out["laser_xyz"], lf.valid, cf.image, ext.camera_from_vehicle, model.K)

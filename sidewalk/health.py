@@ -100,23 +100,34 @@ async def collect_heartbeats(link: Link, keys: ModuleKeys, expect: set[str], wai
 
 
 class BeatLog:
-    """Remember, per process name, the pid and the wall time [s, time.monotonic] of its newest heartbeat."""
+    """Remember, per process name, the pid and the arrival [s, time.monotonic] of its newest heartbeat.
+
+    Arrivals are stamped on the Zenoh thread, not when the loop gets round to the sample: a busy or
+    starved loop must not make a silent process look as if it had just beaten (issue 14).
+    """
 
     def __init__(self, link: Link, keys: ModuleKeys) -> None:
         self._link = link
-        self._newest: dict[str, tuple[int, float]] = {}
-        self._sub = link.subscribe(keys.heartbeat_all, self._on_beat)
-
-    def _on_beat(self, key: str, payload: bytes) -> None:
-        try:
-            hb = decode_heartbeat(payload)
-        except HeartbeatError:
-            return
-        self._newest[key.rsplit("/", 1)[-1]] = (hb.pid, time.monotonic())
+        self._keys = keys
+        self._raw: dict[str, tuple[bytes, float]] = {}
+        self._decoded: dict[str, tuple[bytes, int | None]] = {}
+        self._sub = link.subscribe_newest(keys.heartbeat_all, self._raw)
 
     def newest(self, name: str) -> tuple[int, float] | None:
-        """Return (pid, time.monotonic() [s]) of the newest heartbeat heard from `name` (None: none)."""
-        return self._newest.get(name)
+        """Return (pid, time.monotonic() [s]) of the newest heartbeat heard from `name` (None: none, or undecodable)."""
+        key = self._keys.heartbeat(name)
+        heard = self._raw.get(key)
+        if heard is None:
+            return None
+        payload, arrived = heard
+        seen = self._decoded.get(key)
+        if seen is None or seen[0] is not payload:
+            try:
+                pid: int | None = decode_heartbeat(payload).pid
+            except HeartbeatError:
+                pid = None
+            seen = self._decoded[key] = (payload, pid)
+        return None if seen[1] is None else (seen[1], arrived)
 
     def close(self) -> None:
         """Stop listening."""

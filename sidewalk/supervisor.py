@@ -3,7 +3,10 @@
 Keeping them running (`guard`): a guarded process that exits unexpectedly is started again with
 the same plan; one that stays alive but whose heartbeat went silent is reported **wedged** once
 silent for `RestartPolicy.wedged_after_s` (3 s wall, as `sidewalk status` judges it) and, if still
-silent at `restart_wedged_after_s` (10 s wall), SIGKILLed and started again. The report comes at 3 s
+silent at `restart_wedged_after_s` (10 s wall), SIGKILLed and started again. The wedge watch runs on
+a thread of its own and the heartbeats' arrivals are stamped on Zenoh's thread, so a report comes
+3 s after the last beat however busy the event loop is (a run's observer decodes hundreds of
+samples a second; on a loaded machine its loop falls seconds behind). The report comes at 3 s
 but the kill waits longer, so a short stall (a GC pause, a loaded machine, the comparison's 5 s
 `wedge` fault) comes back on its own and keeps its state. Restarts back off exponentially per
 process (0.5 s, 1, 2, 4 … capped at 30 s; the count starts again once a life lasted `stable_s`),
@@ -21,6 +24,7 @@ import os
 import re
 import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from sidewalk.errors import SidewalkError
 from sidewalk.health import WEDGED_AFTER_S
+from wire.lifeline import die_with_parent
 
 __all__ = ["ProcessPlan", "ManagedProcess", "Supervisor", "ProcessStartError", "READY_RE",
            "RestartPolicy", "Restart", "WedgeReport", "GiveUp", "BeatSource"]
@@ -182,11 +187,16 @@ class Supervisor:
         self._wake = asyncio.Event()
         self._guard_task: asyncio.Task | None = None
         self._closing = False
+        self._watch: threading.Thread | None = None
+        self._watch_stop = threading.Event()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._sigterm_prev: object = None
         #: called with a one-line notice whenever the guard reports or restarts something
         self.on_notice: Callable[[str], None] | None = None
 
     async def start(self, plan: ProcessPlan, *, ready_timeout: float = 60.0) -> ManagedProcess:
         """Start one process and return once it printed its ready line [timeout in wall s]."""
+        self._arm_sigterm()
         log_path = self.log_dir / f"{plan.name}.log"
         log = open(log_path, "ab", buffering=0)
         env = dict(os.environ)
@@ -200,6 +210,7 @@ class Supervisor:
             stderr=log,
             env=env,
             start_new_session=True,  # Ctrl-C in the terminal reaches only the launcher
+            preexec_fn=die_with_parent(),  # … and a launcher killed outright takes its children along
         )
         log.close()
         mp = ManagedProcess(plan=plan, proc=proc, log_path=log_path)
@@ -223,6 +234,38 @@ class Supervisor:
             raise ProcessStartError(f"{plan.name} exited with code {proc.returncode} before it was ready:\n{tail}")
         await self.stop(plan.name)
         raise ProcessStartError(f"{plan.name} printed no ready line within {ready_timeout:.0f} s:\n{tail}")
+
+    def _arm_sigterm(self) -> None:
+        """Once, on the main thread's loop: on SIGTERM end every child's process group, then take SIGTERM as before."""
+        if self._sigterm_prev is not None:
+            return
+        try:
+            prev = signal.getsignal(signal.SIGTERM)
+            asyncio.get_running_loop().add_signal_handler(signal.SIGTERM, self._on_sigterm)
+        except (NotImplementedError, RuntimeError, ValueError):  # not the main thread, or no signals here
+            return
+        self._sigterm_prev = signal.SIG_DFL if prev is None else prev
+
+    def _disarm_sigterm(self) -> None:
+        if self._sigterm_prev is None:
+            return
+        with contextlib.suppress(RuntimeError):
+            asyncio.get_running_loop().remove_signal_handler(signal.SIGTERM)
+        with contextlib.suppress(ValueError):
+            signal.signal(signal.SIGTERM, self._sigterm_prev)  # type: ignore[arg-type]
+        self._sigterm_prev = None
+
+    def _on_sigterm(self) -> None:
+        """SIGTERM to the launcher: SIGTERM each child's process group (own sessions: no terminal reaches them), then die of it."""
+        self._closing = True
+        self._watch_stop.set()
+        for mp in self.procs.values():
+            if not mp.exited.is_set():
+                mp.expected_exit = True
+                with contextlib.suppress(ProcessLookupError, PermissionError):
+                    os.killpg(mp.pid, signal.SIGTERM)
+        self._disarm_sigterm()
+        os.kill(os.getpid(), signal.SIGTERM)  # what SIGTERM would have done here without us
 
     async def _pump(self, mp: ManagedProcess, ready: asyncio.Event) -> None:
         assert mp.proc.stdout is not None
@@ -290,6 +333,9 @@ class Supervisor:
     async def stop_all(self, *, grace: float = 8.0) -> dict[str, int | None]:
         """Stop guarding, then stop every process in reverse start order; return exit codes by name."""
         self._closing = True
+        self._watch_stop.set()
+        if self._watch is not None:
+            await asyncio.to_thread(self._watch.join)
         pending = [t for t in [self._guard_task, *(g.reviving for g in self._guards.values())] if t is not None]
         for t in pending:
             t.cancel()
@@ -300,6 +346,7 @@ class Supervisor:
         for t in self._tasks:
             t.cancel()
         await asyncio.gather(*self._tasks, return_exceptions=True)
+        self._disarm_sigterm()
         return codes
 
     # ---- keeping processes running ------------------------------------------------------------
@@ -312,7 +359,11 @@ class Supervisor:
         for n in names:
             self._guards.setdefault(n, _Guard())
         if self._guard_task is None:
+            self._loop = asyncio.get_running_loop()
             self._guard_task = asyncio.create_task(self._guard_loop(), name="supervisor-guard")
+        if beats is not None and self._watch is None:
+            self._watch = threading.Thread(target=self._watch_wedges, name="supervisor-wedge-watch", daemon=True)
+            self._watch.start()
 
     def _since(self) -> float:
         return round(time.monotonic() - self.t0, 3)
@@ -339,22 +390,42 @@ class Supervisor:
                         self._revive(name, g, f"exited with code {mp.proc.returncode}")
                     continue
                 beat = self._beats(name) if self._beats is not None else None
-                if beat is None or beat[0] != mp.pid or mp.ready_at is None:
+                if beat is None or beat[0] != mp.pid or mp.ready_at is None or pol.restart_wedged_after_s is None:
                     continue  # judged only once this life was heard beating
                 silent = now - beat[1]
-                if silent >= pol.wedged_after_s and g.wedge_reported_pid != mp.pid:
-                    g.wedge_reported_pid = mp.pid
-                    self.wedges.append(WedgeReport(module=name, at_s=self._since(), silent_s=round(silent, 3), pid=mp.pid))
-                    self._notice(f"{name} is wedged: alive (pid {mp.pid}) but no heartbeat for {silent:.1f} s")
-                if pol.restart_wedged_after_s is not None and silent >= pol.restart_wedged_after_s:
+                if silent >= pol.restart_wedged_after_s:
                     self._revive(name, g, f"wedged: no heartbeat for {silent:.1f} s", kill=mp)
                     continue
-                due = [beat[1] + pol.wedged_after_s] if g.wedge_reported_pid != mp.pid else []
-                if pol.restart_wedged_after_s is not None:
-                    due.append(beat[1] + pol.restart_wedged_after_s)
-                next_check = min([next_check, *due])
+                next_check = min(next_check, beat[1] + pol.restart_wedged_after_s)
             with contextlib.suppress(asyncio.TimeoutError):
                 await asyncio.wait_for(self._wake.wait(), max(0.01, next_check - time.monotonic()))
+
+    def _watch_wedges(self) -> None:
+        """On its own thread: report each guarded life silent for `wedged_after_s` once, at that moment."""
+        assert self._policy is not None and self._beats is not None and self._loop is not None
+        pol, loop = self._policy, self._loop
+        wait = 0.0
+        while not self._watch_stop.wait(wait):
+            now = time.monotonic()
+            due = now + 1.0  # heartbeats arrive at 1 Hz: look again at least that often
+            for name, g in list(self._guards.items()):
+                mp = self.procs.get(name)
+                if (mp is None or g.gave_up or name in self._held or mp.ready_at is None or mp.exited.is_set()
+                        or g.wedge_reported_pid == mp.pid or (g.reviving is not None and not g.reviving.done())):
+                    continue
+                beat = self._beats(name)
+                if beat is None or beat[0] != mp.pid:
+                    continue  # judged only once this life was heard beating
+                silent = now - beat[1]
+                if silent < pol.wedged_after_s:
+                    due = min(due, beat[1] + pol.wedged_after_s)
+                    continue
+                g.wedge_reported_pid = mp.pid
+                self.wedges.append(WedgeReport(module=name, at_s=self._since(), silent_s=round(silent, 3), pid=mp.pid))
+                text = f"{name} is wedged: alive (pid {mp.pid}) but no heartbeat for {silent:.1f} s"
+                with contextlib.suppress(RuntimeError):  # the loop closed: nobody left to tell
+                    loop.call_soon_threadsafe(self._notice, text)
+            wait = max(0.01, due - time.monotonic())
 
     def _revive(self, name: str, g: _Guard, reason: str, *, kill: ManagedProcess | None = None) -> None:
         g.reviving = asyncio.create_task(self._revive_task(name, g, reason, kill), name=f"revive-{name}")

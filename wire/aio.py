@@ -9,6 +9,7 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
+import time
 from dataclasses import dataclass
 from typing import Any, Awaitable, Callable
 
@@ -101,6 +102,18 @@ class Link:
                 loop.call_soon_threadsafe(on_sample, key, data)
             except RuntimeError:  # loop closed during shutdown
                 pass
+
+        return self.session.subscribe_payload(key_expr, cb)
+
+    def subscribe_newest(self, key_expr: str, newest: dict[str, tuple[bytes, float]]) -> Any:
+        """Keep in `newest` the latest payload of each key matching `key_expr` and its arrival [s, time.monotonic()].
+
+        Stored on the Zenoh thread as each sample arrives (a dict assignment, never blocking), so an
+        arrival time stays true however far behind the loop is: what a watchdog of other processes needs.
+        """
+
+        def cb(key: str, data: bytes) -> None:
+            newest[key] = (data, time.monotonic())
 
         return self.session.subscribe_payload(key_expr, cb)
 

@@ -22,6 +22,7 @@ from modules.runtime.lifecycle import READY_PREFIX
 from wire.aio import Link
 from wire.health import Heartbeat, HeartbeatError, decode_heartbeat
 from wire.keys import ModuleKeys
+from wire.lifeline import die_with_parent
 from wire.network import NetworkConfig
 
 from eddie.errors import SupervisorError
@@ -111,7 +112,8 @@ class Supervisor:
         env = {**os.environ, **self._env, **child.spec.env, "PYTHONUNBUFFERED": "1"}
         out = open(self.log_dir / f"{name}.log", "ab")  # noqa: SIM115 - handed to the child
         try:
-            child.proc = await asyncio.create_subprocess_exec(*argv, stdout=asyncio.subprocess.PIPE, stderr=out, env=env)
+            child.proc = await asyncio.create_subprocess_exec(*argv, stdout=asyncio.subprocess.PIPE, stderr=out, env=env,
+                                                              preexec_fn=die_with_parent())  # a killed supervisor takes them along
         except OSError as exc:
             raise SupervisorError(f"module {name!r}: cannot start {argv[1:]}: {exc}") from None
         finally:

@@ -18,6 +18,7 @@ from typing import Callable, Optional, Sequence
 from pydantic import BaseModel, ConfigDict
 
 from sidewalk.compare.faults import FaultSpec
+from wire.lifeline import die_with_parent
 
 __all__ = ["GridRun", "GridResult", "available_architectures", "run_grid", "ARCHITECTURES"]
 
@@ -102,7 +103,7 @@ async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool) -> Grid
     (run.out / "report.json").unlink(missing_ok=True)  # a report left by an earlier comparison is not this run's
     with open(run.out / "compare-run.log", "wb") as log:
         proc = await asyncio.create_subprocess_exec(python, *run.argv(arch_flag=arch_flag), stdin=asyncio.subprocess.DEVNULL,
-                                                    stdout=log, stderr=log)
+                                                    stdout=log, stderr=log, preexec_fn=die_with_parent())
         code = await proc.wait()
     return GridResult(run=run, exit_code=code, has_report=(run.out / "report.json").exists())
 

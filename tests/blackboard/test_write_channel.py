@@ -14,6 +14,7 @@ from wire.session import open_session
 from wire.keys import BlackboardKeys
 from blackboard.testing import start_node
 from wire.ports import free_port
+from tests._procs import wait_stopped
 from tests.blackboard.sample_types import Landmark, Segment
 
 pytestmark = pytest.mark.timeout(90)
@@ -116,6 +117,9 @@ async def test_pending_writes_fail_with_node_unavailable_not_hang():
                 BlackboardClient(node.client_net(), source="t2", timeout=60.0, reconnect=False) as slow:
             await quick.post(Segment(index=1), stamp=0.0)
             os.kill(node.proc.pid, signal.SIGSTOP)  # alive (liveliness holds) but not answering
+            # kill() returns before the stop takes effect: one thread takes it and stops the others when it
+            # next runs, and meanwhile the node's Zenoh threads may still commit and acknowledge a write
+            wait_stopped(node.proc.pid)
             try:
                 with pytest.raises(NodeUnavailableError, match="no acknowledgement"):
                     await asyncio.wait_for(quick.post(Segment(index=2), stamp=0.0), 10)

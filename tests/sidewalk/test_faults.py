@@ -15,20 +15,11 @@ from sidewalk.health import WEDGED_AFTER_S, ModuleHealth, collect_heartbeats
 from sidewalk.launcher import record_run
 from sidewalk.report import build_report
 from sidewalk.run_record import save_record
+from tests.sidewalk._mission import drive_to
 from tests.sidewalk.test_e2e_faults import DATA, _system
 from wire.keys import ModuleKeys, SimKeys
 
 MODULES = ("helm", "pilot", "map_navigator", "captain")
-
-
-async def _drive_to(system, mid: str, metres: float, timeout: float = 90.0) -> None:
-    """Return once the true vehicle has driven `metres` [m] in all (statuses are the wake-ups)."""
-    loop = asyncio.get_running_loop()
-    end = loop.time() + timeout
-    while system.recorder.distance_m() < metres and loop.time() < end:
-        st = await system.next_status(mid, timeout=0.2)
-        assert st is None or not st.terminal, f"the mission ended before {metres} m: {st.state} {st.reason}"
-    assert system.recorder.distance_m() >= metres, f"the vehicle drove only {system.recorder.distance_m():.1f} m"
 
 
 @pytest.mark.e2e
@@ -42,7 +33,7 @@ async def test_node_restart_and_a_wedged_helm_are_survived_and_the_mission_truly
     try:
         mid = await system.submit(text)
         await system.wait_status(mid, lambda s: s.state == "running", timeout=60)
-        await _drive_to(system, mid, 5.0)
+        await drive_to(system, mid, 5.0)
 
         # ---- 1. the blackboard node killed and restarted on the same database
         await system.kill("blackboard")
@@ -62,7 +53,7 @@ async def test_node_restart_and_a_wedged_helm_are_survived_and_the_mission_truly
         assert held > 0 and stats is not None and stats.monitors >= held, (held, stats)
         assert all(system.alive(n) for n in MODULES)
         driven = system.recorder.distance_m()
-        await _drive_to(system, mid, driven + 5.0)  # and the vehicle drives on
+        await drive_to(system, mid, driven + 5.0)  # and the vehicle drives on
 
         # ---- 2. the HELM stopped past its liveliness lease, then continued
         helm_pid = system.sup.procs["helm"].proc.pid

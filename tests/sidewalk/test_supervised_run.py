@@ -16,6 +16,7 @@ from sidewalk.launcher import RunConfig, build_plans, mission_path, prepare_run,
 from sidewalk.report import build_report, write_report
 from sidewalk.supervisor import RestartPolicy
 from sidewalk.system import SystemRun
+from tests.sidewalk._mission import drive_to
 from tests.sidewalk.test_e2e_faults import DATA
 from vehicle_sim.worldfile import world_path
 from wire.ports import free_port
@@ -46,33 +47,22 @@ async def _supervised(cfg: RunConfig, policy: RestartPolicy):
     return system, setup, seen, when
 
 
-async def _drive_to(system, mid: str, metres: float, timeout: float = 90.0) -> None:
-    loop = asyncio.get_running_loop()
-    end = loop.time() + timeout
-    while system.recorder.distance_m() < metres and loop.time() < end:
-        st = await system.next_status(mid, timeout=0.2)
-        assert st is None or not st.terminal, f"the mission ended before {metres} m: {st.state} {st.reason}"
-    assert system.recorder.distance_m() >= metres, f"the vehicle drove only {system.recorder.distance_m():.1f} m"
-
-
 @pytest.mark.e2e
-@pytest.mark.timeout(300)
-# issue 14, open: in two clean-clone runs of 2026-11-23 this failed once on the truth verdict (1.52 m for a 1.50 m
-# tolerance) and once with no wedge report within 10 s; it passed in others. Kept running, not hidden: xfail until fixed.
-@pytest.mark.xfail(strict=False, reason="issue 14: flaky (wedge report within 10 s; truth margin) — see the closing note")
+@pytest.mark.timeout(400)  # as the other HELM fault test: six processes start one by one on a loaded machine
 async def test_a_sigstopped_helm_is_reported_wedged_within_3_s_restarted_and_the_mission_arrives(tmp_path, capsys):
     cfg = RunConfig(world="campus", mission=str(DATA / "short-hop.yaml"), rtf=10.0, seed=5, out=tmp_path, perception=False)
     system, setup, seen, when = await _supervised(cfg, RestartPolicy())
     try:
         mid = await system.submit(mission_path(cfg.mission).read_text())
         await system.wait_status(mid, lambda s: s.state == "running", timeout=60)
-        await _drive_to(system, mid, 5.0)
+        await drive_to(system, mid, 5.0)
         helm = system.sup.procs["helm"]
         old_pid = helm.pid
         t_stop = time.monotonic()
         os.kill(old_pid, signal.SIGSTOP)
-        await asyncio.wait_for(seen["wedged"].wait(), 10)
-        reported_s = when["wedged"] - t_stop
+        await asyncio.wait_for(seen["wedged"].wait(), 30)  # the notice reaches this loop when it gets round to it
+        # when the supervisor reported it (its own watch thread), not when this busy loop heard of it
+        reported_s = system.sup.t0 + system.sup.wedges[0].at_s - t_stop
         await asyncio.wait_for(seen["restarted"].wait(), 90)
         restarted_s = when["restarted"] - t_stop
         final = await system.wait_status(mid, lambda s: s.terminal, timeout=180)

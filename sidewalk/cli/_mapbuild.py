@@ -13,7 +13,7 @@ __all__ = ["register"]
 
 def mapbuild(
     world: Annotated[str, typer.Option(help="World name (worlds/<name>.world.geojson) or file")] = "north_hills",
-    route: Annotated[str, typer.Option(help="Mission whose route to drive (worlds/<name>.yaml or a file)")] = "amv-delivery",
+    route: Annotated[str, typer.Option("--route", "--mission", help="Mission whose route to drive (worlds/<name>.yaml or a file)")] = "amv-delivery",
     out: Annotated[Path, typer.Option(help="Map file to write (GeoJSON)")] = Path("runs/mapbuild/built.map.geojson"),
     vehicle: Annotated[str, typer.Option(help="terregator or navlab")] = "navlab",
     seed: Annotated[int, typer.Option(help="Seed of odometry and sensor noise")] = 0,

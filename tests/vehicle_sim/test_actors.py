@@ -71,6 +71,19 @@ def test_scanner_sees_a_parked_car_and_the_detector_finds_it() -> None:
     assert detect_obstacles(LaserScan.from_capture(empty)) == []
 
 
+def test_the_camera_sees_an_actor_in_a_world_with_weather() -> None:
+    # north_hills has wet patches and leaves: an actor's material must have a weather entry too
+    from vehicle_sim.worldfile import load_world
+
+    w = load_world("north_hills")
+    assert w.weather is not None
+    actors = ActorSet([Actor(id="car", kind="car", yaw_deg=90.0, path=(Waypoint(x=1.5, y=-30.0),))])
+    scene = Scene(w, seed=1)
+    scene.add_actors(actors)
+    cap = capture(scene.at_time(actors, 0.0), (1.5, -40.0, math.pi / 2), 0.0, CaptureRequest(camera=True, truth=True), vehicle="navlab")
+    assert (cap.camera_labels == KINDS.index("rock")).sum() > 100
+
+
 def test_driving_into_a_parked_car_is_a_collision_and_clearance_is_tracked() -> None:
     w = road_world()
     car = Actor(id="car", kind="car", yaw_deg=0.0, path=(Waypoint(x=15.0, y=0.0),))

@@ -56,11 +56,12 @@ EDDIE_PERCEPTION_MODULES = ("obstacle_stop", "landmark_matching", "road_followin
 def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, rtf: float, seed: int, watchdog_s: float,
                 start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
                 map_file: Path, annotated_map: Optional[Path], perception: bool, record: bool = True,
-                monitor_port: Optional[int] = None, secure: Optional[Path] = None,
+                monitor_port: Optional[int] = None, secure: Optional[Path] = None, actors: Optional[str] = None,
                 max_speed: Optional[float] = None) -> list[ProcessPlan]:
     """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard.
 
-    `secure`: the `sidewalk security init` directory every process gets as --secure (each its own role).
+    `secure`: the `sidewalk security init` directory every process gets as --secure (each its own role);
+    `actors`: objects not on the map the simulator places (an actors file or preset, issue 12).
     `max_speed` [m/s]: `sidewalk run --max-speed`, EDDIE's counterpart of the PILOT's cap — the mission
     service's route speed and the controller's top speed (so no trigger or client drives faster).
     """
@@ -74,15 +75,18 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
         ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint, *sec)),
         *observer_plans(out, zflags, record=record, monitor_port=monitor_port, arch="eddie"),
         ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", world, "--vehicle", vehicle, *sim_start,
-                            "--rtf", str(rtf), "--seed", str(seed), "--watchdog", str(watchdog_s), *zflags)),
+                            "--rtf", str(rtf), "--seed", str(seed), "--watchdog", str(watchdog_s), *zflags,
+                            *(("--actors", actors) if actors else ()))),
         ProcessPlan("controller", ("-m", "sidewalk", "up", "controller", "--vehicle", vehicle, *cap, *zflags)),
         ProcessPlan("navigator", ("-m", "sidewalk", "up", "navigator", f"--start-pose={sx},{sy},{syaw}", *zflags)),
     ]
     if annotated_map is not None:
         plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--annotated-map", str(annotated_map), *zflags)))
     if perception:
+        # obstacle stop sleeps until the route's `start_obstacles` triggers switch it on (issue 12)
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),
-                                     f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags))
+                                     f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags,
+                                     *(("--asleep",) if name == "obstacle_stop" else ())))
                   for name in EDDIE_PERCEPTION_MODULES]
     plans.append(ProcessPlan("mission_service", (
         "-m", "sidewalk", "up", "mission_service", "--map", str(map_file),

@@ -305,7 +305,7 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
     # ---- monitor and recording (issue 11): recorder and monitor start before the simulator ----
     plans[2:2] = observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port)
     if cfg.obstacles or (cfg.obstacles is None and cfg.actors):  # issue 12
-        plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", *zflags)))
+        plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", "--map", str(setup.map_file), *zflags)))
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags)))
     plans += [
@@ -377,8 +377,6 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     if cfg.arch == "eddie":
-        if cfg.actors is not None:
-            raise LaunchError("--actors: EDDIE's simulator plan does not place actors yet; run --arch eddie without it (or --arch codger)")
         from sidewalk.eddie_run import EddieSystemRun, compile_annotated_map, eddie_plans
 
         amap = compile_annotated_map(setup, out)
@@ -386,7 +384,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             out=out, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
             watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
             map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
-            secure=cfg.secure, max_speed=cfg.max_speed,
+            secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
         ), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure)
     else:
         system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)

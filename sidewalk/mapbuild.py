@@ -4,9 +4,14 @@ The vehicle is driven along a mission's route (the roads come from the map file:
 known, the objects are not); the driving is the simulator's business, as the seed's human driver
 was. What the robot knows of where it is comes from dead reckoning only (the distance travelled,
 by odometry, along the known lane of the route: "road-matched" dead reckoning; frames on bends
-are skipped). At every `step_m` of travel the laser is read; obstacles small enough to be trees,
-posts, mailboxes become observations in the `world` frame at the dead-reckoned pose, and the
-`ObjectTracker` folds them in (confidence up when seen, down when missed where it should appear,
+are skipped). Odometry's distance drifts (a scale error of ~1 % is 5 m over the AMV route), so the
+distance is re-anchored at each turn of the route: where the odometry heading has turned half of a
+sharp turn the vehicle is at the turn's middle on the map's lane (`turn_anchors`), and between
+anchors the odometry distance is stretched to the map's (past the last one, with the last leg's
+scale). At every `step_m` of travel the laser is read; obstacles small enough to be trees,
+posts, mailboxes become vehicle-frame observations; after the drive each frame is placed on the
+lane at its anchored distance, the observations put in the `world` frame there, and the
+`ObjectTracker` folds them in frame by frame (confidence up when seen, down when missed where it should appear,
 maximum-likelihood positions, moving and spurious objects dropped). The built map is the map file's
 ground (roads, lawns, buildings, path graph) with its discrete objects replaced by the built ones,
 written as GeoJSON a later run takes with `sidewalk run --map FILE`. Truth (the world) is read here
@@ -26,7 +31,8 @@ from modules.perception.landmarks import LandmarkConfig, landmark_observations
 from modules.perception.object_tracker import ObjectTracker, TrackedObject, TrackerConfig, WorldObservation
 from modules.perception.obstacles import LaserScan, detect_obstacles
 
-__all__ = ["MapBuildReport", "BuiltMap", "DISCRETE_KINDS", "route_polyline", "build_map", "score_map", "write_map"]
+__all__ = ["MapBuildReport", "BuiltMap", "DISCRETE_KINDS", "route_polyline", "build_map", "score_map", "write_map",
+           "turn_anchors", "anchored_distance"]
 
 #: Kinds of map objects that are discrete objects the laser maps (the rest is ground and buildings).
 DISCRETE_KINDS = ("tree", "mailbox", "sign", "hydrant", "lamp_post", "bench", "rock")
@@ -119,7 +125,6 @@ def build_map(world, map_world, mission, *, actors=None, vehicle: str = "navlab"
     if actors is not None and len(actors):
         scene.add_actors(actors)
     rng = np.random.default_rng([seed, 0x3A9])
-    tr = ObjectTracker(tracker)
     req = CaptureRequest(camera=False)
     kmax = 1.0 / 7.0 if vehicle == "navlab" else 2.0
     last_cap = -math.inf
@@ -128,6 +133,8 @@ def build_map(world, map_world, mission, *, actors=None, vehicle: str = "navlab"
     x0, y0, yaw0 = start  # world ← local: the robot knows where it started
     c0, s0 = math.cos(yaw0), math.sin(yaw0)
     lane_cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(lane, axis=0), axis=1))])
+    heading: list[tuple[float, float]] = []  # (odometry distance [m], odometry heading [rad]) every step
+    shots: list[tuple[float, list]] = []  # (odometry distance [m], vehicle-frame landmark observations)
     while True:
         st = sim.state
         xy = np.array([st.x, st.y])
@@ -142,31 +149,119 @@ def build_map(world, map_world, mission, *, actors=None, vehicle: str = "navlab"
         sim.submit(DriveCommand(speed=min(speed, 1.0 + (total - s) * 0.5), curvature=kappa, duration=1.0, seq=seq))
         sim.advance(0.1)
         od = sim.odom
+        heading.append((od.distance, yaw0 + od.yaw))
         if od.distance - last_cap >= step_m:
             last_cap = od.distance
-            pose_w = _road_matched(lane_cum, lane, od.distance)
-            if pose_w is None:  # on a bend the vehicle leaves the lane's tangent: no observation there
-                continue
             sc = scene.at_time(actors, sim.t) if actors is not None else scene
             cap = capture(sc, (sim.state.x, sim.state.y, sim.state.yaw), sim.t, req, vehicle=vehicle, rng=rng)
-            obs = landmark_observations(detect_obstacles(LaserScan.from_capture(cap)), landmarks)
-            cw, sw = math.cos(pose_w[2]), math.sin(pose_w[2])
-            R = np.array([[cw, -sw], [sw, cw]])
-            wobs = []
-            for o in obs:
-                p = np.array(pose_w[:2]) + R @ np.array([o.x, o.y])
-                cv = R @ np.asarray(o.cov) @ R.T
-                wobs.append(WorldObservation(x=float(p[0]), y=float(p[1]), cov=((cv[0, 0], cv[0, 1]), (cv[1, 0], cv[1, 1])),
-                                             size=o.size, height=o.height))
-            tr.update(pose_w, wobs)
-            frames += 1
+            shots.append((od.distance, landmark_observations(detect_obstacles(LaserScan.from_capture(cap)), landmarks)))
         if sim.t > 3600.0:
             break
+    anchors = turn_anchors(lane, np.asarray(heading, np.float64).reshape(-1, 2))
+    tr = ObjectTracker(tracker)
+    for dist, obs in shots:
+        pose_w = _road_matched(lane_cum, lane, anchored_distance(anchors, dist))
+        if pose_w is None:  # on a bend the vehicle leaves the lane's tangent: no observation there
+            continue
+        cw, sw = math.cos(pose_w[2]), math.sin(pose_w[2])
+        R = np.array([[cw, -sw], [sw, cw]])
+        wobs = []
+        for o in obs:
+            p = np.array(pose_w[:2]) + R @ np.array([o.x, o.y])
+            cv = R @ np.asarray(o.cov) @ R.T
+            wobs.append(WorldObservation(x=float(p[0]), y=float(p[1]), cov=((cv[0, 0], cv[0, 1]), (cv[1, 0], cv[1, 1])),
+                                         size=o.size, height=o.height))
+        tr.update(pose_w, wobs)
+        frames += 1
     od = sim.odom
     est = np.array([x0 + c0 * od.x - s0 * od.y, y0 + s0 * od.x + c0 * od.y])
     return BuiltMap(objects=tr.mapped(), frames=frames, distance_m=float(od.distance), dropped_moving=tr.dropped_moving,
                     dropped_spurious=tr.dropped_spurious,
                     odometry_error_final_m=float(np.linalg.norm(est - (sim.state.x, sim.state.y))))
+
+
+def _unwrap(a: np.ndarray) -> np.ndarray:
+    return np.unwrap(np.asarray(a, np.float64))
+
+
+def turn_anchors(lane: np.ndarray, heading: np.ndarray, *, min_turn: float = math.radians(45.0),
+                 window_m: float = 25.0) -> np.ndarray:
+    """Return (K, 2) anchors (odometry distance [m], lane arc length [m]) at the lane's sharp turns, (0, 0) first.
+
+    A turn is where the heading changes by more than `min_turn` [rad] within `window_m` [m]. On the
+    lane (a polyline) it is a corner at arc length s_c; the vehicle drives it as an arc: in the
+    odometry trace `heading` (N, 2: odometry distance [m], heading [rad]) its middle is where half the
+    change θ is done and its radius R comes from the distance over which 5–95 % of θ is turned. The arc
+    meets the lane at its tangent points, R·tan(θ/2) before and after the corner on the lane and R·θ/2
+    before and after the middle by odometry: those two points are the anchors of each turn. The turns
+    are paired in order; when the counts differ (the drive did not follow the route) only the start anchors.
+    """
+    def turns(s: np.ndarray, yaw: np.ndarray) -> list[tuple[float, float, float, float]]:
+        """Return (s where 5 % is turned, s at half, s at 95 %, signed θ) of each turn."""
+        g = np.arange(s[0], s[-1], 0.5)  # resampled every 0.5 m
+        y = np.interp(g, s, yaw)
+        h = int(round(0.5 * window_m / 0.5))
+        if len(g) <= 2 * h:
+            return []
+        change = np.zeros(len(g))
+        change[h:-h] = y[2 * h:] - y[:-2 * h]  # heading change across a window centred on each sample
+        on = np.abs(change) >= min_turn
+        out: list[tuple[float, float, float, float]] = []
+        k = 0
+        while k < len(g):
+            if not on[k]:
+                k += 1
+                continue
+            e = k
+            while e + 1 < len(g) and on[e + 1]:
+                e += 1
+            lo, hi = max(0, k - h), min(len(g) - 1, e + h)
+            theta = float(y[hi] - y[lo])
+            done = np.sign(theta) * (y[lo:hi + 1] - y[lo]) / max(abs(theta), 1e-9)  # 0 → 1 through the turn
+
+            def past(f: float) -> float:
+                i = np.flatnonzero(done >= f)
+                return float(g[lo + int(i[0])]) if len(i) else float(g[(lo + hi) // 2])
+
+            out.append((past(0.05), past(0.5), past(0.95), theta))
+            k = e + 1
+        return out
+
+    seg = np.diff(lane, axis=0)
+    ln = np.linalg.norm(seg, axis=1)
+    keep = ln > 1e-9
+    cum = np.concatenate([[0.0], np.cumsum(ln[keep])])
+    yaw_seg = _unwrap(np.arctan2(seg[keep, 1], seg[keep, 0]))
+    # the lane's heading sampled every 0.5 m (piecewise constant between vertices)
+    s_l = np.arange(0.0, cum[-1], 0.5)
+    yaw_l = yaw_seg[np.clip(np.searchsorted(cum, s_l, side="right") - 1, 0, len(yaw_seg) - 1)]
+    lane_turns = turns(s_l, yaw_l)
+    odo_turns = turns(heading[:, 0], _unwrap(heading[:, 1])) if len(heading) > 2 else []
+    out = [(0.0, 0.0)]
+    if len(odo_turns) == len(lane_turns):
+        for (o5, o_mid, o95, theta), (_, s_c, _, _) in zip(odo_turns, lane_turns):
+            th = abs(theta)
+            r = max(o95 - o5, 0.5) / (0.9 * th)
+            for a, b in ((o_mid - 0.5 * r * th, s_c - r * math.tan(0.5 * th)), (o_mid + 0.5 * r * th, s_c + r * math.tan(0.5 * th))):
+                if a > out[-1][0] and b > out[-1][1]:
+                    out.append((a, b))
+    return np.asarray(out, np.float64)
+
+
+def anchored_distance(anchors: np.ndarray, d: float) -> float:
+    """Return the lane arc length [m] at odometry distance `d` [m]: stretched between `turn_anchors`, past the last
+    with the straight legs' scale so far (the raw distance when there is no turn)."""
+    a = np.asarray(anchors, np.float64).reshape(-1, 2)
+    if len(a) < 2:
+        return float(d)
+    if d >= a[-1, 0]:
+        # the straight legs' scale: intervals alternate leg (start → turn-in), turn (in → out), leg (out → next in), …
+        legs = np.diff(a, axis=0)[0::2]
+        scale = float(legs[:, 1].sum() / max(legs[:, 0].sum(), 1e-9))
+        return float(a[-1, 1] + (d - a[-1, 0]) * scale)
+    j = int(np.clip(np.searchsorted(a[:, 0], d) - 1, 0, len(a) - 2))
+    (o0, s0), (o1, s1) = a[j], a[j + 1]
+    return float(s0 + (d - o0) * (s1 - s0) / max(o1 - o0, 1e-9))
 
 
 def _road_matched(cum: np.ndarray, lane: np.ndarray, s: float, straight: float = 6.0,

@@ -8,24 +8,37 @@ from typing import Optional, Sequence
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
-__all__ = ["StopSummary", "stop_summary"]
+__all__ = ["StopSpan", "StopSummary", "stop_summary"]
+
+
+class StopSpan(BaseModel):
+    """One stop on the way: when it began [s] (from submission when known, else sim time), how long [s], where (x, y) [m] `world`."""
+
+    model_config = ConfigDict(frozen=True)
+
+    at_s: float
+    duration_s: float
+    x: float
+    y: float
 
 
 class StopSummary(BaseModel):
-    """How often the vehicle stopped on the way (not at the start or the end), for how long [s] sim, and how
-    close its footprint came to any actor [m] (None without actors)."""
+    """How often the vehicle stopped on the way (not at the start or the end), for how long [s] sim, each stop
+    (`spans`), and how close its footprint came to any actor [m] (None without actors)."""
 
     model_config = ConfigDict(frozen=True)
 
     stops: int
     stopped_s: float
+    spans: tuple[StopSpan, ...] = ()
     min_actor_clearance_m: Optional[float] = None
 
 
 def stop_summary(truth: Sequence[Sequence[float]], *, actors: str | None, world_name: str, vehicle: str,
-                 still: float = 0.05, min_stop_s: float = 1.0) -> StopSummary:
+                 still: float = 0.05, min_stop_s: float = 1.0, t0: float = 0.0) -> StopSummary:
     """Return the stops (true speed below `still` [m/s] for at least `min_stop_s` [s], between first moving and
-    the last move) and the closest approach to the actors, replaying their scripts along the true track (t, x, y, yaw)."""
+    the last move; times from sim time `t0` [s]) and the closest approach to the actors (the world file's and
+    `actors`), replaying their scripts along the true track (t, x, y, yaw)."""
     tr = np.asarray(truth, float).reshape(-1, 4)
     if len(tr) < 3:
         return StopSummary(stops=0, stopped_s=0.0)
@@ -33,6 +46,7 @@ def stop_summary(truth: Sequence[Sequence[float]], *, actors: str | None, world_
     v = np.hypot(np.diff(tr[:, 1]), np.diff(tr[:, 2])) / np.maximum(dt, 1e-9)
     moving = np.flatnonzero(v >= still)
     stops, stopped = 0, 0.0
+    spans: list[StopSpan] = []
     if len(moving):
         i, last = int(moving[0]), int(moving[-1])
         while i < last:
@@ -44,17 +58,26 @@ def stop_summary(truth: Sequence[Sequence[float]], *, actors: str | None, world_
                 if span >= min_stop_s:
                     stops += 1
                     stopped += span
+                    spans.append(StopSpan(at_s=round(float(tr[i, 0]) - t0, 3), duration_s=round(span, 3),
+                                          x=round(float(tr[i, 1]), 2), y=round(float(tr[i, 2]), 2)))
                 i = j
             else:
                 i += 1
     clearance = None
-    if actors:
-        from vehicle_sim.actors import load_actors
-        from vehicle_sim.simulator import SimConfig, Simulator
-        from vehicle_sim.worldfile import load_world
+    from vehicle_sim.actors import ActorSet, load_actors
+    from vehicle_sim.worldfile import load_world
 
-        aset = load_actors(actors)
-        sim = Simulator(load_world(world_name), SimConfig(vehicle=vehicle))  # type: ignore[arg-type]
+    try:
+        world = load_world(world_name)
+        aset = world.actor_set() + (load_actors(actors) if actors else ActorSet())  # the world file's and the run's
+    except (FileNotFoundError, ValueError):
+        if actors:
+            raise
+        aset = ActorSet()  # a world given as a file the report cannot find by name: no actors of its own known
+    if len(aset):
+        from vehicle_sim.simulator import SimConfig, Simulator
+
+        sim = Simulator(world, SimConfig(vehicle=vehicle))  # type: ignore[arg-type]
         from vehicle_sim.kinematics import VehicleState
         from vehicle_sim.simulator import _clearance
 
@@ -65,4 +88,4 @@ def stop_summary(truth: Sequence[Sequence[float]], *, actors: str | None, world_
             for _, corners in aset.footprints(t):
                 best = min(best, _clearance(pts, corners))
         clearance = round(best, 3) if math.isfinite(best) else None
-    return StopSummary(stops=stops, stopped_s=round(stopped, 3), min_actor_clearance_m=clearance)
+    return StopSummary(stops=stops, stopped_s=round(stopped, 3), spans=tuple(spans), min_actor_clearance_m=clearance)

@@ -4,8 +4,9 @@ An actor is a box (length × width × height [m]) moving along a scripted path o
 `world` frame: it waits `start_after` [s] of sim time, or until the vehicle first comes within
 `trigger_distance` [m], then walks the waypoints at `speed` [m/s], dwelling `dwell` [s] at each
 waypoint that names one; at the last waypoint it stays (or is gone when `vanish` is set). Actors are
-declared in an actors file (JSON or YAML: `{"actors": [...]}`) or picked by preset name, and are
-truth: only the simulator renders them and counts collisions with them.
+declared in an actors file (JSON or YAML: `{"actors": [...]}`), picked by preset name, or listed in the
+world file's optional top-level `actors` (the same entries), and are truth: only the simulator
+renders them and counts collisions with them (and evaluation replays them).
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ __all__ = [
     "ACTOR_PRESETS",
     "ACTOR_SIZES",
     "load_actors",
+    "actors_from_doc",
 ]
 
 #: Default box (length, width, height) [m] and colour (RGB mean) per actor kind.
@@ -128,6 +130,10 @@ def _timeline(a: Actor) -> list[tuple[float, float, float, float]]:
 class ActorSet:
     """The actors of one run and their scripted motion; `update` once per physics step, then query."""
 
+    def __add__(self, other: "ActorSet") -> "ActorSet":
+        """Return the actors of both sets (ids must stay unique)."""
+        return ActorSet(self.actors + other.actors)
+
     def __init__(self, actors: tuple[Actor, ...] | list[Actor] = ()) -> None:
         ids = [a.id for a in actors]
         if len(set(ids)) != len(ids):
@@ -221,6 +227,11 @@ def load_actors(spec: str | Path) -> ActorSet:
             doc = json.loads(raw) if p.suffix == ".json" else yaml.safe_load(raw)
         except (OSError, ValueError, yaml.YAMLError) as exc:
             raise ActorError(f"{where}: cannot read: {exc}") from None
+    return actors_from_doc(doc, where)
+
+
+def actors_from_doc(doc, where: str) -> ActorSet:
+    """Validate `{"actors": [...]}` read from `where` (a file, a preset, a world file); raise `ActorError` naming the entry."""
     if not isinstance(doc, dict) or not isinstance(doc.get("actors"), list):
         raise ActorError(f"{where}: expected a mapping with an 'actors' list")
     out = []
@@ -230,4 +241,7 @@ def load_actors(spec: str | Path) -> ActorSet:
         except ValidationError as exc:
             e = exc.errors()[0]
             raise ActorError(f"{where}: actors[{i}].{'.'.join(str(x) for x in e['loc'])}: {e['msg']}") from None
-    return ActorSet(out)
+    try:
+        return ActorSet(out)
+    except ActorError as exc:
+        raise ActorError(f"{where}: {exc}") from None

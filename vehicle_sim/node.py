@@ -66,7 +66,8 @@ class SimNode:
         self.config = config
         self.net = net
         self.keys = SimKeys(net.namespace)
-        self.actors = load_actors(config.actors) if config.actors else ActorSet()
+        # the world file's own actors, then those of the run's --actors
+        self.actors = world.actor_set() + (load_actors(config.actors) if config.actors else ActorSet())
         self.sim = Simulator(
             world,
             SimConfig(vehicle=config.vehicle, physics_hz=config.physics_hz, watchdog_timeout=config.watchdog_timeout,

@@ -320,7 +320,7 @@ class Scene:
         """Give every actor of `actors` a material (colour, reflectance, label "rock"); call once, before `at_time`."""
         per_mat = ("mat_mean", "mat_std", "mat_refl", "mat_label", "_g_z0", "_g_rise", "_g_ax", "_g_lo", "_g_inv_len",
                    "_g_steps", "_g_a0", "_g_a1", "_g_b", "_g_tilted", "_g_normal", "_g_riser_normal", "_mat_ground_shadow",
-                    "_mat_painted")
+                    "_mat_painted", "_mat_cover")
         m0 = len(self.mat_refl)
         k = len(actors.actors)
         for name in per_mat:
@@ -334,6 +334,7 @@ class Scene:
             self.mat_refl[m] = a.reflectance
             self.mat_label[m] = KINDS.index("rock")
             self._mat_ground_shadow[m] = False
+            self._mat_cover[m] = False  # no wet patches or leaves on an actor
             self._actor_mat[a.id] = m
         self._any_tilted = bool(self._g_tilted.any())
 

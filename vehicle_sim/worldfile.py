@@ -12,9 +12,12 @@ import functools
 import math
 from functools import cached_property
 from pathlib import Path
-from typing import Any, Iterable, Literal
+from typing import TYPE_CHECKING, Any, Iterable, Literal
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from vehicle_sim.actors import ActorSet
 
 from wire.mapfile import (
     COLOUR_TYPES, EDGE_END_TOLERANCE, EDGE_MODES, KIND_PRIORITY, KINDS, MARKING_COLOURS, NODE_KINDS, OBJECT_KINDS, ROLES,
@@ -47,12 +50,23 @@ class World(MapFile):
         source: str = "<memory>",
         weather: Weather | None = None,
         raster_res: float = 0.1,
+        actors: Iterable[dict] = (),
     ) -> None:
         super().__init__(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source,
-                         weather=weather)
+                         weather=weather, actors=actors)
+        self.actor_set()  # a bad `actors` entry fails the load, naming the file and the entry
         self.raster_res = float(raster_res)
         self._raster: np.ndarray | None = None
         self._origin = np.zeros(2)
+
+    def actor_set(self) -> "ActorSet":
+        """Return the world file's actors (objects not on the map, `vehicle_sim.actors`); raise WorldFileError for a bad entry."""
+        from vehicle_sim.actors import ActorError, actors_from_doc
+
+        try:
+            return actors_from_doc({"actors": list(self.actors)}, self.source)
+        except ActorError as exc:
+            raise WorldFileError(self.source, [Problem(field="actors", message=str(exc).removeprefix(f"{self.source}: "))]) from None
 
     # ---- ground queries ----------------------------------------------------------------
 

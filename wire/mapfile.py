@@ -692,8 +692,12 @@ class MapFile:
         start: StartPose | None = None,
         source: str = "<memory>",
         weather: Weather | None = None,
+        actors: Iterable[dict] = (),
     ) -> None:
         self.name = name
+        #: objects not on the map (the world file's optional `actors` list, truth for the simulator only):
+        #: kept as written; `vehicle_sim.worldfile.World` validates them
+        self.actors: tuple[dict, ...] = tuple(actors)
         self.objects: tuple[WorldObject, ...] = tuple(objects)
         self.nodes: tuple[PathNode, ...] = tuple(nodes)
         self.edges: tuple[PathEdge, ...] = tuple(edges)
@@ -776,6 +780,8 @@ class MapFile:
             coll["start"] = self.start.model_dump(exclude_none=True)
         if self.weather is not None:
             coll["weather"] = self.weather.model_dump()
+        if self.actors:
+            coll["actors"] = list(self.actors)
         feats = [o.to_feature() for o in self.objects]
         feats += [n.to_feature() for n in self.nodes]
         feats += [e.to_feature() for e in self.edges]
@@ -879,6 +885,10 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
             weather = Weather.model_validate(data["weather"])
         except ValidationError as exc:
             problems += _pyd_problems(exc, None, None, "weather")
+    actors = data.get("actors", [])
+    if not isinstance(actors, list) or not all(isinstance(a, dict) for a in actors):
+        problems.append(Problem(field="actors", message="must be a list of actor objects ({\"id\", \"kind\", \"path\", …})"))
+        actors = []
 
     objects: list[WorldObject] = []
     nodes: list[PathNode] = []
@@ -914,8 +924,9 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
         problems.append(p)
     if problems:
         raise WorldFileError(source, problems)
+    extra = {"actors": actors} if actors else {}
     return (factory or MapFile)(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source,
-                                weather=weather)
+                                weather=weather, **extra)
 
 
 class _FeatureProblems(WireError):

@@ -10,7 +10,8 @@ the vehicle's turning radius). Out come, in `world` [m]:
 - per intersection the "turn at intersection" macro (`macros`): slow down, stop landmarks and
   obstacle detection, dead-reckon through (or, if asked, vision through), then resume vision,
   restart both and cruise again;
-- `start_landmarks` at the start of each step listing the landmarks near its first straight;
+- `start_landmarks` at the start of each step listing the landmarks near its first straight, and
+  `start_obstacles` there too (fast obstacle detection sleeps until the route switches it on);
 - a `stop_at_object` gate `STOP_LEAD_M` before each step's destination, naming the object there
   (for amv-delivery the mailbox) and the step's action (stop / wait / continue).
 
@@ -34,7 +35,8 @@ from wire.mapfile import WorldFileError
 from modules.vocabulary import Mission
 
 from eddie.annotated_map.annotation import Annotation, Location
-from eddie.messages.map_manager import LandmarkMatching, RouteSegment, SetSpeed, StopAtObject, encode_trigger_data
+from eddie.messages.map_manager import (LandmarkMatching, ObstacleDetection, RouteSegment, SetSpeed, StopAtObject,
+                                        encode_trigger_data)
 from eddie.missions.errors import MissionCompileError
 from eddie.missions.macros import gate, trigger, turn_at_intersection
 
@@ -129,6 +131,9 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
         if speed_now != first_speed:
             out.append(trigger(f"{sp}.speed", "set_speed", gate(line, FIRST_GATE_M, width), SetSpeed(speed=first_speed),
                                f"step {k + 1}: set speed {first_speed:g} m/s"))
+        if plans[0].mode not in _INTERSECTIONS:  # an intersection's macro switches detection on after it
+            out.append(trigger(f"{sp}.start_obstacles", "start_obstacles", gate(line, FIRST_GATE_M, width), ObstacleDetection(on=True),
+                               f"step {k + 1}: start fast obstacle detection"))
         if straights:
             marks = _landmarks(m, straights[0].coords)
             if marks:

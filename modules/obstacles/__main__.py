@@ -19,6 +19,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--period", type=float, default=0.1, help="seconds of sim time between scans [s]")
     p.add_argument("--half-width", type=float, default=1.5, help="half-width of the corridor along the plan [m]")
     p.add_argument("--lookahead", type=float, default=20.0, help="how far along the plan to check [m]")
+    p.add_argument("--map", default=None, help="the robot's map file: its landmarks give position fixes (landmark_fix)")
     p.add_argument("--name", default="obstacles", help="module name (liveliness, heartbeat)")
     add_network_args(p)
     return p
@@ -35,8 +36,18 @@ def main(argv: list[str] | None = None) -> int:
     except ValidationError as exc:
         parser.error("; ".join(f"--{str(e['loc'][0]).replace('_', '-')}: {e['msg']}" for e in exc.errors()))
 
+    landmarks = []
+    if args.map:
+        from modules.perception.landmarks import map_landmarks
+        from wire.mapfile import WorldFileError, load_map_file
+
+        try:
+            landmarks = map_landmarks(load_map_file(args.map, kind="map").objects)
+        except (FileNotFoundError, WorldFileError) as exc:
+            parser.error(f"--map: {exc}")
+
     async def body(rt) -> None:
-        await ObstacleDetector(rt, cfg).run()
+        await ObstacleDetector(rt, cfg, landmarks).run()
 
     return run_module(args.name, body, net)
 

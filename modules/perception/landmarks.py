@@ -27,7 +27,12 @@ __all__ = [
     "observation_covariance",
     "match_landmarks",
     "landmark_fix",
+    "LANDMARK_KINDS",
+    "map_landmarks",
 ]
+
+#: Kinds of map objects that are discrete landmarks the laser finds (round footprints: a centre and a radius).
+LANDMARK_KINDS = ("tree", "mailbox", "sign", "hydrant", "lamp_post", "post", "bench", "rock")
 
 
 class LandmarkConfig(BaseModel):
@@ -163,3 +168,9 @@ def landmark_fix(matches: list[LandmarkMatch]) -> PositionFix | None:
     cov = np.linalg.inv(info)
     d = cov @ vec
     return PositionFix(dx=float(d[0]), dy=float(d[1]), cov=((cov[0, 0], cov[0, 1]), (cov[1, 0], cov[1, 1])), matches=len(matches))
+
+
+def map_landmarks(objects, sigma: float = 0.2) -> list[MapLandmark]:
+    """Return the map's discrete landmarks: objects (`wire.mapfile.WorldObject`) of a landmark kind with a centre [m], `world`."""
+    return [MapLandmark(id=o.id, x=float(o.center[0]), y=float(o.center[1]), sigma=sigma)
+            for o in objects if o.kind in LANDMARK_KINDS and o.center is not None]

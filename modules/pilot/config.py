@@ -43,6 +43,8 @@ class PilotConfig(BaseModel):
     start_pose: tuple[float, float, float] | None = Field(None, description="world←vehicle at start (x [m], y [m], yaw [rad])")
     start_sigma_xy: float = Field(0.3, gt=0.0, description="[m]")
     start_sigma_yaw: float = Field(math.radians(3.0), gt=0.0, description="[rad]")
+    landmark_replan_m: float = Field(0.3, ge=0.0, description="a landmark fix moving the estimate farther than this replans [m]")
+    landmark_gate: float = Field(13.8, gt=0.0, description="χ² gate (2 dof, 99.9 %) a landmark_fix must pass to be used")
     min_goal_ahead_m: float = Field(2.0, ge=0.0, description="intermediate goals closer than this along the path are skipped [m]")
     region_extension_m: float = Field(0.0, ge=0.0, description="the map region reaches this far past a segment's ends [m]")
     seed: int = 0

@@ -143,7 +143,7 @@ class PoseFilter:
         self.distance_m += d
         self.distance_since_fix_m += d
 
-    def _update(self, z: np.ndarray, h, r: np.ndarray, residual) -> None:
+    def _update(self, z: np.ndarray, h, r: np.ndarray, residual, gate: float | None = None) -> None:
         x0 = self.pose
         eps = 1e-6
         z0 = h(x0)
@@ -152,11 +152,12 @@ class PoseFilter:
             dx = np.zeros(3)
             dx[k] = eps
             jac[:, k] = residual(h(x0 + dx), z0) / eps
-        if self.gate is not None:
+        gate = self.gate if gate is None else gate
+        if gate is not None:
             y = residual(np.asarray(z, dtype=np.float64).reshape(-1), z0)
             d2 = float(y @ np.linalg.solve(jac @ self._ekf.P @ jac.T + r, y))
-            if not d2 <= self.gate:
-                raise FixRefused(f"fix refused: squared Mahalanobis distance {d2:.1f} > gate {self.gate:g}")
+            if not d2 <= gate:
+                raise FixRefused(f"fix refused: squared Mahalanobis distance {d2:.1f} > gate {gate:g}")
         self._ekf.dim_z = len(z0)
         self._ekf.update(
             z.reshape(-1, 1),
@@ -189,6 +190,26 @@ class PoseFilter:
             return d
 
         self._update(z, h, r, res)
+
+    def update_position(self, xy: np.ndarray, cov: np.ndarray, motion_since: np.ndarray | None = None, *,
+                        gate: float | None = None) -> None:
+        """Correct with a position-only fix (x, y) [m] `world`, covariance (2,2) [m²], taken before `motion_since`.
+
+        `gate` (a χ² bound on the squared Mahalanobis distance, 2 degrees of freedom) overrides the
+        filter's own for this fix; a fix outside it raises EstimatorError and changes nothing.
+        """
+        z = np.asarray(xy, dtype=np.float64).reshape(2)
+        r = np.asarray(cov, dtype=np.float64).reshape(2, 2)
+        if not np.all(np.isfinite(z)):
+            raise EstimatorError("position fix: position must be finite")
+        _check_pd(r, "position fix")
+        back = inverse(np.zeros(3) if motion_since is None else np.asarray(motion_since, dtype=np.float64))
+        r = r + self.noise.covariance(back)[:2, :2]
+
+        def h(x: np.ndarray) -> np.ndarray:
+            return compose(x, back)[:2]
+
+        self._update(z, h, r, lambda a, b: a - b, gate=gate)
 
     def update_line(self, fix: LineFix, motion_since: np.ndarray | None = None) -> None:
         """Correct with a line fix taken before the latest increment `motion_since` (vehicle frame)."""

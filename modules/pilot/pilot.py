@@ -2,7 +2,8 @@
 
 DRIVING MONITOR (`driving_monitor`: route segments in, driving units out, segment results),
 DRIVING UNIT FINDER (`driving_unit_finder`: PERCEPTION's results), POSITION ESTIMATOR
-(`position_estimator`: the Kalman filter, `world←local` corrections, estimates), DRIVING UNIT
+(`position_estimator`: the Kalman filter with PERCEPTION's and the laser landmark fixes, `world←local`
+corrections, estimates), DRIVING UNIT
 NAVIGATOR (`driving_unit_navigator`: local path constraints) and LOCAL PATH PLANNER
 (`local_path_planner`: the plan for the HELM, in `local`). Each tick the loop predicts the
 estimate, lets the finder resolve answered units, the monitor post units due, and the navigator
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import asyncio
 import logging
+import math
 
 from blackboard import Spec
 from blackboard.errors import BlackboardError
@@ -48,6 +50,7 @@ class Pilot:
         self.navigator = DrivingUnitNavigator(rt.bb, cfg)
         self.planner = LocalPathPlanning(rt.bb, cfg)
         self.plan_failures = 0
+        self.landmark_events: asyncio.Queue = asyncio.Queue()
         #: the HELM's heartbeat: while it is silent (wedged) the vehicle cannot move, which is no lack of progress
         self.helm = HeartbeatWatch(rt.link, rt.keys, cfg.helm) if getattr(rt, "link", None) is not None else None
         self._resyncs = getattr(rt.bb, "resyncs", 0)
@@ -57,7 +60,7 @@ class Pilot:
     def stats(self) -> dict[str, int]:
         """Return the counters: plans posted, units posted, fixes used, planning failures."""
         return {"plans": self.planner.seq, "units": self.monitor.units_posted, "fixes": self.estimator.fixes,
-                "plan_failures": self.plan_failures}
+                "landmark_fixes": self.estimator.landmark_fixes, "plan_failures": self.plan_failures}
 
     @staticmethod
     async def _pump(mon, queue: asyncio.Queue) -> None:
@@ -72,8 +75,10 @@ class Pilot:
         # Register the monitors before looking at what is already there: nothing falls in between.
         seg_mon = await self.bb.monitor(Spec(type="route_segment")).start()
         res_mon = await self.bb.monitor(Spec(type="perception_result")).start()
+        lm_mon = await self.bb.monitor(Spec(type="landmark_fix")).start()
         tasks = [asyncio.ensure_future(self._pump(seg_mon, self.monitor.events)),
-                 asyncio.ensure_future(self._pump(res_mon, self.finder.events))]
+                 asyncio.ensure_future(self._pump(res_mon, self.finder.events)),
+                 asyncio.ensure_future(self._pump(lm_mon, self.landmark_events))]
         try:
             pending = await self.monitor.resume_candidate()
             rt.ready()
@@ -90,7 +95,7 @@ class Pilot:
         finally:
             for t in tasks:
                 t.cancel()
-            for mon in (seg_mon, res_mon):
+            for mon in (seg_mon, res_mon, lm_mon):
                 try:
                     await mon.close()
                 except BlackboardError:
@@ -102,7 +107,8 @@ class Pilot:
         except TimeoutError:
             if self.estimator.started:  # idle: keep the perceived position current
                 await self.estimator.step()
-                await self.estimator.post(source="dead-reckoning")
+                fixed = await self.landmark_fixes() is not None
+                await self.estimator.post(force=fixed, source="perception" if fixed else "dead-reckoning")
             return None
 
     async def _drive_segment(self, seg_tok):
@@ -137,6 +143,12 @@ class Pilot:
                 drv.update_progress(estimator.pose[:2])
                 await estimator.post(force=True, source="perception", unit_id=fixed_unit)
                 drv.planned_through = -1  # world←local moved: replan from the corrected pose
+            moved = await self.landmark_fixes()
+            if moved is not None:
+                drv.update_progress(estimator.pose[:2])
+                await estimator.post(force=True, source="perception")
+                if moved > cfg.landmark_replan_m:
+                    drv.planned_through = -1
             finder.time_out(drv, now)
             finder.skip(drv, await monitor.post_units(seg, drv, now))
             if drv.needs_plan():
@@ -177,6 +189,21 @@ class Pilot:
                 return None
             await clock.sleep(cfg.tick_s)
         return None
+
+    async def landmark_fixes(self) -> float | None:
+        """Fold in the laser landmark fixes posted since the last call; return how far [m] they moved the estimate (None: none used)."""
+        if not self.estimator.started:
+            return None
+        before = self.estimator.pose
+        used = False
+        while not self.landmark_events.empty():
+            ev = self.landmark_events.get_nowait()
+            if ev.kind == "new":
+                used = await self.estimator.apply_landmark_fix(ev.token.attrs) or used
+        if not used:
+            return None
+        after = self.estimator.pose
+        return math.hypot(after[0] - before[0], after[1] - before[1])
 
     def _stalled(self) -> bool:
         """Return whether the blackboard node is away (or was since the last call) or the HELM is silent."""

@@ -1,7 +1,8 @@
 """POSITION ESTIMATOR (seed: Sidewalk §2.3.3): the perceived vehicle position from dead reckoning and PERCEPTION's fixes.
 
 Predicts with the HELM's moving vehicle position (`local←vehicle` on the blackboard), updates with
-PERCEPTION's fixes (`world` frame) through the Kalman filter of `modules.pilot.kalman`, and posts
+PERCEPTION's fixes and the OBSTACLE DETECTOR's laser landmark fixes (`landmark_fix`, position only,
+behind a χ² gate; Navlab 1990 §2.5.4) (`world` frame) through the Kalman filter of `modules.pilot.kalman`, and posts
 the perceived vehicle position: the `world←local` correction and a `position_estimate` token.
 Times are sim time [s].
 """
@@ -19,6 +20,7 @@ from blackboard.errors import BlackboardError
 from modules.pilot.config import PilotConfig
 from modules.pilot.kalman import EstimatorError, LineFix, PointFix, PoseFilter
 from modules.pilot.polyline import PathLine
+from modules.vocabulary import LandmarkFix
 from modules.vocabulary import LineFix as VLineFix
 from modules.vocabulary import PerceptionResult, PositionEstimate, RouteSegmentDescription
 from modules.vocabulary import PointFix as VPointFix
@@ -57,6 +59,8 @@ class PositionEstimator:
         self.filter: PoseFilter | None = None
         self.odom: Odometry | None = None
         self.fixes = 0
+        self.landmark_fixes = 0
+        self.landmark_refused = 0
         self._fixes_seen: set[tuple[str, float]] = set()
         self._last_correction = -math.inf
 
@@ -174,6 +178,21 @@ class PositionEstimator:
             log.warning("pilot: perception fix for %s ignored: %s", res.unit_id, exc)
             return False
         self.fixes += 1
+        return True
+
+    async def apply_landmark_fix(self, fix: LandmarkFix) -> bool:
+        """Update with a laser landmark position fix behind the χ² gate; return whether it was used."""
+        if self.filter is None:
+            return False
+        motion = await self.motion_since(fix.sensed_at)
+        try:
+            self.filter.update_position(np.array(fix.position), np.array(fix.covariance).reshape(2, 2), motion_since=motion,
+                                        gate=self.cfg.landmark_gate)
+        except EstimatorError as exc:
+            self.landmark_refused += 1
+            log.info("pilot: landmark fix from %s ignored: %s", ",".join(fix.landmark_ids), exc)
+            return False
+        self.landmark_fixes += 1
         return True
 
     async def post(self, *, force: bool = False, source: str = "dead-reckoning", unit_id: str | None = None) -> None:

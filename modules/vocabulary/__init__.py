@@ -22,6 +22,7 @@ Who writes what (type name: writer → readers; all coordinates in attrs are wor
 - local_path_plan: PILOT → HELM (newest `seq` wins)
 - map_object: MAP NAVIGATOR (copies of the map; also embedded in segments and driving units)
 - obstacle_report: OBSTACLE DETECTOR → HELM (newest wins; frame local)
+- landmark_fix: OBSTACLE DETECTOR → PILOT (a vehicle position from laser landmarks matched to the map; world)
 - heartbeat: every module, on `sidewalk/<ns>/heartbeat/<module>` (not a blackboard token)
 """
 
@@ -31,6 +32,7 @@ from modules.vocabulary.driving import (
 )
 from modules.vocabulary.health import Heartbeat, ModuleState
 from modules.vocabulary.obstacle import ObstaclePolygon, ObstacleReport
+from modules.vocabulary.landmark import Cov2, LandmarkFix
 from modules.vocabulary.mapdata import (
     ColourType, FlatShape, MapColour, MapObject, MapPlaces, ObjectRole, PostShape, PrismShape, Shape, SlopeShape, StairsShape,
     TreeShape,
@@ -65,13 +67,14 @@ TOKEN_TYPES: dict[type, str] = {
     LocalPathPlan: "local_path_plan",
     Heartbeat: "heartbeat",
     ObstacleReport: "obstacle_report",
+    LandmarkFix: "landmark_fix",
 }
 
 __all__ = [
     "XY", "Cov3", "Frozen", "Polyline2", "Pose", "Ring",
     "DrivingUnitDescription", "LocalPathConstraints", "LocalPathPlan", "PlanPose", "PositionEstimate", "UnitStatus",
     "Heartbeat", "ModuleState",
-    "ObstaclePolygon", "ObstacleReport",
+    "ObstaclePolygon", "ObstacleReport", "Cov2", "LandmarkFix",
     "ColourType", "MapColour", "FlatShape", "MapObject", "MapPlaces", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
     "StairsShape", "TreeShape",
     "DEFAULT_TOLERANCE_M", "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionStart", "MissionState",

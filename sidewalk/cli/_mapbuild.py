@@ -13,7 +13,7 @@ __all__ = ["register"]
 
 def mapbuild(
     world: Annotated[str, typer.Option(help="World name (worlds/<name>.world.geojson) or file")] = "north_hills",
-    route: Annotated[str, typer.Option(help="Mission whose route to drive (worlds/<name>.yaml or a file)")] = "amv-delivery",
+    route: Annotated[str, typer.Option("--route", "--mission", help="Mission whose route to drive (worlds/<name>.yaml or a file)")] = "amv-delivery",
     out: Annotated[Path, typer.Option(help="Map file to write (GeoJSON)")] = Path("runs/mapbuild/built.map.geojson"),
     vehicle: Annotated[str, typer.Option(help="terregator or navlab")] = "navlab",
     seed: Annotated[int, typer.Option(help="Seed of odometry and sensor noise")] = 0,
@@ -25,7 +25,7 @@ def mapbuild(
     from modules.captain.missionfile import MissionFileError, load_mission
     from sidewalk.launcher import mission_path
     from sidewalk.mapbuild import MapBuildReport, build_map, route_polyline, score_map, write_map
-    from vehicle_sim.actors import ActorError, load_actors
+    from vehicle_sim.actors import ActorError, ActorSet, load_actors
     from vehicle_sim.worldfile import load_world, world_path
 
     if vehicle not in ("navlab", "terregator"):
@@ -42,7 +42,7 @@ def mapbuild(
     except (FileNotFoundError, MissionFileError) as exc:
         raise typer.BadParameter(f"{exc}", param_hint="--route") from None
     try:
-        aset = load_actors(actors) if actors else None
+        aset = w.actor_set() + (load_actors(actors) if actors else ActorSet())  # the world file's and the flag's
     except ActorError as exc:
         raise typer.BadParameter(str(exc), param_hint="--actors") from None
     if m.start is None:

@@ -85,3 +85,19 @@ def test_bad_fixes_are_rejected_with_typed_errors():
     with pytest.raises(EstimatorError):
         PoseFilter(np.zeros(3), -np.eye(3))
     assert f.fixes_used == 0
+
+
+def test_position_fix_moves_an_off_prior_toward_the_truth_and_the_gate_refuses_a_wrong_one():
+    truth = np.array([10.0, 5.0])
+    f = PoseFilter(np.array([10.6, 5.5, 0.0]), np.diag([0.3**2, 0.3**2, 0.01]))
+    before = np.linalg.norm(f.pose[:2] - truth)
+    f.update_position(truth, np.eye(2) * 0.1**2, gate=13.8)
+    assert np.linalg.norm(f.pose[:2] - truth) < 0.3 * before
+    assert f.fixes_used == 1
+    # a fix 5 m off (a wrong landmark association) is refused and leaves the estimate alone
+    pose, cov = f.pose, f.cov
+    with pytest.raises(EstimatorError, match="refused"):
+        f.update_position(truth + (5.0, 0.0), np.eye(2) * 0.1**2, gate=13.8)
+    assert np.allclose(f.pose, pose) and np.allclose(f.cov, cov) and f.fixes_used == 1
+    with pytest.raises(EstimatorError):
+        f.update_position(truth, np.array([[1.0, 2.0], [2.0, 1.0]]))  # not positive definite

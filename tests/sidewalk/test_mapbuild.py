@@ -41,3 +41,29 @@ def test_built_map_round_trips_and_replaces_the_discrete_objects(nh, tmp_path) -
     near = sum(1 for o in world.objects if o.kind in DISCRETE_KINDS and o.center is not None
                and abs(o.center[0] - truth[0].center[0]) <= 10.0 and abs(o.center[1] - truth[0].center[1]) <= 15.0)
     assert sc["missed"] <= near - 1
+
+
+def test_turn_anchors_take_out_the_odometry_scale_error_and_the_cut_corner() -> None:
+    from sidewalk.mapbuild import anchored_distance, turn_anchors
+
+    # the lane: 100 m east, then north; the vehicle drives the corner as a 7 m arc; odometry reads 1 % long
+    lane = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0]])
+    r, scale = 7.0, 1.01
+    rows, true_d = [], []
+    for d in np.arange(0.0, 93.0 + r * np.pi / 2 + 90.0, 0.1):
+        if d < 93.0:
+            yaw = 0.0
+        elif d < 93.0 + r * np.pi / 2:
+            yaw = (d - 93.0) / r
+        else:
+            yaw = np.pi / 2
+        rows.append((scale * d, yaw))
+        true_d.append(d)
+    anchors = turn_anchors(lane, np.array(rows))
+    assert len(anchors) == 3
+    after = 93.0 + r * np.pi / 2  # where the arc meets the northbound lane, (100, 7)
+    for y in (10.0, 50.0, 90.0):  # on the northbound straight: lane arc length 100 + y
+        odo = scale * (after + y - 7.0)
+        assert anchored_distance(anchors, odo) == pytest.approx(100.0 + y, abs=0.3)
+        assert abs(odo - (100.0 + y)) > 0.5  # raw odometry is off by more
+    assert anchored_distance(anchors, scale * 50.0) == pytest.approx(50.0, abs=0.3)  # before the turn, stretched

@@ -71,6 +71,19 @@ def test_scanner_sees_a_parked_car_and_the_detector_finds_it() -> None:
     assert detect_obstacles(LaserScan.from_capture(empty)) == []
 
 
+def test_the_camera_sees_an_actor_in_a_world_with_weather() -> None:
+    # north_hills has wet patches and leaves: an actor's material must have a weather entry too
+    from vehicle_sim.worldfile import load_world
+
+    w = load_world("north_hills")
+    assert w.weather is not None
+    actors = ActorSet([Actor(id="car", kind="car", yaw_deg=90.0, path=(Waypoint(x=1.5, y=-30.0),))])
+    scene = Scene(w, seed=1)
+    scene.add_actors(actors)
+    cap = capture(scene.at_time(actors, 0.0), (1.5, -40.0, math.pi / 2), 0.0, CaptureRequest(camera=True, truth=True), vehicle="navlab")
+    assert (cap.camera_labels == KINDS.index("rock")).sum() > 100
+
+
 def test_driving_into_a_parked_car_is_a_collision_and_clearance_is_tracked() -> None:
     w = road_world()
     car = Actor(id="car", kind="car", yaw_deg=0.0, path=(Waypoint(x=15.0, y=0.0),))
@@ -97,3 +110,29 @@ def test_bad_actors_file_names_where_and_what(tmp_path) -> None:
         ActorSet([walker(), walker()])
     assert math.isfinite(ActorSet([walker()]).states(0.0)[0].x)
     assert np.isfinite(ActorSet([walker()]).footprints(0.0)[0][1]).all()
+
+
+def test_actors_declared_in_the_world_file_are_loaded_and_a_bad_one_is_named(tmp_path) -> None:
+    import json
+
+    from vehicle_sim.worldfile import WorldFileError, load_world, parse_world
+
+    doc = load_world("north_hills").to_geojson()
+    assert "actors" not in doc
+    doc["actors"] = [{"id": "bin", "kind": "bin", "path": [{"x": 3.6, "y": 10.0}]}]
+    f = tmp_path / "nh.world.geojson"
+    f.write_text(json.dumps(doc))
+    w = load_world(f)
+    (bin_,) = w.actor_set().actors
+    assert bin_.kind == "bin" and bin_.path[0].y == 10.0
+    assert w.to_geojson()["actors"] == doc["actors"]  # kept when the world is written back
+    # the robot's map never carries them
+    from vehicle_sim.mapgen import map_for
+
+    assert map_for(w, 0.0, 0).actors == ()
+    doc["actors"] = [{"id": "bin", "kind": "piano", "path": [{"x": 3.6, "y": 10.0}]}]
+    with pytest.raises(WorldFileError, match=r"actors.*actors\[0\]\.kind"):
+        parse_world(doc, source="nh.world.geojson")
+    doc["actors"] = {"bin": 1}
+    with pytest.raises(WorldFileError, match="actors: must be a list"):
+        parse_world(doc, source="nh.world.geojson")

@@ -1,0 +1,58 @@
+"""Laser landmark fixes reach the PILOT (CODGER): blackboard node, simulator, HELM, OBSTACLE DETECTOR and PILOT
+each in its own OS process.
+
+The Navlab stands on Oak (north_hills) with two mailboxes 14 m ahead in the laser's view. The PILOT
+is told a start pose 0.94 m off the truth and drives nothing (no route segment, no PERCEPTION): only
+the OBSTACLE DETECTOR's `landmark_fix` tokens (laser landmarks matched to the map) can correct it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import pytest
+
+from blackboard import AttrPredicate, BlackboardClient, Spec
+from blackboard.testing import start_node
+from modules.vocabulary import LandmarkFix, PositionEstimate
+from tests.modules._procs import ROOT, spawn, stop
+
+pytestmark = pytest.mark.e2e
+
+TRUTH = (1.5, 2.0, math.pi / 2)  # in the northbound lane of Oak; mailboxes at (-4, 14.3) and (4, 16.0)
+TOLD = (2.3, 2.5, math.pi / 2)  # 0.94 m off
+
+
+async def test_a_laser_landmark_fix_moves_an_off_pilot_toward_the_truth():
+    ns = f"lf{os.getpid()}"
+    node = start_node(namespace=ns, types=("modules.vocabulary",))
+    procs: list[subprocess.Popen] = []
+    try:
+        conn = ["--ns", ns, "--connect", node.endpoint]
+        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "north_hills", "--vehicle", "navlab",
+                            f"--start={TRUTH[0]},{TRUTH[1]},90", "--rtf", "2", "--seed", "4", *conn], "ready sim"))
+        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "navlab", *conn], "SIDEWALK-READY helm"))
+        procs.append(spawn([sys.executable, "-m", "modules.obstacles", "--map", str(ROOT / "worlds" / "north_hills.map.geojson"),
+                            *conn], "SIDEWALK-READY obstacles"))
+        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "navlab", "--perception", "off",
+                            "--start-pose", ",".join(str(v) for v in TOLD), *conn], "SIDEWALK-READY pilot"))
+        async with BlackboardClient(node.client_net(), source="test") as bb:
+            fix = await bb.wait(Spec(type="landmark_fix"), timeout=90.0)
+            assert isinstance(fix.attrs, LandmarkFix)
+            assert set(fix.attrs.landmark_ids) & {"mailbox_oakw01", "mailbox_oake01"}
+            assert math.dist(fix.attrs.prior, TOLD[:2]) < 0.1  # matched from where the PILOT believed it was
+            assert math.dist(fix.attrs.position, TRUTH[:2]) < 0.4  # the fix itself is near the truth
+            est = await bb.wait(Spec(type="position_estimate",
+                                     where=(AttrPredicate(path="source", op="==", value="perception"),)), timeout=60.0)
+            assert isinstance(est.attrs, PositionEstimate)
+            off = math.dist((est.attrs.pose.x, est.attrs.pose.y), TRUTH[:2])
+            assert off < 0.6 * math.dist(TOLD[:2], TRUTH[:2]), off  # moved toward the truth
+            wl = await bb.lookup_pose(parent="world", child="local")
+            assert math.dist((wl.x, wl.y), TRUTH[:2]) < math.dist(TOLD[:2], TRUTH[:2])  # the correction the HELM's plans use
+    finally:
+        codes = [stop(p) for p in reversed(procs)]
+        node.stop()
+    assert all(c == 0 for c in codes), codes

@@ -1,0 +1,36 @@
+"""End to end: EDDIE stops for a pedestrian standing in its lane and drives on once the lane is clear.
+
+`sidewalk run --arch eddie --actors FILE`: the simulator places the walker (truth); EDDIE's obstacle
+stop, switched on by the mission's `start_obstacles` trigger, stops the controller before it; the
+report (truth) counts the stop and the closest approach.
+"""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+DATA = Path(__file__).resolve().parent / "data"
+
+
+@pytest.mark.e2e
+@pytest.mark.timeout(300)
+def test_eddie_stops_for_a_walker_in_its_lane_and_resumes(tmp_path):
+    cmd = [sys.executable, "-m", "sidewalk", "run", "--arch", "eddie", "--world", "north_hills", "--mission",
+           str(DATA / "oak-walker.yaml"), "--actors", str(DATA / "oak-walker.actors.yaml"), "--rtf", "4", "--seed", "1",
+           "--out", str(tmp_path), "--max-wall-time", "200"]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=280)
+    report_path = tmp_path / "report.json"
+    assert report_path.exists(), f"no report; stderr:\n{proc.stderr[-3000:]}"
+    report = json.loads(report_path.read_text())
+    assert report["architecture"] == "eddie"
+    assert report["collisions"] == 0, report["reason"]
+    stops = report["stops"]
+    assert stops["stops"] >= 1, stops  # it stood still on the way (not only at the start and the end)
+    assert stops["spans"][0]["y"] < -18.0 - 4.0  # before the walker, not past it
+    assert stops["min_actor_clearance_m"] is not None and 0.3 < stops["min_actor_clearance_m"] < 8.0
+    assert report["success"], f"{report['reason']}\n{proc.stderr[-3000:]}"  # it drove on and got there
+    controller_log = (tmp_path / "logs" / "controller.log").read_text()
+    assert "stop client=obstacle_stop obstacle" in controller_log and "released client=obstacle_stop" in controller_log

@@ -56,10 +56,12 @@ EDDIE_PERCEPTION_MODULES = ("obstacle_stop", "landmark_matching", "road_followin
 def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, rtf: float, seed: int, watchdog_s: float,
                 start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
                 map_file: Path, annotated_map: Optional[Path], perception: bool, record: bool = True,
-                monitor_port: Optional[int] = None, secure: Optional[Path] = None) -> list[ProcessPlan]:
+                monitor_port: Optional[int] = None, secure: Optional[Path] = None,
+                road_method: tuple[str, ...] = ()) -> list[ProcessPlan]:
     """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard.
 
     `secure`: the `sidewalk security init` directory every process gets as --secure (each its own role).
+    `road_method`: flags for vision road following (`--road-method M [--alvinn-weights F]`, issue 13).
     """
     sec = () if secure is None else ("--secure", str(secure))  # issue 14
     zflags = ("--ns", ns, "--connect", endpoint, *sec)
@@ -78,7 +80,8 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
         plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--annotated-map", str(annotated_map), *zflags)))
     if perception:
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),
-                                     f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags))
+                                     f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags,
+                                     *(road_method if name == "road_following" else ())))
                   for name in EDDIE_PERCEPTION_MODULES]
     plans.append(ProcessPlan("mission_service", (
         "-m", "sidewalk", "up", "mission_service", "--map", str(map_file),

@@ -142,3 +142,21 @@ def test_an_alvinn_follower_needs_weights() -> None:
         load_alvinn_weights("/nonexistent/alvinn.npz")
     with pytest.raises(ValueError, match="not one of"):
         CameraRoadFollower("perception")
+
+
+def test_a_keep_right_step_also_counts_its_goal_in_the_lane_reached() -> None:
+    from eddie.modules.mission_progress import MissionProgress, step_goals
+    from modules.captain.missionfile import load_mission
+    from modules.map_navigator import load_map
+    from vehicle_sim.worldfile import WORLDS_DIR
+
+    m = load_map("schenley")
+    mission = load_mission(WORLDS_DIR / "schenley-drive.yaml").model_copy(update={"mission_id": "lane-1"})
+    (g,) = step_goals(m, (m.world.start.x, m.world.start.y), mission)
+    assert g.lane_goal is not None and math.dist(g.lane_goal, g.goal) == pytest.approx(7.6 / 4.0)
+    assert g.lane_goal[0] > g.goal[0] + 1.8  # driving north on Tee Dr, the right lane is east of the centre
+    for at, reached in ((g.lane_goal, True), ((g.goal[0] - 1.9, g.goal[1]), False)):  # the left lane is not the goal
+        prog = MissionProgress(mission, [g], submitted_at=0.0)
+        prog.start(0.0)
+        prog.update(1.0, at)
+        assert (prog.status.state == "succeeded") is reached, prog.status

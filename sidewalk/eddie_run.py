@@ -57,13 +57,14 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
                 start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
                 map_file: Path, annotated_map: Optional[Path], perception: bool, record: bool = True,
                 monitor_port: Optional[int] = None, secure: Optional[Path] = None, actors: Optional[str] = None,
-                max_speed: Optional[float] = None) -> list[ProcessPlan]:
+                max_speed: Optional[float] = None, road_method: tuple[str, ...] = ()) -> list[ProcessPlan]:
     """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard.
 
     `secure`: the `sidewalk security init` directory every process gets as --secure (each its own role);
     `actors`: objects not on the map the simulator places (an actors file or preset, issue 12).
     `max_speed` [m/s]: `sidewalk run --max-speed`, EDDIE's counterpart of the PILOT's cap — the mission
     service's route speed and the controller's top speed (so no trigger or client drives faster).
+    `road_method`: flags for vision road following (`--road-method M [--alvinn-weights F]`, issue 13).
     """
     cap = () if max_speed is None else ("--max-speed", str(max_speed))
     sec = () if secure is None else ("--secure", str(secure))  # issue 14
@@ -86,7 +87,8 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
         # obstacle stop sleeps until the route's `start_obstacles` triggers switch it on (issue 12)
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),
                                      f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags,
-                                     *(("--asleep",) if name == "obstacle_stop" else ())))
+                                     *(("--asleep",) if name == "obstacle_stop" else ()),
+                                     *(road_method if name == "road_following" else ())))
                   for name in EDDIE_PERCEPTION_MODULES]
     plans.append(ProcessPlan("mission_service", (
         "-m", "sidewalk", "up", "mission_service", "--map", str(map_file),

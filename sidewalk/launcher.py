@@ -92,6 +92,10 @@ class RunConfig(BaseModel):
     # ---- issue 10: faults injected at a sim time after submission, and a speed cap for the PILOT ----
     faults: tuple[FaultSpec, ...] = ()
     max_speed: Optional[float] = Field(default=None, gt=0.0)
+    # ---- issue 13: the road method of PERCEPTION (CODGER) and of vision road following (EDDIE) ----
+    road_method: Literal["perception", "scarf", "yarf", "alvinn"] = "perception"
+    alvinn_weights: Optional[Path] = None  # ALVINN's weights (.npz), needed with road_method alvinn
+    # ---- end issue 13 ----
     #: issue 14: how the supervisor keeps the modules running (crashed: restarted with back-off; wedged: reported, restarted)
     supervise: RestartPolicy = RestartPolicy()
 
@@ -259,6 +263,13 @@ def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
             load_actors(cfg.actors)
         except ActorError as exc:
             raise LaunchError(f"--actors: {exc}") from None
+    if cfg.road_method == "alvinn" or cfg.alvinn_weights is not None:  # issue 13: bad weights fail here, not in a module
+        from modules.road_following import RoadFollowingError, load_alvinn_weights
+
+        try:
+            load_alvinn_weights(cfg.alvinn_weights)
+        except RoadFollowingError as exc:
+            raise LaunchError(f"--alvinn-weights: {exc}") from None
     return world, mission, mpath
 
 
@@ -307,7 +318,8 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
     if cfg.obstacles or (cfg.obstacles is None and cfg.actors):  # issue 12
         plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", "--map", str(setup.map_file), *zflags)))
     if cfg.perception:
-        plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags)))
+        plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags,
+                                                *road_method_flags(cfg))))  # issue 13
     plans += [
         ProcessPlan("pilot", ("-m", "sidewalk", "up", "pilot", "--vehicle", vehicle,
                               "--perception", "on" if cfg.perception else "off",
@@ -318,6 +330,21 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
         ProcessPlan("captain", ("-m", "sidewalk", "up", "captain", *zflags)),
     ]
     return plans
+
+
+def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[str, ...]:
+    """Return the flags that give a road-finding module the run's road method (issue 13; none for the default).
+
+    With `setup` (EDDIE's road following) also the side of the road the mission keeps to: EDDIE's
+    route is the road's centre line, a road follower drives in the lane.
+    """
+    if cfg.road_method == "perception":
+        return ()
+    weights = () if cfg.alvinn_weights is None else ("--alvinn-weights", str(Path(cfg.alvinn_weights).resolve()))
+    keep = ()
+    if setup is not None and setup.lane_offsets and setup.lane_offsets[0] != 0.0:
+        keep = ("--keep", "right" if setup.lane_offsets[0] < 0.0 else "left")
+    return ("--road-method", cfg.road_method, *weights, *keep)
 
 
 def prepare_out(out: Path) -> None:
@@ -385,6 +412,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
             map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
             secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
+            road_method=road_method_flags(cfg, setup),  # issue 13
         ), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure)
     else:
         system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)

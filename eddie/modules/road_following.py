@@ -17,11 +17,15 @@ from shapely import affinity
 from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
+from eddie.messages.navigator import LineFixMessage, LocalPose
 from eddie.modules.errors import NoRoadPath
+from modules.road_following import RoadObservation
+from modules.road_following.road_seen import NoRoadSeen, drive_line
 from modules.pilot import LocalPathPlanner, PlanningError
-from wire.se2 import transform_points
+from wire.se2 import inverse, transform_points
 
-__all__ = ["RoadFollowingConfig", "RoadPath", "region_in_local", "route_goal", "plan_road_path", "route_to_local", "route_ahead"]
+__all__ = ["RoadFollowingConfig", "RoadPath", "region_in_local", "route_goal", "plan_road_path", "route_to_local", "route_ahead",
+           "MapRoad", "map_road_at", "route_lane_offset", "lane_of", "follower_path", "road_line_fix"]
 
 
 class RoadFollowingConfig(BaseModel):
@@ -129,3 +133,93 @@ def route_ahead(route_local: np.ndarray, start_xy: np.ndarray, length_m: float, 
 def route_to_local(route_world: np.ndarray, local_from_world: tuple[float, float, float]) -> np.ndarray:
     """Return a route (N, 2) [m] given in `world` in `local`, with `local_from_world` = (world←local)⁻¹."""
     return transform_points(np.asarray(local_from_world, dtype=np.float64), route_world)
+
+
+# ---- the road followers' road (issue 13): SCARF/YARF's centre line, ALVINN's arc, and the map's road ----
+
+class MapRoad(BaseModel):
+    """The map's road centre near a pose: nearest point (x, y) [m] `world`, direction of travel [rad], width [m]."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    x: float
+    y: float
+    direction_rad: float
+    width_m: float
+
+
+def map_road_at(edges, xy: tuple[float, float], yaw: float) -> MapRoad | None:
+    """Return the map road (path edges: `.coords` `world`, `.width`) nearest `xy`, its direction the one nearer `yaw` [rad]."""
+    p = Point(float(xy[0]), float(xy[1]))
+    best = None
+    for e in edges:
+        if len(e.coords) < 2:
+            continue
+        line = LineString(e.coords)
+        d = line.distance(p)
+        if best is None or d < best[0]:
+            best = (d, line, float(e.width))
+    if best is None:
+        return None
+    _, line, width = best
+    s = line.project(p)
+    q = line.interpolate(s)
+    a, b = line.interpolate(max(s - 0.5, 0.0)), line.interpolate(min(s + 0.5, line.length))
+    th = math.atan2(b.y - a.y, b.x - a.x)
+    if math.cos(th - yaw) < 0.0:
+        th = math.remainder(th + math.pi, 2.0 * math.pi)
+    return MapRoad(x=float(q.x), y=float(q.y), direction_rad=th, width_m=width)
+
+
+def route_lane_offset(route_world: np.ndarray, road: MapRoad) -> float:
+    """Return how far [m] the route runs left (+) of the map road's centre at the road point (a keep-right route: negative)."""
+    line = LineString(np.asarray(route_world, dtype=np.float64))
+    q = line.interpolate(line.project(Point(road.x, road.y)))
+    return float(-math.sin(road.direction_rad) * (q.x - road.x) + math.cos(road.direction_rad) * (q.y - road.y))
+
+
+def lane_of(keep: str, width_m: float) -> float:
+    """Return the lane's offset [m] left of the road centre for `keep` (centre, right, left): a quarter of the width, as the MAP NAVIGATOR keeps to a side."""
+    return {"centre": 0.0, "right": -width_m / 4.0, "left": width_m / 4.0}[keep]
+
+
+def follower_path(obs: RoadObservation, at_capture: tuple[float, float, float], now_local: tuple[float, float, float],
+                  route_local: np.ndarray, cfg: RoadFollowingConfig, *, lane_offset_m: float = 0.0,
+                  max_off_route_m: float = 3.5) -> np.ndarray:
+    """Return the path (N, 2) [m] in `local` a follower's road gives: its line to drive, moved by the pose at capture.
+
+    SCARF/YARF: the road centre seen moved `lane_offset_m` [m] left; ALVINN: its steering arc. Points
+    the vehicle has passed since the capture are dropped and the path starts at the vehicle now.
+    Raise NoRoadPath when the follower saw no road, or when the line's end is more than
+    `max_off_route_m` [m] from the route (the follower locked on something that is not the road taken).
+    """
+    try:
+        line_v = drive_line(obs, lane_offset_m=lane_offset_m, length_m=cfg.lookahead_m + 4.0)
+    except NoRoadSeen as exc:
+        raise NoRoadPath(str(exc)) from None
+    line = transform_points(np.asarray(at_capture, dtype=np.float64), line_v)
+    ahead = transform_points(inverse(np.asarray(now_local, dtype=np.float64)), line)[:, 0]
+    line = line[ahead > cfg.min_path_m * 0.5]
+    if len(line) < 2:
+        raise NoRoadPath(f"{obs.method}: the road seen is behind the vehicle now")
+    off = LineString(np.asarray(route_local, dtype=np.float64)).distance(Point(float(line[-1, 0]), float(line[-1, 1])))
+    if off > max_off_route_m:
+        raise NoRoadPath(f"{obs.method}: the road seen ends {off:.1f} m off the route (limit {max_off_route_m:.1f} m)")
+    return np.vstack([np.asarray(now_local[:2], dtype=np.float64), line])
+
+
+def road_line_fix(obs: RoadObservation, road: MapRoad, at_capture_local: tuple[float, float, float], stamp: float, *,
+                  sigma_cross_m: float = 0.35, sigma_yaw_rad: float = math.radians(2.0), source: str = "road_following") -> LineFixMessage | None:
+    """Return the navigator's line fix a road centre seen (SCARF/YARF) gives with the map's road (None for ALVINN or no road).
+
+    The vehicle lies on the line parallel to the map road's centre, as far to its side as the road
+    centre seen is to the other side of the vehicle; its yaw is the road's direction minus the
+    road heading seen in `vehicle`.
+    """
+    if obs.method == "alvinn" or not obs.found or obs.lateral_offset_m is None or obs.heading_rad is None:
+        return None
+    th = road.direction_rad
+    d = -obs.lateral_offset_m * math.cos(obs.heading_rad)
+    at = LocalPose(x=float(at_capture_local[0]), y=float(at_capture_local[1]), yaw=float(at_capture_local[2]))
+    return LineFixMessage(stamp=stamp, x=road.x - d * math.sin(th), y=road.y + d * math.cos(th), angle=th, sigma_cross=sigma_cross_m,
+                          yaw=float(math.remainder(th - obs.heading_rad, 2.0 * math.pi)), sigma_yaw=sigma_yaw_rad, local=at, source=source)

@@ -1,6 +1,7 @@
 """Vision road following as an EDDIE process: sees the road, plans in `local`, sends paths to the controller.
 
-`python -m eddie.modules.road_following_module --vehicle V --map FILE --start-pose X,Y,YAW [--seed N]`
+`python -m eddie.modules.road_following_module --vehicle V --map FILE --start-pose X,Y,YAW [--seed N]
+[--road-method perception|scarf|yarf|alvinn] [--alvinn-weights FILE]`
 
 It sleeps until a trigger wakes it (`ModuleSwitch(on=True)` in its inbox: "resume vision after
 intersection", "use vision through intersection") and goes back to sleep on `ModuleSwitch(on=False)`
@@ -9,6 +10,12 @@ truth), note the controller's `local` pose then, segment with PERCEPTION's pipel
 objects in view, send the position the road edges give to the navigator (as PERCEPTION's fixes reach
 the PILOT under CODGER), move the road into `local`, plan with the PILOT's planner along the mission's
 route (asked from the mission service) and send the path `immediate` with `sensed_at` = the capture stamp.
+
+With `--road-method scarf|yarf|alvinn` (issue 13) the camera image goes to that road follower
+instead: SCARF's or YARF's road centre, moved to the route's lane and into `local` by the pose at
+capture, is the path (and, with the map's road there, a line fix to the navigator); ALVINN's
+steering arc is driven directly (its road point is logged for map reasoning). A trigger that
+dead-reckons through an intersection makes the follower start afresh on the next road.
 """
 
 from __future__ import annotations
@@ -26,13 +33,16 @@ from eddie.errors import EddieError
 from eddie.modules.args import parse_pose
 from eddie.modules.errors import NoRoadPath
 from eddie.modules.landmark_matching import calibration_fix, fix_message
-from eddie.modules.road_following import RoadFollowingConfig, plan_road_path, route_ahead, route_to_local
+from eddie.modules.road_following import (RoadFollowingConfig, follower_path, lane_of, map_road_at, plan_road_path, road_line_fix, route_ahead,
+                                          route_lane_offset, route_to_local)
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
 from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.message import Message, message_name
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 from modules.map_navigator import MapData, load_map
+from modules.road_following import CameraGeometry, RoadFollowingError
+from modules.road_following.road_method import ROAD_METHODS, CameraRoadFollower, load_alvinn_weights
 from modules.perception import PerceptionPipeline, ResolutionTable, colored_range_image
 from modules.perception.monitor import SENSORS
 from modules.pilot import LocalPathPlanner, pilot_config_for
@@ -59,7 +69,8 @@ class RoadFollowing:
     """The vision road following loop on one module endpoint."""
 
     def __init__(self, m: Module, map_data: MapData, *, vehicle: str, seed: int, start: tuple[float, float, float],
-                 awake: bool = True, cfg: RoadFollowingConfig | None = None) -> None:
+                 awake: bool = True, cfg: RoadFollowingConfig | None = None, method: str = "perception",
+                 alvinn_net=None, keep: str = "centre") -> None:
         self.m = m
         self.map = map_data
         # the vehicle's top speed (the PILOT's) unless told otherwise; routes and triggers slow it
@@ -73,6 +84,12 @@ class RoadFollowing:
         self.planner = LocalPathPlanner(pc.model_copy(update={"max_wall_s": PLAN_WALL_S, "max_iterations": min(pc.max_iterations, PLAN_ITERATIONS)}),
                                         seed=seed)
         self.route: MissionRoute | None = None
+        self.method = method
+        self.follower = None if method == "perception" else CameraRoadFollower(method, alvinn_net=alvinn_net)
+        self.lane_offset_m: float | None = None  # the lane's offset from the road centre, set on the follower's first frame
+        self.frames = {True: 0, False: 0}
+        self._was_found: bool | None = None
+        self.keep = keep  # the side of the road the mission keeps to (EDDIE's route is the road's centre line)
 
     async def _route(self) -> MissionRoute | None:
         try:
@@ -104,6 +121,8 @@ class RoadFollowing:
         at_capture, prior = self.belief.local_at(frame.stamp), self.belief.world_at(frame.stamp)
         if at_capture is None or prior is None:
             return "no controller pose at the capture"
+        if self.follower is not None:
+            return await self._follower_cycle(frame, at_capture, prior, taken)
         img = colored_range_image(frame)
         objs = objects_in_view(self.map, tuple(prior))
         # perception and planning run in a worker thread: the loop keeps beating and reading its inbox meanwhile
@@ -138,10 +157,69 @@ class RoadFollowing:
                                                     sensed_at=path.sensed_at))
         return f"path of {len(path.poses)} poses sent"
 
+    def _tally(self, found: bool, why: str) -> None:
+        """Count the follower's frames with and without a road; log when it finds or loses the road."""
+        self.frames[found] += 1
+        if found != self._was_found:
+            log.info("%s: %s (frames with a road %d, without %d)", self.method, "road found" if found else f"road lost: {why}",
+                     self.frames[True], self.frames[False])
+            self._was_found = found
+
+    async def _follower_cycle(self, frame, at_capture: np.ndarray, prior: np.ndarray, taken: int) -> str:
+        """Run one cycle with the road follower (see module docstring); return what happened."""
+        assert self.follower is not None and self.route is not None
+        route_world = np.asarray(self.route.points)
+        road = map_road_at(self.map.world.edges, (float(prior[0]), float(prior[1])), float(prior[2]))
+        if self.lane_offset_m is None or self.follower.follower is None:
+            # bootstrap on the lane the route keeps to (the seed's one external input: where the road starts)
+            self.lane_offset_m = 0.0 if road is None else route_lane_offset(route_world, road) + lane_of(self.keep, road.width_m)
+            self.follower.reset(self.lane_offset_m)
+            if road is not None:
+                self.follower.road_width_m = road.width_m
+        try:
+            cam = CameraGeometry.from_capture(frame)
+            obs = await asyncio.to_thread(self.follower.observe, frame.camera_image, cam, tuple(at_capture), stamp=frame.stamp,
+                                          speed_mps=self.belief.speed)
+        except RoadFollowingError as exc:
+            return f"{self.method}: {exc}"
+        if obs.road_point is not None:
+            log.debug("%s: road point %.2f, %.2f m (vehicle) at %.2f s", self.method, *obs.road_point, frame.stamp)
+        if road is not None:
+            fix = road_line_fix(obs, road, tuple(at_capture), frame.stamp, source=CLIENT)
+            if fix is not None and obs.confidence >= 0.5:
+                await self.m.send("navigator", fix)
+        route = route_to_local(route_world, tuple(inverse(self.belief.world_from_local)))
+        speed = self._route_speed(prior)
+        now = self.belief.local
+        try:
+            pts = follower_path(obs, tuple(at_capture), tuple(now), route, self.cfg, lane_offset_m=self.lane_offset_m,
+                                max_off_route_m=3.5 + abs(self.lane_offset_m))
+            self._tally(True, "")
+        except NoRoadPath as exc:
+            self._tally(False, str(exc))
+            if self.switch.taken != taken or not self.switch.awake:
+                return f"{exc}; a trigger came meanwhile"
+            ahead = route_ahead(route, now[:2], self.cfg.lookahead_m)
+            if len(ahead) < 2:
+                return f"{exc}; at the route's end"
+            await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
+                                                        points=tuple((float(x), float(y)) for x, y in ahead),
+                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
+            return f"{exc}; dead reckoning along the route"
+        if self.switch.taken != taken or not self.switch.awake:
+            return "a trigger came while following: this path is not sent"
+        await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
+                                                    points=tuple((float(x), float(y)) for x, y in pts), speed=speed,
+                                                    sensed_at=frame.stamp))
+        return f"{self.method}: path of {len(pts)} points sent (confidence {obs.confidence:.2f}, {obs.ms_per_frame:.0f} ms)"
+
     async def on_trigger(self, data: Message) -> None:
         """Act on a trigger's data: dead-reckon through an intersection along its points, or cap the speed."""
         kind = message_name(data)
         if kind == "map_manager.dead_reckon_through":
+            if self.follower is not None:
+                self.follower.reset()  # the road after the intersection is a new one: bootstrap afresh
+                self.lane_offset_m = None
             local = transform_points(inverse(self.belief.world_from_local), np.asarray(data.points))  # type: ignore[attr-defined]
             if self.route is not None:
                 # run on along the route past the exit, so the vehicle crosses the gate that resumes vision
@@ -167,6 +245,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start-pose", default="0,0,0", help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--asleep", action="store_true", help="start asleep (a trigger wakes it)")
+    p.add_argument("--road-method", choices=ROAD_METHODS, default="perception",
+                   help="how the road is found: PERCEPTION's colored-range segmentation, or the SCARF, YARF or ALVINN follower")
+    p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
+    p.add_argument("--keep", choices=["centre", "right", "left"], default="centre",
+                   help="with a road follower: drive on the road's centre or keep right / left (a quarter of its width off the centre)")
     add_network_args(p)
     return p
 
@@ -182,9 +265,16 @@ def main(argv: list[str] | None = None) -> int:
         map_data = load_map(args.map)
     except (FileNotFoundError, ValueError) as exc:
         parser.error(f"--map: {exc}")
+    alvinn_net = None
+    if args.road_method == "alvinn":
+        try:
+            alvinn_net = load_alvinn_weights(args.alvinn_weights)
+        except RoadFollowingError as exc:
+            parser.error(f"--alvinn-weights: {exc}")
 
     async def body(m: Module) -> None:
-        await RoadFollowing(m, map_data, vehicle=args.vehicle, seed=args.seed, start=start, awake=not args.asleep).run()
+        await RoadFollowing(m, map_data, vehicle=args.vehicle, seed=args.seed, start=start, awake=not args.asleep,
+                            method=args.road_method, alvinn_net=alvinn_net, keep=args.keep).run()
 
     return run_module("road_following", body, net)
 

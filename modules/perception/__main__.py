@@ -8,6 +8,8 @@ import sys
 from pydantic import ValidationError
 
 from modules.perception.module import PerceptionConfig, PerceptionModule
+from modules.perception.road_method import RoadMethodPerception
+from modules.road_following import ROAD_METHODS, CameraRoadFollower, RoadFollowingError, load_alvinn_weights
 from modules.runtime import add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser"]
@@ -20,6 +22,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--speed", type=float, default=1.0, help="desired speed for the view/resolution table [m/s]")
     p.add_argument("--max-wait", type=float, default=6.0, help="longest wait for the image input position [s] sim")
     p.add_argument("--name", default="perception", help="module name (liveliness, heartbeat)")
+    p.add_argument("--road-method", choices=ROAD_METHODS, default="perception",
+                   help="what finds the road of follow-road units: the colored-range pipeline, or the SCARF, YARF or ALVINN follower")
+    p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
     add_network_args(p)
     return p
 
@@ -31,12 +36,19 @@ def main(argv: list[str] | None = None) -> int:
     setup_logging()
     net = network_from_args(parser, args)
     try:
-        cfg = PerceptionConfig(vehicle=args.vehicle, speed=args.speed, max_wait_s=args.max_wait)
+        cfg = PerceptionConfig(vehicle=args.vehicle, speed=args.speed, max_wait_s=args.max_wait, road_method=args.road_method)
     except ValidationError as exc:
         parser.error("; ".join(f"--{e['loc'][0]}: {e['msg']}" for e in exc.errors()))
+    road = None
+    if args.road_method != "perception":
+        try:
+            net = load_alvinn_weights(args.alvinn_weights) if args.road_method == "alvinn" else None
+        except RoadFollowingError as exc:
+            parser.error(f"--alvinn-weights: {exc}")
+        road = RoadMethodPerception(CameraRoadFollower(args.road_method, alvinn_net=net))
 
     async def body(rt) -> None:
-        await PerceptionModule(rt, cfg).run()
+        await PerceptionModule(rt, cfg, road=road).run()
 
     return run_module(args.name, body, net)
 

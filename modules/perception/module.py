@@ -31,6 +31,8 @@ from blackboard.errors import FutureExtrapolationError
 from modules.perception.monitor import SENSORS, ResolutionTable, SensorGeometry, image_input_position
 from modules.perception.pipeline import PerceptionPipeline
 from modules.perception.results import build_result, failed_result
+from modules.perception.road_method import RoadMethodPerception
+from modules.road_following import RoadFollowingError
 from wire.keys import SimKeys
 from modules.perception.sensor_frame import SensorFrameError, colored_range_image, decode_sensor_frame, sensor_geometry
 from modules.vocabulary import DrivingUnitDescription, LocalPathPlan, PerceptionResult
@@ -60,6 +62,8 @@ class PerceptionConfig(BaseModel):
     capture_timeout_s: float = Field(5.0, gt=0.0, description="capture query timeout [s] wall")
     reach_tolerance_m: float = Field(0.3, ge=0.0, description="capture this close before the input position [m]")
     pose_wait_s: float = Field(1.0, ge=0.0, description="longest wait for the vehicle pose at capture time to arrive [s] sim")
+    road_method: str = Field("perception", pattern="^(perception|scarf|yarf|alvinn)$",
+                             description="issue 13: what finds the road of follow-road units (a road follower replaces the navigable region)")
 
 
 @dataclass
@@ -84,13 +88,14 @@ def _arc_length(path: np.ndarray, xy: np.ndarray) -> float:
 class PerceptionModule:
     """The PERCEPTION process body: `await PerceptionModule(rt, cfg).run()` inside `run_module`."""
 
-    def __init__(self, rt, cfg: PerceptionConfig = PerceptionConfig()) -> None:
-        """Bind to a module runtime (blackboard client, Zenoh link, sim clock)."""
+    def __init__(self, rt, cfg: PerceptionConfig = PerceptionConfig(), *, road: RoadMethodPerception | None = None) -> None:
+        """Bind to a module runtime (blackboard client, Zenoh link, sim clock); `road`: the road follower of follow-road units."""
         self.rt = rt
         self.cfg = cfg
         self.bb = rt.bb
         self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[cfg.vehicle]), speed=cfg.speed)
         self.stats = CycleStats()
+        self.road = road  # issue 13
         self._queue: asyncio.Queue = asyncio.Queue()
         self._queued: set[str] = set()
 
@@ -174,6 +179,11 @@ class PerceptionModule:
         try:
             img = colored_range_image(frame)
             out = self.pipeline.process(img, unit.objects, prior, error_allowance=max(unit.error_allowance_m, 0.2))
+            if self.road is not None and unit.mode == "follow-road":  # issue 13: the road follower's road
+                try:
+                    out = self.road.replace_navigable(out, self.road.observe(unit, frame, prior))
+                except RoadFollowingError as exc:
+                    return await self._write(tok, failed_result(unit, f"{self.cfg.road_method}: {exc}"[:500], frame.stamp))
             res = build_result(unit, out, prior, frame.stamp, img)
         except (ValueError, ArithmeticError, IndexError, np.linalg.LinAlgError, shapely.errors.ShapelyError) as exc:
             log.exception("perception: %s: processing failed", unit.unit_id)

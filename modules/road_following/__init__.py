@@ -13,6 +13,8 @@ from modules.road_following.colour_classes import ColourClass, ColourClasses, cl
 from modules.road_following.errors import AlvinnModelError, CameraGeometryError, RoadFollowingError
 from modules.road_following.follower import Branch, FeatureReport, RoadFollower, RoadObservation, VehicleMotion
 from modules.road_following.intersection import find_branches
+from modules.road_following.road_method import FOLLOWER_METHODS, ROAD_METHODS, CameraRoadFollower, RoadMethod, load_alvinn_weights
+from modules.road_following.road_seen import NoRoadSeen, cross_section, drive_line, motion_between, road_region, steering_arc
 from modules.road_following.scarf import Scarf, ScarfConfig
 from modules.road_following.spine_fit import Spine, SpineFit, fit_spine_lsq, fit_spine_robust
 from modules.road_following.triangle_road import TriangleRoad, best_triangle, half_width_rate, triangle_in_vehicle, triangle_mask, vote
@@ -27,5 +29,7 @@ __all__ = [
     "Branch", "FeatureReport", "RoadFollower", "RoadObservation", "VehicleMotion",
     "find_branches", "Scarf", "ScarfConfig", "Spine", "SpineFit", "fit_spine_lsq", "fit_spine_robust",
     "TriangleRoad", "best_triangle", "half_width_rate", "triangle_in_vehicle", "triangle_mask", "vote",
+    "FOLLOWER_METHODS", "ROAD_METHODS", "CameraRoadFollower", "RoadMethod", "load_alvinn_weights",
+    "NoRoadSeen", "cross_section", "drive_line", "motion_between", "road_region", "steering_arc",
     "LaneModel", "StripeFeature", "Yarf", "YarfConfig", "track_white", "track_yellow", "yellow_mask",
 ]

@@ -11,12 +11,12 @@ import json
 import math
 import time
 from pathlib import Path
-from typing import Annotated, Iterator
+from typing import Annotated, Iterator, Optional
 
 import numpy as np
 import typer
 
-__all__ = ["roadfollow_app", "RouteFrames", "mission_legs"]
+__all__ = ["roadfollow_app", "RouteFrames", "mission_legs", "lane_frame"]
 
 roadfollow_app = typer.Typer(help="Road following as the Navlab did it: SCARF, YARF, ALVINN (data set, training, evaluation).",
                              no_args_is_help=True)
@@ -137,6 +137,7 @@ def eval_cmd(
     seed: Annotated[int, typer.Option(help="Seed for the drive, sensor noise and odometry noise")] = 0,
     model: Annotated[str, typer.Option(help="ALVINN weights (.npz from `sidewalk roadfollow train`)")] = "",
     intersections: Annotated[bool, typer.Option("--intersections", help="SCARF: also search for branch roads")] = False,
+    lane_offset: Annotated[Optional[float], typer.Option("--lane-offset", help="Where the vehicle drives, left of the road centre [m] (negative: right; default: the world's lane); ALVINN is scored against that lane")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
 ) -> None:
     """Drive the mission legs of a world, run one road follower on the camera and score it against the true road."""
@@ -157,7 +158,7 @@ def eval_cmd(
             raise typer.BadParameter(f"--model: {exc}") from None
     src = _world_or_exit(world, seed)
     rng = np.random.default_rng(seed)
-    lane = LANE_OFFSET.get(src.world.name, 0.0)
+    lane = LANE_OFFSET.get(src.world.name, 0.0) if lane_offset is None else lane_offset
     poses = plan_drive(src.legs, frames, rng, step_m=step, lane_offset_m=lane)
 
     last: list = [None]  # the capture of the frame being scored: its camera model builds a fresh follower
@@ -173,7 +174,8 @@ def eval_cmd(
     def stream():
         for fr, cap in src.frames(poses, rng):
             last[0] = cap
-            yield fr
+            # ALVINN steers to the lane it was trained on: its road point is scored against that lane's centre
+            yield lane_frame(fr, lane) if method == "alvinn" else fr
 
     t0 = time.perf_counter()
     scores = list(evaluate(stream(), make, rng=rng))
@@ -192,19 +194,20 @@ def dataset_cmd(
     out: Annotated[Path, typer.Option(help="Directory to write dataset.npz into")] = Path("runs/alvinn-data"),
     frames: Annotated[int, typer.Option(min=2, help="Images along the mission legs")] = 120,
     seed: Annotated[int, typer.Option(help="Seed for the drive and the sensor noise")] = 1,
+    lane_offset: Annotated[Optional[float], typer.Option("--lane-offset", help="The lane driven, left of the road centre [m] (negative: right; default: the world's lane); ALVINN learns to steer to it")] = None,
 ) -> None:
-    """Capture ALVINN's training images along the world's mission legs with the true road centre (a person driving)."""
+    """Capture ALVINN's training images along the world's mission legs with the true lane centre (a person driving)."""
     from sidewalk.roadfollow_eval import plan_drive, to_vehicle
 
     src = _world_or_exit(world, seed, width=160, height=120)
     rng = np.random.default_rng(seed)
     total = sum(float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) for p in src.legs)
-    poses = plan_drive(src.legs, frames, rng, step_m=total / frames, lane_offset_m=LANE_OFFSET.get(src.world.name, 0.0), weave_m=0.3,
-                       weave_period_m=57.0)
+    lane = LANE_OFFSET.get(src.world.name, 0.0) if lane_offset is None else lane_offset
+    poses = plan_drive(src.legs, frames, rng, step_m=total / frames, lane_offset_m=lane, weave_m=0.3, weave_period_m=57.0)
     images, centres = [], []
     cap = None
     for fr, cap in src.frames(poses, rng):
-        c = to_vehicle(fr.centre_world, fr.pose)
+        c = to_vehicle(lane_frame(fr, lane).centre_world, fr.pose)
         images.append(fr.image)
         centres.append(_centre_ahead(c))
     assert cap is not None
@@ -212,8 +215,20 @@ def dataset_cmd(
     path = out / "dataset.npz"
     np.savez_compressed(path, images=np.stack(images), centres=np.stack(centres).astype(np.float32),
                         camera_K=np.asarray(cap.camera_K, float), T_vehicle_camera=np.asarray(cap.T_vehicle_camera, float),
-                        world=np.array(src.world.name), seed=np.array(seed))
+                        world=np.array(src.world.name), seed=np.array(seed), lane_offset=np.array(lane))
     typer.echo(json.dumps({"dataset": str(path), "images": len(images), "world": src.world.name, "bytes": path.stat().st_size}))
+
+
+def lane_frame(fr, lane_m: float):
+    """Return the frame with its centre line moved `lane_m` [m] to the left (negative: right): the lane's centre."""
+    import dataclasses
+
+    import shapely
+
+    if lane_m == 0.0:
+        return fr
+    moved = shapely.LineString(fr.centre_world).offset_curve(lane_m)
+    return dataclasses.replace(fr, centre_world=np.asarray(moved.coords, float))
 
 
 def _centre_ahead(c: np.ndarray, back_m: float = 5.0, ahead_m: float = 45.0, step: float = 1.0) -> np.ndarray:

@@ -99,6 +99,9 @@ def run(
     # ---- issue 10: faults and the speed cap ----
     fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-perception, position-jump, kill-central, wedge; repeatable")] = None,
     max_speed: Annotated[Optional[float], typer.Option("--max-speed", help="Cap the speed (m/s): CODGER the PILOT's for every segment, EDDIE the route's and the controller's")] = None,
+    # ---- issue 13: road following as the Navlab did it ----
+    road_method: Annotated[str, typer.Option("--road-method", help="How the road is found: perception (colored-range segmentation), scarf, yarf or alvinn — PERCEPTION's method (codger), vision road following's (eddie)")] = "perception",
+    alvinn_weights: Annotated[Optional[Path], typer.Option("--alvinn-weights", help="ALVINN's weights (.npz from `sidewalk roadfollow train`), needed with --road-method alvinn")] = None,
 ) -> None:
     """Run a mission as OS processes on loopback Zenoh (CODGER: blackboard and modules; --arch eddie: EDDIE, no blackboard); writes run.mcap."""
     from rich.console import Console
@@ -124,6 +127,8 @@ def run(
         fault_specs = tuple(parse_fault(f) for f in fault or ())
     except CompareError as exc:
         raise typer.BadParameter(str(exc), param_hint="--fault") from None
+    if road_method not in ("perception", "scarf", "yarf", "alvinn"):  # issue 13
+        raise typer.BadParameter(f"{road_method!r} is not perception, scarf, yarf or alvinn", param_hint="--road-method")
     if max_speed is not None and not (math.isfinite(max_speed) and max_speed > 0):
         raise typer.BadParameter(f"{max_speed!r} is not a speed > 0 (m/s)", param_hint="--max-speed")
     try:
@@ -132,7 +137,8 @@ def run(
                         max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns, arch=arch,
                         record=not no_record, monitor_port=monitor_port if monitor else None,  # issue 11
                         secure=secure, actors=actors, obstacles=obstacles, map_file=map_file,  # issue 12
-                        faults=fault_specs, max_speed=max_speed)  # issue 10
+                        faults=fault_specs, max_speed=max_speed,  # issue 10
+                        road_method=road_method, alvinn_weights=alvinn_weights)  # issue 13
     except ValidationError as exc:
         e = exc.errors()[0]
         field = str(e["loc"][0])

@@ -69,10 +69,15 @@ async def _watch(net: NetworkConfig, monitors: int) -> None:
     t0 = time.time()
     got_all = asyncio.Event()
     expected: list[int] = []
+    registered: list[int] = []
+    all_registered = asyncio.Event()
 
     async def follow(lane: int) -> None:
         nonlocal dups
         async with bb.monitor(Spec(type="soak_item", where=(AttrPredicate(path="lane", op="==", value=lane),))) as mon:
+            registered.append(lane)  # entering the block waited for the node's acknowledgement of the monitor
+            if len(registered) == monitors:
+                all_registered.set()
             async for ev in mon:
                 if ev.kind != "new":
                     continue
@@ -85,8 +90,11 @@ async def _watch(net: NetworkConfig, monitors: int) -> None:
                     got_all.set()
 
     tasks = [asyncio.create_task(follow(i)) for i in range(monitors)]
-    while bb.monitor_count < monitors:
-        await asyncio.sleep(0.05)  # registration has no event to wait on from here
+    waiter = asyncio.ensure_future(all_registered.wait())
+    await asyncio.wait([waiter, *tasks], return_when=asyncio.FIRST_COMPLETED)  # a lane that failed ends the wait too
+    for t in tasks:
+        if t.done() and t.exception() is not None:
+            raise t.exception()  # type: ignore[misc]
     print("ready", flush=True)
     line = await asyncio.to_thread(sys.stdin.readline)
     total = int(line.split()[1]) if line.startswith("end") else 0

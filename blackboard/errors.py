@@ -7,6 +7,7 @@ __all__ = [
     "BadRequestError",
     "UnknownTypeError",
     "InvalidTokenError",
+    "TokenTooLargeError",
     "BadSpecError",
     "VersionConflictError",
     "NotFoundError",
@@ -56,6 +57,12 @@ class InvalidTokenError(BlackboardError):
     """The token's attributes, geometry, frame or stamp do not validate."""
 
     code = "invalid_token"
+
+
+class TokenTooLargeError(InvalidTokenError):
+    """The token exceeds its type's limit of bytes or geometry points (`blackboard.limits`); the message names both."""
+
+    code = "token_too_large"
 
 
 class BadSpecError(BlackboardError):
@@ -113,6 +120,7 @@ _BY_CODE: dict[str, type[BlackboardError]] = {
         BadRequestError,
         UnknownTypeError,
         InvalidTokenError,
+        TokenTooLargeError,
         BadSpecError,
         VersionConflictError,
         NotFoundError,

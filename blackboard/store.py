@@ -38,6 +38,7 @@ import msgpack
 import numpy as np
 
 from blackboard.errors import StoreOpenError
+from blackboard.limits import check_token_size
 from blackboard.geometry import coords_to_wire
 
 __all__ = ["Record", "Store", "SyncMode", "token_id", "token_rid"]
@@ -168,6 +169,13 @@ class Record:
 
 
 _packb = msgpack.Packer(use_bin_type=True).pack
+
+
+def _points(xy: np.ndarray | tuple[float, float] | None) -> int:
+    """Return how many points a record's geometry holds."""
+    return 0 if xy is None else 1 if type(xy) is tuple else len(xy)
+
+
 type_ = type
 _INSERT = "INSERT OR REPLACE INTO tokens(rid, type, version, stamp, source, frame, geom, attrs) VALUES (?,?,?,?,?,?,?,?)"
 _UPDATE = "UPDATE tokens SET version=?, stamp=?, frame=?, geom=?, attrs=? WHERE rid=?"
@@ -368,10 +376,12 @@ class Store:
 
     def insert(self, type: str, stamp: float, source: str, frame: str, kind: str | None,
                xy: np.ndarray | None, attrs: dict) -> Record:
-        """Stage a new token (version 1); return its record."""
+        """Stage a new token (version 1); return its record. Raise TokenTooLargeError past its type's limit (nothing staged)."""
         rid = self._next_rid
         rec = Record(rid, type, 1, stamp, source, frame, kind, xy, attrs)
-        self._stmts.append((_INSERT, (rid, type, 1, stamp, source, frame, rec.geom_packed(), _packb(attrs))))
+        geom, blob = rec.geom_packed(), _packb(attrs)
+        check_token_size(type, len(blob) + (len(geom) if geom is not None else 0), _points(xy))
+        self._stmts.append((_INSERT, (rid, type, 1, stamp, source, frame, geom, blob)))
         self._next_rid = rid + 1
         rec.packed()  # encode once, at write time: retrieves and monitor events reuse the bytes
         self._pending[rid] = rec
@@ -383,9 +393,11 @@ class Store:
 
     def replace(self, old: Record, stamp: float, frame: str, kind: str | None, xy: np.ndarray | None,
                 attrs: dict) -> Record:
-        """Stage a new version of `old`; return the new record."""
+        """Stage a new version of `old`; return the new record. Raise TokenTooLargeError past its type's limit (nothing staged)."""
         rec = Record(old.rid, old.type, old.version + 1, stamp, old.source, frame, kind, xy, attrs)
-        self._stmts.append((_UPDATE, (rec.version, stamp, frame, rec.geom_packed(), _packb(attrs), rec.rid)))
+        geom, blob = rec.geom_packed(), _packb(attrs)
+        check_token_size(old.type, len(blob) + (len(geom) if geom is not None else 0), _points(xy))
+        self._stmts.append((_UPDATE, (rec.version, stamp, frame, geom, blob, rec.rid)))
         rec.packed()
         self._pending[rec.rid] = rec
         return rec

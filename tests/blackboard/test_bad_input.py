@@ -18,7 +18,7 @@ from wire.keys import BlackboardKeys
 
 pytestmark = pytest.mark.timeout(120)
 
-KNOWN = {"bad_request", "unknown_type", "invalid_token", "bad_spec", "version_conflict", "not_found",
+KNOWN = {"bad_request", "unknown_type", "invalid_token", "token_too_large", "bad_spec", "version_conflict", "not_found",
          "unknown_frame", "extrapolation", "past_extrapolation", "future_extrapolation"}
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow], derandomize=True)
 

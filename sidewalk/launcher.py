@@ -315,7 +315,7 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
     ]
     # ---- monitor and recording (issue 11): recorder and monitor start before the simulator ----
     plans[2:2] = observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port)
-    if cfg.obstacles or (cfg.obstacles is None and cfg.actors):  # issue 12
+    if cfg.obstacles or (cfg.obstacles is None and (cfg.actors or setup.world.actors)):  # issue 12: actors of the flag or the world file
         plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", "--map", str(setup.map_file), *zflags)))
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags,

@@ -7,8 +7,8 @@ by odometry, along the known lane of the route: "road-matched" dead reckoning; f
 are skipped). Odometry's distance drifts (a scale error of ~1 % is 5 m over the AMV route), so the
 distance is re-anchored at each turn of the route: where the odometry heading has turned half of a
 sharp turn the vehicle is at the turn's middle on the map's lane (`turn_anchors`), and between
-anchors the odometry distance is stretched to the map's (past the last one, with the last leg's
-scale). At every `step_m` of travel the laser is read; obstacles small enough to be trees,
+anchors the odometry distance is stretched to the map's (past the last one, with the last
+interval's scale). At every `step_m` of travel the laser is read; obstacles small enough to be trees,
 posts, mailboxes become vehicle-frame observations; after the drive each frame is placed on the
 lane at its anchored distance, the observations put in the `world` frame there, and the
 `ObjectTracker` folds them in frame by frame (confidence up when seen, down when missed where it should appear,
@@ -186,18 +186,16 @@ def _unwrap(a: np.ndarray) -> np.ndarray:
 
 def turn_anchors(lane: np.ndarray, heading: np.ndarray, *, min_turn: float = math.radians(45.0),
                  window_m: float = 25.0) -> np.ndarray:
-    """Return (K, 2) anchors (odometry distance [m], lane arc length [m]) at the lane's sharp turns, (0, 0) first.
+    """Return (K, 2) anchors (odometry distance [m], lane arc length [m]) at the middle of the lane's sharp turns, (0, 0) first.
 
-    A turn is where the heading changes by more than `min_turn` [rad] within `window_m` [m]. On the
-    lane (a polyline) it is a corner at arc length s_c; the vehicle drives it as an arc: in the
-    odometry trace `heading` (N, 2: odometry distance [m], heading [rad]) its middle is where half the
-    change θ is done and its radius R comes from the distance over which 5–95 % of θ is turned. The arc
-    meets the lane at its tangent points, R·tan(θ/2) before and after the corner on the lane and R·θ/2
-    before and after the middle by odometry: those two points are the anchors of each turn. The turns
-    are paired in order; when the counts differ (the drive did not follow the route) only the start anchors.
+    A turn is where the heading changes by more than `min_turn` [rad] within `window_m` [m]; its middle
+    is where half of that change is done, on the lane (arc length; the corner of a polyline) and in the
+    odometry trace `heading` (N, 2: odometry distance [m], heading [rad]). The turns are paired in
+    order; when the counts differ (the drive did not follow the route) only the start anchors. The
+    vehicle cuts a corner (a 7 m arc is ≈ 1.5 m shorter than the 90° corner it rounds, half of it
+    after the middle): that much along-track error stays after the last turn.
     """
-    def turns(s: np.ndarray, yaw: np.ndarray) -> list[tuple[float, float, float, float]]:
-        """Return (s where 5 % is turned, s at half, s at 95 %, signed θ) of each turn."""
+    def turns(s: np.ndarray, yaw: np.ndarray) -> list[float]:
         g = np.arange(s[0], s[-1], 0.5)  # resampled every 0.5 m
         y = np.interp(g, s, yaw)
         h = int(round(0.5 * window_m / 0.5))
@@ -206,7 +204,7 @@ def turn_anchors(lane: np.ndarray, heading: np.ndarray, *, min_turn: float = mat
         change = np.zeros(len(g))
         change[h:-h] = y[2 * h:] - y[:-2 * h]  # heading change across a window centred on each sample
         on = np.abs(change) >= min_turn
-        out: list[tuple[float, float, float, float]] = []
+        out: list[float] = []
         k = 0
         while k < len(g):
             if not on[k]:
@@ -216,14 +214,9 @@ def turn_anchors(lane: np.ndarray, heading: np.ndarray, *, min_turn: float = mat
             while e + 1 < len(g) and on[e + 1]:
                 e += 1
             lo, hi = max(0, k - h), min(len(g) - 1, e + h)
-            theta = float(y[hi] - y[lo])
-            done = np.sign(theta) * (y[lo:hi + 1] - y[lo]) / max(abs(theta), 1e-9)  # 0 → 1 through the turn
-
-            def past(f: float) -> float:
-                i = np.flatnonzero(done >= f)
-                return float(g[lo + int(i[0])]) if len(i) else float(g[(lo + hi) // 2])
-
-            out.append((past(0.05), past(0.5), past(0.95), theta))
+            half = 0.5 * (y[lo] + y[hi])
+            past = np.flatnonzero(np.sign(y[hi] - y[lo]) * (y[lo:hi + 1] - half) >= 0.0)  # first sample past half-way
+            out.append(float(g[lo + int(past[0])]) if len(past) else float(g[(lo + hi) // 2]))
             k = e + 1
         return out
 
@@ -239,29 +232,22 @@ def turn_anchors(lane: np.ndarray, heading: np.ndarray, *, min_turn: float = mat
     odo_turns = turns(heading[:, 0], _unwrap(heading[:, 1])) if len(heading) > 2 else []
     out = [(0.0, 0.0)]
     if len(odo_turns) == len(lane_turns):
-        for (o5, o_mid, o95, theta), (_, s_c, _, _) in zip(odo_turns, lane_turns):
-            th = abs(theta)
-            r = max(o95 - o5, 0.5) / (0.9 * th)
-            for a, b in ((o_mid - 0.5 * r * th, s_c - r * math.tan(0.5 * th)), (o_mid + 0.5 * r * th, s_c + r * math.tan(0.5 * th))):
-                if a > out[-1][0] and b > out[-1][1]:
-                    out.append((a, b))
+        out += [(a, b) for a, b in zip(odo_turns, lane_turns) if a > out[-1][0] and b > out[-1][1]]
     return np.asarray(out, np.float64)
 
 
 def anchored_distance(anchors: np.ndarray, d: float) -> float:
     """Return the lane arc length [m] at odometry distance `d` [m]: stretched between `turn_anchors`, past the last
-    with the straight legs' scale so far (the raw distance when there is no turn)."""
+    with the last interval's scale (the raw distance when there is no turn)."""
     a = np.asarray(anchors, np.float64).reshape(-1, 2)
     if len(a) < 2:
         return float(d)
-    if d >= a[-1, 0]:
-        # the straight legs' scale: intervals alternate leg (start → turn-in), turn (in → out), leg (out → next in), …
-        legs = np.diff(a, axis=0)[0::2]
-        scale = float(legs[:, 1].sum() / max(legs[:, 0].sum(), 1e-9))
-        return float(a[-1, 1] + (d - a[-1, 0]) * scale)
     j = int(np.clip(np.searchsorted(a[:, 0], d) - 1, 0, len(a) - 2))
     (o0, s0), (o1, s1) = a[j], a[j + 1]
-    return float(s0 + (d - o0) * (s1 - s0) / max(o1 - o0, 1e-9))
+    scale = (s1 - s0) / max(o1 - o0, 1e-9)
+    if d >= a[-1, 0]:
+        o0, s0 = a[-1]
+    return float(s0 + (d - o0) * scale)
 
 
 def _road_matched(cum: np.ndarray, lane: np.ndarray, s: float, straight: float = 6.0,

@@ -8,7 +8,12 @@ from typing import Optional, Sequence
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
-__all__ = ["StopSpan", "StopSummary", "stop_summary"]
+__all__ = ["StopSpan", "StopSummary", "stop_summary", "AHEAD_M", "BESIDE_M"]
+
+#: A stop is for an actor when the actor's footprint comes within this far ahead of the vehicle's origin [m] …
+AHEAD_M = 25.0
+#: … and this far to either side of its heading line [m] (the lane and a margin).
+BESIDE_M = 3.0
 
 
 class StopSpan(BaseModel):
@@ -20,6 +25,8 @@ class StopSpan(BaseModel):
     duration_s: float
     x: float
     y: float
+    #: the actor standing ahead in the vehicle's way when it stopped (within `AHEAD_M` ahead, `BESIDE_M` aside), by truth
+    actor: Optional[str] = None
 
 
 class StopSummary(BaseModel):
@@ -31,6 +38,9 @@ class StopSummary(BaseModel):
     stops: int
     stopped_s: float
     spans: tuple[StopSpan, ...] = ()
+    #: the stops with an actor ahead in the way (stops for obstacles) and their time [s]
+    obstacle_stops: int = 0
+    obstacle_stopped_s: float = 0.0
     min_actor_clearance_m: Optional[float] = None
 
 
@@ -47,6 +57,7 @@ def stop_summary(truth: Sequence[Sequence[float]], *, actors: str | None, world_
     moving = np.flatnonzero(v >= still)
     stops, stopped = 0, 0.0
     spans: list[StopSpan] = []
+    starts: list[int] = []  # the track row each stop begins at
     if len(moving):
         i, last = int(moving[0]), int(moving[-1])
         while i < last:
@@ -60,6 +71,7 @@ def stop_summary(truth: Sequence[Sequence[float]], *, actors: str | None, world_
                     stopped += span
                     spans.append(StopSpan(at_s=round(float(tr[i, 0]) - t0, 3), duration_s=round(span, 3),
                                           x=round(float(tr[i, 1]), 2), y=round(float(tr[i, 2]), 2)))
+                    starts.append(i)
                 i = j
             else:
                 i += 1
@@ -82,10 +94,21 @@ def stop_summary(truth: Sequence[Sequence[float]], *, actors: str | None, world_
         from vehicle_sim.simulator import _clearance
 
         best = math.inf
-        for t, x, y, yaw in tr:
+        at_start = {k: j for j, k in enumerate(starts)}
+        for k, (t, x, y, yaw) in enumerate(tr):
             aset.update(t, (x, y))
             pts = sim.footprint_world(VehicleState(x=x, y=y, yaw=yaw))
-            for _, corners in aset.footprints(t):
+            for a, corners in aset.footprints(t):
                 best = min(best, _clearance(pts, corners))
+                if k in at_start:
+                    c, s_ = math.cos(yaw), math.sin(yaw)
+                    ahead = (corners[:, 0] - x) * c + (corners[:, 1] - y) * s_
+                    beside = -(corners[:, 0] - x) * s_ + (corners[:, 1] - y) * c
+                    if ahead.max() > 0.0 and ahead.min() < AHEAD_M and beside.min() < BESIDE_M and beside.max() > -BESIDE_M:
+                        j = at_start[k]
+                        if spans[j].actor is None:
+                            spans[j] = spans[j].model_copy(update={"actor": a.id})
         clearance = round(best, 3) if math.isfinite(best) else None
-    return StopSummary(stops=stops, stopped_s=round(stopped, 3), spans=tuple(spans), min_actor_clearance_m=clearance)
+    held = [sp for sp in spans if sp.actor is not None]
+    return StopSummary(stops=stops, stopped_s=round(stopped, 3), spans=tuple(spans), obstacle_stops=len(held),
+                       obstacle_stopped_s=round(sum(sp.duration_s for sp in held), 3), min_actor_clearance_m=clearance)

@@ -193,12 +193,15 @@ def box_corners(x: float, y: float, yaw: float, length: float, width: float) -> 
 
 #: Named actor sets for the shipped missions.
 ACTOR_PRESETS: dict[str, dict] = {
-    # amv-delivery on north_hills: a pedestrian stops in the northbound lane of Oak, then crosses on;
-    # a car parked in the westbound lane of Elm pulls away and turns north onto Birch.
+    # amv-delivery on north_hills: a pedestrian steps into the northbound lane of Oak when the vehicle is
+    # 30 m away, stands there 30 s (long enough for a vehicle crawling at 1 m/s to meet it), then crosses on;
+    # a car parked in the westbound lane of Elm pulls away 30 s after the vehicle came within 25 m and
+    # turns north onto Birch. Both stand in the path of either architecture: the walker stops at x = 0.5,
+    # in front of a vehicle on the road's centre (EDDIE's road follower) and one keeping right (CODGER).
     "amv-delivery": {"actors": [
         {"id": "walker", "kind": "pedestrian", "speed": 1.4, "trigger_distance": 30.0,
-         "path": [{"x": 5.0, "y": 40.0}, {"x": 1.5, "y": 40.0, "dwell": 10.0}, {"x": -6.0, "y": 40.0}]},
-        {"id": "parked_car", "kind": "car", "speed": 5.0, "trigger_distance": 25.0, "start_after": 12.0,
+         "path": [{"x": 5.0, "y": 40.0}, {"x": 0.5, "y": 40.0, "dwell": 30.0}, {"x": -6.0, "y": 40.0}]},
+        {"id": "parked_car", "kind": "car", "speed": 5.0, "trigger_distance": 25.0, "start_after": 30.0,
          "yaw_deg": 180.0, "vanish": True,
          "path": [{"x": -175.0, "y": 241.5}, {"x": -233.0, "y": 241.5}, {"x": -238.5, "y": 247.0}, {"x": -238.5, "y": 300.0}]},
     ]},

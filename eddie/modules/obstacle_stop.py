@@ -25,7 +25,8 @@ class ObstacleStopConfig(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
-    stop_distance_m: float = Field(8.0, gt=0.0, description="stop for an obstacle this near along the path [m]")
+    # 15 m: at 3 m/s a frame a few seconds old (capture and detection on a loaded machine) plus braking still stops short
+    stop_distance_m: float = Field(15.0, gt=0.0, description="stop for an obstacle this near along the path [m]")
     half_width_m: float = Field(1.5, gt=0.0, description="half the swept corridor [m] (the OBSTACLE DETECTOR's)")
     min_points: int = Field(3, ge=1, description="this many obstacle points make an obstacle (noise and mixed points do not)")
     end_margin_m: float = Field(1.5, ge=0.0, description="looked at past the commanded path's end (the vehicle's front and its stop) [m]")

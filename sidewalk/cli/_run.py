@@ -94,7 +94,7 @@ def run(
     # ---- end monitor and recording ----
     secure: Annotated[Optional[Path], typer.Option("--secure", help="Secure directory (`sidewalk security init`): every process on mutual TLS with a password, the router enforcing its rules.yaml")] = None,
     actors: Annotated[Optional[str], typer.Option("--actors", help="Objects not on the map: an actors file (JSON/YAML) or a preset (e.g. amv-delivery)")] = None,
-    obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors)")] = None,
+    obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors or actors in the world file)")] = None,
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
     # ---- issue 10: faults and the speed cap ----
     fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-perception, position-jump, kill-central, wedge; repeatable")] = None,

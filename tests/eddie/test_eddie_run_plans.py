@@ -63,6 +63,19 @@ def test_the_controllers_speed_cap_lowers_the_trackers_top_speed_and_refuses_non
     assert ex.value.code == 2 and "--max-speed" in capsys.readouterr().err
 
 
+def test_actors_go_to_the_simulator_and_obstacle_stop_sleeps_until_a_trigger() -> None:
+    plans = {p.name: p for p in eddie_plans(out=Path("/tmp/x"), ns="t1", endpoint="tcp/127.0.0.1:7447", world="north_hills",
+                                            vehicle="navlab", rtf=4.0, seed=0, watchdog_s=1.0, start_truth=None,
+                                            start_belief=(0.0, -40.0, 1.57), map_file=Path("/tmp/built.map.geojson"),
+                                            annotated_map=Path("/tmp/x/a.geojson"), perception=True, actors="amv-delivery")}
+    sim = plans["sim"].args
+    assert sim[sim.index("--actors") + 1] == "amv-delivery"
+    assert "--asleep" in plans["obstacle_stop"].args and "--asleep" not in plans["road_following"].args
+    for name in EDDIE_PERCEPTION_MODULES:  # the robot's map (here a built one) reaches every perception module
+        assert plans[name].args[plans[name].args.index("--map") + 1] == "/tmp/built.map.geojson"
+    assert "--actors" not in _plans(True)[2].args
+
+
 def test_the_belief_is_world_from_local_composed_with_the_local_pose() -> None:
     pc = PoseComposer()
     assert pc.world() is None

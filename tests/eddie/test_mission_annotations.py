@@ -47,6 +47,9 @@ def test_driving_the_route_fires_the_profile_in_order(amv) -> None:
             node = a.id.rsplit(".", 1)[0]
             assert order.index(f"{node}.slow") < order.index(a.id) < order.index(f"{node}.resume_vision")
     assert fired[-1].type == "stop_at_object"
+    # fast obstacle detection: switched on at the start, off through each intersection and on again after it
+    switches = [a.type for a in fired if a.type in ("start_obstacles", "stop_obstacles")]
+    assert switches[0] == "start_obstacles" and switches == ["start_obstacles"] + ["stop_obstacles", "start_obstacles"] * 4
 
 
 def test_campus_tour_steps_and_limits() -> None:

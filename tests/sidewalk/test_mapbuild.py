@@ -43,27 +43,31 @@ def test_built_map_round_trips_and_replaces_the_discrete_objects(nh, tmp_path) -
     assert sc["missed"] <= near - 1
 
 
-def test_turn_anchors_take_out_the_odometry_scale_error_and_the_cut_corner() -> None:
+def test_turn_anchors_take_out_the_odometry_scale_error() -> None:
     from sidewalk.mapbuild import anchored_distance, turn_anchors
 
-    # the lane: 100 m east, then north; the vehicle drives the corner as a 7 m arc; odometry reads 1 % long
-    lane = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0]])
-    r, scale = 7.0, 1.01
-    rows, true_d = [], []
-    for d in np.arange(0.0, 93.0 + r * np.pi / 2 + 90.0, 0.1):
-        if d < 93.0:
-            yaw = 0.0
-        elif d < 93.0 + r * np.pi / 2:
-            yaw = (d - 93.0) / r
-        else:
-            yaw = np.pi / 2
-        rows.append((scale * d, yaw))
-        true_d.append(d)
+    # the lane: 100 m east, 100 m north, 100 m east; the vehicle rounds each corner on a 7 m arc (left,
+    # then right); odometry reads every length 1 % long
+    lane = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [200.0, 100.0]])
+    r, scale, arc = 7.0, 1.01, 7.0 * np.pi / 2
+    legs = [("straight", 93.0), ("arc", 1.0), ("straight", 86.0), ("arc", -1.0), ("straight", 93.0)]
+    rows, d, yaw = [], 0.0, 0.0
+    for kind, v in legs:
+        n = int(round((arc if kind == "arc" else v) / 0.1))
+        for _ in range(n):
+            rows.append((scale * d, yaw))
+            d += 0.1
+            if kind == "arc":
+                yaw += v * 0.1 / r
     anchors = turn_anchors(lane, np.array(rows))
     assert len(anchors) == 3
-    after = 93.0 + r * np.pi / 2  # where the arc meets the northbound lane, (100, 7)
-    for y in (10.0, 50.0, 90.0):  # on the northbound straight: lane arc length 100 + y
-        odo = scale * (after + y - 7.0)
-        assert anchored_distance(anchors, odo) == pytest.approx(100.0 + y, abs=0.3)
-        assert abs(odo - (100.0 + y)) > 0.5  # raw odometry is off by more
-    assert anchored_distance(anchors, scale * 50.0) == pytest.approx(50.0, abs=0.3)  # before the turn, stretched
+    # on the northbound leg, at (100, y): the vehicle has driven 93 + arc + (y − 7) m, the lane is at 100 + y;
+    # near a turn the cut corner (1.5 m each side of its middle, spread over the leg) is left
+    for y, tol in ((20.0, 1.1), (50.0, 0.3), (80.0, 1.1)):
+        odo = scale * (93.0 + arc + y - 7.0)
+        assert anchored_distance(anchors, odo) == pytest.approx(100.0 + y, abs=tol)
+    assert abs(scale * (93.0 + arc + 43.0) - 150.0) > 1.0  # raw odometry is off by more mid-leg
+    assert anchored_distance(anchors, scale * 50.0) == pytest.approx(50.0, abs=1.0)  # before the first turn, stretched
+    # no turn in the odometry where the lane has two: the raw distance
+    straight = np.array([(scale * k, 0.0) for k in np.arange(0.0, 300.0, 0.1)])
+    assert len(turn_anchors(lane, straight)) == 1

@@ -26,6 +26,7 @@ def test_one_stop_on_the_way_is_counted_with_its_time_and_place() -> None:
     (span,) = s.spans
     assert span.at_s == pytest.approx(8.0, abs=0.2) and span.y == pytest.approx(-40.0 + 16.0, abs=0.5)
     assert s.min_actor_clearance_m is None  # no actors in the world file or the run
+    assert s.obstacle_stops == 0 and span.actor is None
 
 
 def test_clearance_to_an_actor_standing_in_the_lane_is_measured(tmp_path) -> None:
@@ -35,3 +36,12 @@ def test_clearance_to_an_actor_standing_in_the_lane_is_measured(tmp_path) -> Non
     f.write_text("actors:\n  - {id: bin, kind: bin, path: [{x: 1.5, y: -18.35}]}\n")
     s = stop_summary(_track(8.0, 5.0, total=13.0), actors=str(f), world_name="north_hills", vehicle="navlab", t0=100.0)
     assert s.min_actor_clearance_m is not None and s.min_actor_clearance_m == pytest.approx(0.5, abs=0.3)
+
+
+def test_a_stop_with_an_actor_ahead_in_the_lane_is_a_stop_for_an_obstacle(tmp_path) -> None:
+    f = tmp_path / "two.yaml"  # a bin in the lane ahead of the stop, a dog far off to the side
+    f.write_text("actors:\n  - {id: bin, kind: bin, path: [{x: 1.5, y: -16.0}]}\n"
+                 "  - {id: dog, kind: dog, path: [{x: 12.0, y: -22.0}]}\n")
+    s = stop_summary(_track(8.0, 5.0), actors=str(f), world_name="north_hills", vehicle="navlab", t0=100.0)
+    assert s.stops == 1 and s.obstacle_stops == 1 and s.spans[0].actor == "bin"
+    assert s.obstacle_stopped_s == pytest.approx(s.stopped_s)

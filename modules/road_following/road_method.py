@@ -10,6 +10,7 @@ intersection).
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Literal, Optional
 
@@ -55,22 +56,25 @@ class CameraRoadFollower:
         self.method = method
         self.net = alvinn_net
         self.vehicle_offset_m = vehicle_offset_m
+        self.road_heading_rad = 0.0
         self.road_width_m = road_width_m
         self.follower: RoadFollower | None = None
         self._camera: CameraGeometry | None = None
         self._last_pose: tuple[float, float, float] | None = None
 
-    def reset(self, vehicle_offset_m: float | None = None) -> None:
-        """Forget the road: the next frame bootstraps afresh (optionally on a new lane offset [m])."""
+    def reset(self, vehicle_offset_m: float | None = None, road_heading_rad: float = 0.0) -> None:
+        """Forget the road: the next frame bootstraps afresh on a new prior (vehicle offset [m], road heading in `vehicle` [rad])."""
         if vehicle_offset_m is not None:
             self.vehicle_offset_m = vehicle_offset_m
+        self.road_heading_rad = road_heading_rad
         self.follower, self._last_pose = None, None
 
     def _build(self, camera: CameraGeometry) -> RoadFollower:
         if self.method == "scarf":
-            return Scarf(camera, ScarfConfig(road_width_m=self.road_width_m), prior_lateral_m=-self.vehicle_offset_m)
+            return Scarf(camera, ScarfConfig(road_width_m=self.road_width_m), prior_lateral_m=-self.vehicle_offset_m,
+                         prior_heading_rad=self.road_heading_rad)
         if self.method == "yarf":
-            return Yarf(camera, prior=Spine(offset=-self.vehicle_offset_m))
+            return Yarf(camera, prior=Spine(offset=-self.vehicle_offset_m / math.cos(self.road_heading_rad), slope=math.tan(self.road_heading_rad)))
         assert self.net is not None
         return Alvinn(camera, self.net)
 

@@ -183,11 +183,12 @@ class RoadFollowing:
             if road is None:
                 self.follower.reset(self.lane_offset_m)
             else:
-                th = road.direction_rad
-                off = -math.sin(th) * (prior[0] - road.x) + math.cos(th) * (prior[1] - road.y)
-                self.follower.reset(off, math.remainder(th - prior[2], 2.0 * math.pi))
+                # across the road: the lane it is to keep (the belief can be a lane off after dead reckoning through an
+                # intersection, and a prior a lane off locks YARF on an edge stripe); along it: the map road's direction
+                self.follower.reset(self.lane_offset_m, math.remainder(road.direction_rad - prior[2], 2.0 * math.pi))
                 self.follower.road_width_m = road.width_m
             self._lost_run = 0
+        lane = self.lane_offset_m  # a trigger may reset it while this cycle waits
         try:
             cam = CameraGeometry.from_capture(frame)
             obs = await asyncio.to_thread(self.follower.observe, frame.camera_image, cam, tuple(at_capture), stamp=frame.stamp,
@@ -204,8 +205,8 @@ class RoadFollowing:
         speed = self._route_speed(prior)
         now = self.belief.local
         try:
-            pts = follower_path(obs, tuple(at_capture), tuple(now), route, self.cfg, lane_offset_m=self.lane_offset_m,
-                                max_off_route_m=3.5 + abs(self.lane_offset_m))
+            pts = follower_path(obs, tuple(at_capture), tuple(now), route, self.cfg, lane_offset_m=lane,
+                                max_off_route_m=3.5 + abs(lane))
             self._tally(True, "")
         except NoRoadPath as exc:
             self._tally(False, str(exc))

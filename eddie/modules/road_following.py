@@ -194,7 +194,8 @@ def follower_path(obs: RoadObservation, at_capture: tuple[float, float, float], 
     `max_off_route_m` [m] from the route (the follower locked on something that is not the road taken).
     """
     try:
-        line_v = drive_line(obs, lane_offset_m=lane_offset_m, length_m=cfg.lookahead_m + 4.0)
+        # ALVINN's arc is driven as far as its road point (the look-ahead it was trained for), the road seen a little beyond
+        line_v = drive_line(obs, lane_offset_m=lane_offset_m, length_m=cfg.lookahead_m + (0.0 if obs.method == "alvinn" else 4.0))
     except NoRoadSeen as exc:
         raise NoRoadPath(str(exc)) from None
     line = transform_points(np.asarray(at_capture, dtype=np.float64), line_v)

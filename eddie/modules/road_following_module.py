@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import logging
+import math
 import sys
 
 import numpy as np
@@ -61,6 +62,9 @@ CLIENT, PRIORITY = "road_following", 2
 #: resume-vision gate sits at the exit; a path ending there could stop short of it).
 DEAD_RECKON_BEYOND_M = 4.0
 
+#: A follower that saw no road in this many frames in a row bootstraps afresh on the map's road (SCARF, YARF).
+REBOOT_AFTER = 3
+
 #: The planner's budget per path [s wall] and [iterations] (the PILOT's is 5 s and 20,000).
 PLAN_WALL_S, PLAN_ITERATIONS = 0.5, 4000
 
@@ -89,6 +93,7 @@ class RoadFollowing:
         self.lane_offset_m: float | None = None  # the lane's offset from the road centre, set on the follower's first frame
         self.frames = {True: 0, False: 0}
         self._was_found: bool | None = None
+        self._lost_run = 0
         self.keep = keep  # the side of the road the mission keeps to (EDDIE's route is the road's centre line)
 
     async def _route(self) -> MissionRoute | None:
@@ -160,6 +165,7 @@ class RoadFollowing:
     def _tally(self, found: bool, why: str) -> None:
         """Count the follower's frames with and without a road; log when it finds or loses the road."""
         self.frames[found] += 1
+        self._lost_run = 0 if found else self._lost_run + 1
         if found != self._was_found:
             log.info("%s: %s (frames with a road %d, without %d)", self.method, "road found" if found else f"road lost: {why}",
                      self.frames[True], self.frames[False])
@@ -170,12 +176,19 @@ class RoadFollowing:
         assert self.follower is not None and self.route is not None
         route_world = np.asarray(self.route.points)
         road = map_road_at(self.map.world.edges, (float(prior[0]), float(prior[1])), float(prior[2]))
-        if self.lane_offset_m is None or self.follower.follower is None:
-            # bootstrap on the lane the route keeps to (the seed's one external input: where the road starts)
+        if self.lane_offset_m is None or self.follower.follower is None or (self._lost_run >= REBOOT_AFTER and self.method != "alvinn"):
+            # bootstrap on the map's road where the vehicle believes it is (the seed's one external input: where the road starts);
+            # a follower that lost the road for some frames starts afresh the same way (its prior may be from a turn)
             self.lane_offset_m = 0.0 if road is None else route_lane_offset(route_world, road) + lane_of(self.keep, road.width_m)
-            self.follower.reset(self.lane_offset_m)
-            if road is not None:
+            if road is None:
+                self.follower.reset(self.lane_offset_m)
+            else:
+                # across the road: the lane it is to keep (the belief can be a lane off after dead reckoning through an
+                # intersection, and a prior a lane off locks YARF on an edge stripe); along it: the map road's direction
+                self.follower.reset(self.lane_offset_m, math.remainder(road.direction_rad - prior[2], 2.0 * math.pi))
                 self.follower.road_width_m = road.width_m
+            self._lost_run = 0
+        lane = self.lane_offset_m  # a trigger may reset it while this cycle waits
         try:
             cam = CameraGeometry.from_capture(frame)
             obs = await asyncio.to_thread(self.follower.observe, frame.camera_image, cam, tuple(at_capture), stamp=frame.stamp,
@@ -192,8 +205,8 @@ class RoadFollowing:
         speed = self._route_speed(prior)
         now = self.belief.local
         try:
-            pts = follower_path(obs, tuple(at_capture), tuple(now), route, self.cfg, lane_offset_m=self.lane_offset_m,
-                                max_off_route_m=3.5 + abs(self.lane_offset_m))
+            pts = follower_path(obs, tuple(at_capture), tuple(now), route, self.cfg, lane_offset_m=lane,
+                                max_off_route_m=3.5 + abs(lane))
             self._tally(True, "")
         except NoRoadPath as exc:
             self._tally(False, str(exc))

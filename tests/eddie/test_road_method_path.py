@@ -160,3 +160,15 @@ def test_a_keep_right_step_also_counts_its_goal_in_the_lane_reached() -> None:
         prog.start(0.0)
         prog.update(1.0, at)
         assert (prog.status.state == "succeeded") is reached, prog.status
+
+
+def test_a_road_that_jumps_between_frames_is_no_road_until_it_stays() -> None:
+    from modules.road_following import CameraRoadFollower
+
+    f = CameraRoadFollower("scarf", max_jump_m=0.8, max_rejects=2)
+    pose0, pose1 = (0.0, 0.0, 0.0), (2.0, 0.0, 0.0)
+    assert f._gate(_road("scarf", lateral=1.5), pose0).found
+    assert f._gate(_road("scarf", lateral=1.4), pose1).found  # 0.1 m: the same road
+    jumped = _road("scarf", lateral=-0.1, heading_deg=6.0)  # a driveway pulled the triangle 1.5 m over
+    assert not f._gate(jumped, pose1).found and not f._gate(jumped, pose1).found
+    assert f._gate(jumped, pose1).found  # the third frame in a row: the road did move

@@ -154,6 +154,9 @@ async def system(ns: str, *, answer: Answer = _always_ok, navigator: bool = True
             await sysm.start_navigator(pilot_grace=pilot_grace)
             want.add("map_navigator")
         await _wait_alive(link, keys, want)
+        if navigator:
+            # alive comes before the map is posted; the CAPTAIN checks destinations against it
+            await bb.wait(Spec(type="map_places"), timeout=30.0)
         sysm.tick(0.0)
         yield sysm
     finally:

@@ -129,10 +129,19 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
         procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
                              "--start-pose", f"0.6,-28.3,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
+        loop = asyncio.get_running_loop()
+        truth_seen = asyncio.Event()
+
+        def on_truth(_k: str, b: bytes) -> None:
+            truth.append(decode(TruthPose, b))
+            loop.call_soon_threadsafe(truth_seen.set)
+
         link = Link.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
-        link.subscribe(f"sidewalk/{ns}/sim/truth", lambda _k, b: truth.append(decode(TruthPose, b)))
+        link.subscribe(f"sidewalk/{ns}/sim/truth", on_truth)
         commands: list[DriveCommand] = []
         link.subscribe(f"sidewalk/{ns}/sim/cmd", lambda _k, b: commands.append(decode(DriveCommand, b)))
+        # Under load the first driving unit can come before the test's truth subscription has a pose.
+        await asyncio.wait_for(truth_seen.wait(), 30.0)
         async with BlackboardClient(node.client_net(), source="test-perception") as bb:
             answered: list[str] = []
             captured: set[float] = set()
@@ -165,6 +174,8 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
                 Spec(type="segment_result", where=(AttrPredicate(path="segment_id", op="==", value="test-seg-0"),)),
                 timeout=120.0,
             )
+            if mon_task.done():
+                mon_task.result()  # the stand-in PERCEPTION failed: show why, not a bare count
             mon_task.cancel()
             assert res.attrs.success, res.attrs.reason
             assert len(answered) >= 2

@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed-stamp
 OUT    ?= runs/latest
 
-.PHONY: run test bench venv clean chromium test-hosts
+.PHONY: run test bench venv clean chromium test-hosts test-missions
 
 venv: $(STAMP)
 
@@ -22,6 +22,12 @@ run: $(STAMP)
 ## The test suite (real Zenoh on loopback, real SQLite, real processes, a real browser).
 test: $(STAMP) chromium
 	$(PY) -m pytest -q
+
+## Whole missions under a fault or a run mode (a killed PILOT, a restarted node, a wedged HELM, the compare
+## faults, EDDIE under --secure, a walker in the lane, YARF on marked roads): tens of seconds each, so kept
+## out of `make test`'s ten minutes; CI runs them after it.
+test-missions: $(STAMP)
+	$(PY) -m pytest -q -m missions
 
 ## The multi-host tests (three and four hosts in network namespaces, a secure mission, a link pulled for 5 s):
 ## minutes each, so kept out of `make test`'s ten minutes; CI runs them after it.

@@ -6,7 +6,7 @@ CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit
 states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
 controller `local` pose): reached within `reach_m` of the step's goal, or (as the PILOT judges arrival
 under CODGER: along its path, within `progress_m` of the end) projected within `progress_m` of the
-step route's end while within 2·`reach_m` of the goal → succeeded; no progress for
+step route's end while within 2·`reach_m` of the goal (within `reach_m` of the lane's goal for a step kept in a lane) → succeeded; no progress for
 `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
 onto the step's route, shrinking by `progress_m`). Routes come from the MAP NAVIGATOR's route selection on the robot's map,
 one step after the other from the previous goal, as the mission compiler lays them out.
@@ -128,7 +128,11 @@ class MissionProgress:
                     mission_id=mid, step_index=i, success=True, reason=f"reached within {d:.2f} m of the goal"), now), now)
             # progress is measured along the route: a route may lead away from its goal for a while
             left = self._route_left(i, world_xy)
-            if left <= self.progress_m and d <= 2.0 * self.goals[i].reach_m:
+            lane = self.goals[i].lane_goal
+            # a step kept in a lane ends in that lane: the other lane projects onto the route's end too
+            near_end = math.hypot(world_xy[0] - lane[0], world_xy[1] - lane[1]) <= self.goals[i].reach_m if lane is not None \
+                else d <= 2.0 * self.goals[i].reach_m
+            if left <= self.progress_m and near_end:
                 # the belief may be off across the route by more than the reach (a wide plaza gives vision
                 # no edges); driving to the route's end is arrival, as the PILOT's along-path test
                 return self._apply(self.run.step_finished(StepResult(

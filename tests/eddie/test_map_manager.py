@@ -74,7 +74,13 @@ async def test_triggers_reach_the_inbox_once_as_the_controller_crosses_them(tmp_
             me.subscribe("map_manager", "triggers", TriggerFired, fired.append)
             # the query answered, so the manager's subscriptions are declared: play navigator and controller
             me.link.put(me.keys.topic("navigator", "world_from_local"), encode_body(W))
-            for k in range(25):  # local x 0 → 6 m: world 3 → 9 m
+            # The manager cycles on the newest state: a burst of states before its first cycle would start
+            # the travelled line at the burst's end. The start state first, then a round trip (answered
+            # after the manager's loop took the state), then the drive.
+            me.link.put(me.keys.topic("controller", "state"),
+                        encode_body(ControllerState(stamp=0.0, x=0.0, y=0.1, yaw=0.0, v=2.5, curvature=0.0)))
+            await me.request("map_manager", "query", AnnotationQuery(type="set_speed"), reply_type=AnnotationList)
+            for k in range(1, 25):  # local x 0 → 6 m: world 3 → 9 m
                 st = ControllerState(stamp=0.1 * k, x=0.25 * k, y=0.1, yaw=0.0, v=2.5, curvature=0.0)
                 me.link.put(me.keys.topic("controller", "state"), encode_body(st))
             got = [await me.receive(timeout=15.0), await me.receive(timeout=15.0)]

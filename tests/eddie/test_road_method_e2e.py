@@ -29,6 +29,7 @@ def _lane_cross_track(record: dict) -> np.ndarray:
 @pytest.mark.timeout(480)
 @pytest.mark.xfail(strict=False, reason="issue 13 open: at HEAD the vehicle drives the 70 m with YARF's paths and claims success, but "
                    "ends 1.7 m (seed 2) from the keep-right lane goal by truth (tolerance 1.5 m); the lane is not yet held to the stop")
+@pytest.mark.missions
 def test_eddie_road_following_with_yarf_keeps_the_lane_of_a_marked_road(tmp_path):
     cmd = [sys.executable, "-m", "sidewalk", "run", "--arch", "eddie", "--world", "schenley", "--mission",
            str(DATA / "schenley-golf-70m.yaml"), "--road-method", "yarf", "--rtf", "4", "--seed", "2",

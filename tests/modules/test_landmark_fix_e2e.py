@@ -44,7 +44,13 @@ async def test_a_laser_landmark_fix_moves_an_off_pilot_toward_the_truth():
             assert isinstance(fix.attrs, LandmarkFix)
             assert set(fix.attrs.landmark_ids) & {"mailbox_oakw01", "mailbox_oake01"}
             assert math.dist(fix.attrs.prior, TOLD[:2]) < 0.1  # matched from where the PILOT believed it was
-            assert math.dist(fix.attrs.position, TRUTH[:2]) < 0.4  # the fix itself is near the truth
+            # the fix itself is near the truth: consistent with the covariance it states, and far better than the prior
+            dx, dy = fix.attrs.position[0] - TRUTH[0], fix.attrs.position[1] - TRUTH[1]
+            cxx, cxy, _cyx, cyy = fix.attrs.covariance
+            det = cxx * cyy - cxy * cxy
+            m2 = (cyy * dx * dx - 2 * cxy * dx * dy + cxx * dy * dy) / det
+            assert m2 < 13.8, (m2, fix.attrs)  # χ², 2 dof, 99.9 %
+            assert math.hypot(dx, dy) < 0.6 * math.dist(TOLD[:2], TRUTH[:2]), fix.attrs
             est = await bb.wait(Spec(type="position_estimate",
                                      where=(AttrPredicate(path="source", op="==", value="perception"),)), timeout=60.0)
             assert isinstance(est.attrs, PositionEstimate)

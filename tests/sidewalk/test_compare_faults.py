@@ -13,6 +13,7 @@ from sidewalk.run_record import load_record
 DATA = Path(__file__).parent / "data"
 
 
+@pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.timeout(400)
 async def test_kill_wedge_and_jump_each_happen_in_a_run(tmp_path):

@@ -31,6 +31,7 @@ async def _system(tmp_path: Path, mission: str, *, rtf: float = 25.0, ready_time
     return system, mission_path(mission).read_text(), cfg, setup
 
 
+@pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 async def test_a_killed_pilot_is_restarted_resumes_and_the_mission_truly_arrives(tmp_path):

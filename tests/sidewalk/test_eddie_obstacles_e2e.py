@@ -16,6 +16,7 @@ import pytest
 DATA = Path(__file__).resolve().parent / "data"
 
 
+@pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 def test_eddie_stops_for_a_walker_in_its_lane_and_resumes(tmp_path):

@@ -32,6 +32,7 @@ INTRUDERS = ("navigator", "map_manager", "mission_service", "road_following", "l
 MARK = 0.777  # [m/s] the intruders' speed: no module commands it
 
 
+@pytest.mark.missions
 @pytest.mark.timeout(480)
 async def test_an_eddie_run_under_secure_drives_and_only_the_controller_may(tmp_path) -> None:
     d = tmp_path / "sec"

@@ -22,6 +22,7 @@ from wire.keys import ModuleKeys, SimKeys
 MODULES = ("helm", "pilot", "map_navigator", "captain")
 
 
+@pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.timeout(400)
 async def test_node_restart_and_a_wedged_helm_are_survived_and_the_mission_truly_arrives(tmp_path, capsys):

@@ -196,6 +196,7 @@ def test_monitor_page_draws_the_live_mission(monitored_run, browser):
     assert (monitored_run.out / "monitor.png").stat().st_size > 20_000
 
 
+@pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.timeout(420)
 def test_run_mcap_holds_every_channel_and_every_message(monitored_run):

@@ -47,6 +47,7 @@ async def _supervised(cfg: RunConfig, policy: RestartPolicy):
     return system, setup, seen, when
 
 
+@pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.timeout(400)  # as the other HELM fault test: six processes start one by one on a loaded machine
 async def test_a_sigstopped_helm_is_reported_wedged_within_3_s_restarted_and_the_mission_arrives(tmp_path, capsys):
@@ -88,6 +89,7 @@ async def test_a_sigstopped_helm_is_reported_wedged_within_3_s_restarted_and_the
     assert saved["wedges"][0]["module"] == "helm" and saved["gave_up"] == []
 
 
+@pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 async def test_a_crash_looping_map_navigator_is_backed_off_given_up_and_the_mission_fails_naming_it(tmp_path):

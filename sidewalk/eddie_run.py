@@ -154,6 +154,10 @@ class EddieSystemRun(SystemRun):
         self.recorder = Recorder(self.link, None, self.ns, estimator=self.pose.at)
         self.recorder.start()
         await self.recorder.wait_clock()
+        # every process's first heartbeat heard, so a fault injected at once still counts the first life's cost
+        missing = await self.recorder.wait_usage(set(self.plans) - {"recorder", "monitor"}, timeout=5.0)
+        if missing:
+            log.warning("no heartbeat with usage yet from %s: their costs may miss this life", ", ".join(sorted(missing)))
         self.link.subscribe(MissionKeys(self.ns).events, self._on_status)
         subscribe_eddie(self.link, EddieKeys(self.ns), self.pose, self.triggers)
 

@@ -336,14 +336,14 @@ def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[
     """Return the flags that give a road-finding module the run's road method (issue 13; none for the default).
 
     With `setup` (EDDIE's road following) also the side of the road the mission keeps to: EDDIE's
-    route is the road's centre line, a road follower drives in the lane.
+    route is the road's centre line, and road following drives in the lane (every method).
     """
-    if cfg.road_method == "perception":
-        return ()
-    weights = () if cfg.alvinn_weights is None else ("--alvinn-weights", str(Path(cfg.alvinn_weights).resolve()))
     keep = ()
     if setup is not None and setup.lane_offsets and setup.lane_offsets[0] != 0.0:
         keep = ("--keep", "right" if setup.lane_offsets[0] < 0.0 else "left")
+    if cfg.road_method == "perception":
+        return keep
+    weights = () if cfg.alvinn_weights is None else ("--alvinn-weights", str(Path(cfg.alvinn_weights).resolve()))
     return ("--road-method", cfg.road_method, *weights, *keep)
 
 

@@ -57,6 +57,7 @@ class Recorder:
         self.clock: SimClock | None = None
         self.costs: dict[tuple[str, int], ProcessCost] = {}
         self._new_truth = asyncio.Event()
+        self._new_usage = asyncio.Event()
         self.estimate_period_s = estimate_period_s
         self.bad_samples = 0
         self._last_estimate_t = -1e9
@@ -168,6 +169,24 @@ class Recorder:
                 return False
         return True
 
+    async def wait_usage(self, names: set[str], timeout: float = 10.0) -> set[str]:
+        """Wait until a heartbeat with usage came from each process in `names`; return those not heard within `timeout` [s] wall.
+
+        A process killed before its first heartbeat reached the recorder would be missing from the
+        report's costs (a fault injected seconds after the start loses the first life's count).
+        """
+        loop = asyncio.get_running_loop()
+        end = loop.time() + timeout
+        while missing := names - {n for n, _pid in self.costs}:
+            if (left := end - loop.time()) <= 0:
+                return missing
+            self._new_usage.clear()
+            try:
+                await asyncio.wait_for(self._new_usage.wait(), left)
+            except (asyncio.TimeoutError, TimeoutError):
+                return names - {n for n, _pid in self.costs}
+        return set()
+
     async def wait_rest(self, *, still_s: float = 1.0, max_sim_s: float = 30.0, max_wall_s: float = 20.0) -> float | None:
         """Wait until the true vehicle has stood still for `still_s` [s] sim; return when it stopped [s] sim.
 
@@ -199,6 +218,7 @@ class Recorder:
         if hb.usage is not None:
             name = key.rsplit("/", 1)[-1]
             self.costs[(name, hb.pid)] = ProcessCost(name=name, pid=hb.pid, usage=hb.usage)
+            self._new_usage.set()
 
     def _on_clock(self, _key: str, payload: bytes) -> None:
         with contextlib.suppress(WireError):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import logging
 import time
 from pathlib import Path
 from typing import Callable, Optional
@@ -21,6 +22,8 @@ from sidewalk.recorder import Recorder
 from sidewalk.run_record import RecordedPlan, StampedStatus
 from sidewalk.health import BeatLog
 from sidewalk.supervisor import ProcessPlan, RestartPolicy, Supervisor
+
+log = logging.getLogger(__name__)
 
 __all__ = ["SystemRun", "UNGUARDED"]
 
@@ -77,6 +80,10 @@ class SystemRun:
         self.recorder = Recorder(self.link, self.bb, self.ns)
         self.recorder.start()
         await self.recorder.wait_clock()
+        # every process's first heartbeat heard, so a fault injected at once still counts the first life's cost
+        missing = await self.recorder.wait_usage(set(self.plans) - {"recorder", "monitor"}, timeout=5.0)
+        if missing:
+            log.warning("no heartbeat with usage yet from %s: their costs may miss this life", ", ".join(sorted(missing)))
         self._status = self.bb.monitor(Spec(type="mission_status"))
         await self._status.start()
 

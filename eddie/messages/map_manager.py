@@ -162,11 +162,16 @@ class LandmarkMatching(Message):
 
 @message_type("map_manager.stop_at_object")
 class StopAtObject(Message):
-    """Stop at map object `object_id` at (x, y) [m] `world` (the seed: the mailbox), within `tolerance` [m]."""
+    """Stop at the goal (x, y) [m] `world` of map object `object_id` (the seed: the mailbox), within `tolerance` [m].
+
+    `object_xy` is where the map has the object itself (`world` [m]; None: no such object on the map):
+    the laser sees it on the way in, and the stop is judged relative to it.
+    """
 
     object_id: str
     x: _F
     y: _F
+    object_xy: tuple[_F, _F] | None = None
     tolerance: _F = Field(1.5, gt=0.0)
     action: Literal["stop", "wait", "continue"] = "stop"
     wait_s: _F = Field(0.0, ge=0.0)

@@ -12,7 +12,7 @@ from pydantic import Field
 
 from eddie.toolkit.message import Message, message_type
 
-__all__ = ["ModuleSwitch", "RouteQuery", "MissionRoute", "ObstacleSeen"]
+__all__ = ["ModuleSwitch", "RouteQuery", "MissionRoute", "ObstacleSeen", "ObjectStopped"]
 
 
 @message_type("modules.switch")
@@ -37,6 +37,18 @@ class MissionRoute(Message):
     points: tuple[tuple[float, float], ...] = ()
     speeds: tuple[float, ...] = ()
     state: Literal["none", "running", "finished"] = "none"
+
+
+@message_type("modules.object_stopped")
+class ObjectStopped(Message):
+    """Obstacle stop held the vehicle at `object_id` at `stamp` [s] sim, `distance_m` [m] from its goal point as believed
+    after `sightings` laser sightings of the object moved the belief by `correction` (dx, dy) [m] `world`."""
+
+    stamp: float
+    object_id: str
+    distance_m: float
+    sightings: int = Field(0, ge=0)
+    correction: tuple[float, float] = (0.0, 0.0)
 
 
 @message_type("modules.obstacle_seen")

@@ -6,7 +6,7 @@ CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit
 states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
 controller `local` pose): reached within `reach_m` of the step's goal, or (as the PILOT judges arrival
 under CODGER: along its path, within `progress_m` of the end) projected within `progress_m` of the
-step route's end while within 2·`reach_m` of the goal (within `reach_m` of the lane's goal for a step kept in a lane) → succeeded; no progress for
+step route's end while within 2·`reach_m` of the goal (within `reach_m` of it or its lane's goal for a step kept to a side) → succeeded; no progress for
 `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
 onto the step's route, shrinking by `progress_m`). Routes come from the MAP NAVIGATOR's route selection on the robot's map,
 one step after the other from the previous goal, as the mission compiler lays them out.
@@ -19,6 +19,7 @@ import math
 from shapely.geometry import LineString, Point
 from pydantic import BaseModel, ConfigDict, Field
 
+from eddie.missions.lane import lane_goal
 from eddie.modules.errors import EddieModuleError
 from modules.captain.sequencer import MissionRun, Next
 from modules.map_navigator import MapData, RouteError, RouteOptions, select_route
@@ -47,18 +48,6 @@ class StepGoal(BaseModel):
     lane_goal: tuple[float, float] | None = None
 
 
-def _lane_goal(map_data: MapData, line, goal: tuple[float, float], keep: str | None) -> tuple[float, float] | None:
-    """Return `goal` moved a quarter of the nearest path's width to the kept side of the route's last direction (None: no side)."""
-    if keep not in ("right", "left") or len(line) < 2 or not map_data.world.edges:
-        return None
-    p = Point(goal)
-    width = min(map_data.world.edges, key=lambda e: LineString(e.coords).distance(p)).width
-    (ax, ay), (bx, by) = line[-2], line[-1]
-    yaw = math.atan2(by - ay, bx - ax)
-    off = (width / 4.0) * (-1.0 if keep == "right" else 1.0)
-    return goal[0] - off * math.sin(yaw), goal[1] + off * math.cos(yaw)
-
-
 def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Mission, *, vehicle: str = "terregator") -> list[StepGoal]:
     """Return every step's route and goal, each from the previous goal (the first from `start_xy`, `world` [m])."""
     out: list[StepGoal] = []
@@ -72,7 +61,7 @@ def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Missio
         if len(line) < 2:
             line = (at, route.goal_xy)
         out.append(StepGoal(step_index=i, route=tuple(line), goal=route.goal_xy, speed_mps=step.constraints.speed_limit,
-                            reach_m=step.tolerance, lane_goal=_lane_goal(map_data, line, route.goal_xy, step.constraints.keep)))
+                            reach_m=step.tolerance, lane_goal=lane_goal(map_data, line, route.goal_xy, step.constraints.keep)))
         at = route.goal_xy
     return out
 
@@ -128,10 +117,9 @@ class MissionProgress:
                     mission_id=mid, step_index=i, success=True, reason=f"reached within {d:.2f} m of the goal"), now), now)
             # progress is measured along the route: a route may lead away from its goal for a while
             left = self._route_left(i, world_xy)
-            lane = self.goals[i].lane_goal
-            # a step kept in a lane ends in that lane: the other lane projects onto the route's end too
-            near_end = math.hypot(world_xy[0] - lane[0], world_xy[1] - lane[1]) <= self.goals[i].reach_m if lane is not None \
-                else d <= 2.0 * self.goals[i].reach_m
+            # a step kept to a side ends on that side: the other lane projects onto the route's end too, so
+            # there the belief must be within the reach of the goal or its lane's goal
+            near_end = d <= (self.goals[i].reach_m if self.goals[i].lane_goal is not None else 2.0 * self.goals[i].reach_m)
             if left <= self.progress_m and near_end:
                 # the belief may be off across the route by more than the reach (a wide plaza gives vision
                 # no edges); driving to the route's end is arrival, as the PILOT's along-path test

@@ -24,20 +24,22 @@ import numpy as np
 
 from eddie.messages.controller import ControllerPath, Release, SpeedLimit, Stop
 from eddie.messages.map_manager import StopAtObject
-from eddie.messages.modules import ObstacleSeen
+from eddie.messages.modules import ObjectStopped, ObstacleSeen
 from eddie.modules.args import parse_pose
 from eddie.modules.obstacle_stop import ObstacleStopConfig, obstacle_ahead
-from eddie.modules.sensing import Belief, capture_frame
+from eddie.modules.sensing import Belief, CaptureError, capture_frame
+from eddie.modules.stop_at_object import ObjectCorrection, sight_object
 from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
-from modules.perception.obstacles import LaserScan
+from modules.perception.obstacles import LaserScan, detect_obstacles
+from modules.helm.tracker import tracker_config_for
 from modules.pilot import pilot_config_for
 from modules.runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
 
-__all__ = ["ObstacleStop", "corridor_half_width", "main", "build_parser"]
+__all__ = ["ObstacleStop", "corridor_half_width", "stop_now", "main", "build_parser"]
 
 log = logging.getLogger("eddie.modules.obstacle_stop")
 
@@ -46,14 +48,17 @@ CLIENT, PRIORITY = "obstacle_stop", 10
 
 #: "stop at object": stop this far inside the goal's tolerance [m], and never farther than this when the tolerance is small [m]
 STOP_AT_MARGIN_M, STOP_AT_NEAR_M = 0.3, 0.3
+#: the time [s] sim from a believed pose to the controller braking (the watch's period and the message)
+STOP_LATENCY_S = 0.3
 
 
 class ObstacleStop:
     """The obstacle stop loop on one module endpoint."""
 
     def __init__(self, m: Module, *, awake: bool = True, cfg: ObstacleStopConfig = ObstacleStopConfig(),
-                 start: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
+                 start: tuple[float, float, float] = (0.0, 0.0, 0.0), decel_mps2: float = 1.0) -> None:
         self.m = m
+        self.decel_mps2 = decel_mps2  # the controller's braking [m/s²]: a stop at an object starts this far ahead of it
         self.cfg = cfg
         self.switch = Switch(awake)
         self.stopped = False
@@ -64,6 +69,10 @@ class ObstacleStop:
         m.subscribe("controller", "path", ControllerPath, self._on_path)
 
     def _on_path(self, p: ControllerPath) -> None:
+        if not p.path and self.stopped:
+            # the controller dropped its path because this module stopped it: keep watching the path it stopped
+            # on (straight ahead instead would take in the kerb when the vehicle stands at an angle)
+            return
         self.path = np.asarray(p.path, dtype=np.float64).reshape(-1, 2) if p.path else None
 
     async def cycle(self) -> str:
@@ -102,27 +111,58 @@ class ObstacleStop:
         """Stop at the object's goal point (nearest approach within its tolerance), then hold, wait or go on.
 
         The believed pose (navigator ∘ controller) is watched every 0.1 s sim: the vehicle stops once
-        within `STOP_AT_NEAR_M` [m] of the point, or inside the tolerance less `STOP_AT_MARGIN_M` [m]
-        once the distance grows again (it passed its nearest approach); a path that ends at the point
-        stops the vehicle there first.
+        within `STOP_AT_NEAR_M` [m] of the point, once the point is no farther ahead than the braking
+        distance at the speed driven (and within the tolerance less `STOP_AT_MARGIN_M` [m] across), or
+        inside that reach once the distance grows again (it passed its nearest approach); a path that
+        ends at the point stops the vehicle there first. When the map has the object itself, the laser looks for it on
+        the way in and the believed position is corrected by where the object is seen
+        (`eddie.modules.stop_at_object`).
         """
         reach = max(target.tolerance - STOP_AT_MARGIN_M, STOP_AT_NEAR_M)
         best = math.inf
-        while True:
-            pose = self.belief.world()
-            if pose is not None:
-                d = math.hypot(pose[0] - target.x, pose[1] - target.y)
-                if d <= STOP_AT_NEAR_M or (d <= reach and d > best + 0.05):
-                    break
-                best = min(best, d)
-            await self.m.clock.sleep(0.1)
+        corr = ObjectCorrection()
+        sighting = asyncio.ensure_future(self._sight(target.object_xy, corr)) if target.object_xy is not None else None
+        if sighting is not None:
+            sighting.add_done_callback(_log_failure)
+        try:
+            while True:
+                pose = self.belief.world()
+                if pose is not None:
+                    x, y = corr.corrected(pose)
+                    d = math.hypot(x - target.x, y - target.y)
+                    if d <= STOP_AT_NEAR_M or (d <= reach and d > best + 0.05) \
+                            or stop_now(target.x - x, target.y - y, float(pose[2]), self.belief.speed, self.decel_mps2, reach):
+                        break
+                    best = min(best, d)
+                await self.m.clock.sleep(0.1)
+        finally:
+            if sighting is not None:
+                sighting.cancel()
         self.holding_at = target.object_id
-        log.info("obstacle_stop: at %s (%.2f m from its goal point): %s", target.object_id, d, target.action)
+        cx, cy = corr.correction
+        log.info("obstacle_stop: at %s (%.2f m from its goal point; %d sightings moved the belief by (%.2f, %.2f) m): %s",
+                 target.object_id, d, corr.seen, cx, cy, target.action)
+        self.m.publish("object_stop", ObjectStopped(stamp=self.m.now(), object_id=target.object_id, distance_m=d,
+                                                    sightings=corr.seen, correction=(cx, cy)))
         await self._hold(f"{target.action} at {target.object_id}")
         if target.action == "wait":
             await self.m.clock.sleep(target.wait_s)
             self.holding_at = None
             await self._release()
+
+    async def _sight(self, object_xy: tuple[float, float], corr: ObjectCorrection) -> None:
+        """Look for the map's object at `object_xy` (`world` [m]) in each range image until cancelled."""
+        while True:
+            try:
+                frame = await capture_frame(self.m)
+            except CaptureError as exc:
+                log.warning("obstacle_stop: no frame to look for the object in: %s", exc)
+                await self.m.clock.sleep(0.5)
+                continue
+            pose = self.belief.world_at(frame.stamp)
+            if pose is not None:
+                obstacles = await asyncio.to_thread(detect_obstacles, LaserScan.from_capture(frame))
+                corr.add(sight_object(obstacles, object_xy, (float(pose[0]), float(pose[1]), float(pose[2])), frame.stamp))
 
     async def on_trigger(self, data: Message) -> None:
         """Act on a trigger's data: watch for a "stop at object"; lift a stop held when detection is switched off."""
@@ -139,6 +179,21 @@ class ObstacleStop:
     async def run(self) -> None:
         """Sleep until woken, then check every 0.5 s sim while awake."""
         await run_switched(self.m, self.switch, self.cycle, period_s=0.5, on_data=self.on_trigger)
+
+
+def stop_now(dx: float, dy: float, yaw: float, speed: float, decel: float, reach: float, latency_s: float = STOP_LATENCY_S) -> bool:
+    """Return whether braking now ends the vehicle nearest the goal: it lies (dx, dy) [m] `world` from the vehicle heading
+    `yaw` [rad] at `speed` [m/s], within `reach` [m] across the heading, and no farther ahead than the braking distance
+    (`latency_s` [s] of travel, then `decel` [m/s²])."""
+    along = dx * math.cos(yaw) + dy * math.sin(yaw)
+    across = abs(-dx * math.sin(yaw) + dy * math.cos(yaw))
+    v = abs(speed)
+    return across <= reach and along <= v * latency_s + v * v / (2.0 * decel)
+
+
+def _log_failure(task: asyncio.Task) -> None:
+    if not task.cancelled() and task.exception() is not None:
+        log.error("obstacle_stop: looking for the object failed: %r", task.exception())
 
 
 def corridor_half_width(vehicle: str) -> float:
@@ -180,7 +235,8 @@ def main(argv: list[str] | None = None) -> int:
     start = parse_pose(parser, args.start_pose)
 
     async def body(m: Module) -> None:
-        await ObstacleStop(m, awake=not args.asleep, cfg=cfg, start=start).run()
+        await ObstacleStop(m, awake=not args.asleep, cfg=cfg, start=start,
+                           decel_mps2=tracker_config_for(args.vehicle).max_decel).run()
 
     return run_module("obstacle_stop", body, net)
 

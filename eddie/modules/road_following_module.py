@@ -34,6 +34,7 @@ from eddie.errors import EddieError
 from eddie.modules.args import parse_pose
 from eddie.modules.errors import NoRoadPath
 from eddie.modules.landmark_matching import calibration_fix, fix_message
+from eddie.missions.lane import lane_offset, shift_into_lane
 from eddie.modules.road_following import (RoadFollowingConfig, follower_path, lane_of, map_road_at, plan_road_path, road_line_fix, route_ahead,
                                           route_lane_offset, route_to_local)
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
@@ -69,6 +70,9 @@ REBOOT_AFTER = 3
 PLAN_WALL_S, PLAN_ITERATIONS = 0.5, 4000
 
 
+#: kept between the vehicle's obstacle clearance and the road's edge when a step keeps to a side [m]
+KERB_MARGIN_M = 0.5
+
 class RoadFollowing:
     """The vision road following loop on one module endpoint."""
 
@@ -85,6 +89,11 @@ class RoadFollowing:
         # the PILOT's planner with a budget a control cycle can afford: a path late by seconds of wall
         # (a minute of sim at RTF 20) is worse than dead reckoning along the route until the next frame
         pc = pilot_config_for(vehicle).planner
+        #: the farthest [m] a kept side moves the route off the road's centre: the PILOT's keep offset for the vehicle
+        self.keep_offset_m = pilot_config_for(vehicle).navigator.keep_offset
+        #: what a kept side leaves inside the road's edge [m]: the vehicle's obstacle clearance and a margin, so kerbside
+        #: mailboxes stay out of obstacle stop's corridor when the belief is half a metre off across the road
+        self.edge_keep_m = pilot_config_for(vehicle).navigator.obstacle_clearance + KERB_MARGIN_M
         self.planner = LocalPathPlanner(pc.model_copy(update={"max_wall_s": PLAN_WALL_S, "max_iterations": min(pc.max_iterations, PLAN_ITERATIONS)}),
                                         seed=seed)
         self.route: MissionRoute | None = None
@@ -136,14 +145,31 @@ class RoadFollowing:
         if fix is not None:
             # the road edges and landmarks PERCEPTION matched place the vehicle: the navigator gates and takes it
             await self.m.send("navigator", fix_message(fix, tuple(at_capture), CLIENT))
-        route = route_to_local(np.asarray(self.route.points), tuple(inverse(self.belief.world_from_local)))
+        local_from_world = tuple(inverse(self.belief.world_from_local))
+        route = route_to_local(np.asarray(self.route.points), local_from_world)
+        routes = [route]
+        if self.keep != "centre":
+            # the route is the road's centre line: a step kept to a side is driven in its lane (a quarter of the
+            # width, at most the PILOT's keep offset: 1.5 m for the Navlab, 0.3 m for the Terregator on walks
+            # with benches beside them), as the PILOT does; where that does not fit the road seen, on the centre
+            road = map_road_at(self.map.world.edges, (float(prior[0]), float(prior[1])), float(prior[2]))
+            if road is not None:
+                off = lane_offset(self.keep, road.width_m)
+                off = math.copysign(max(0.0, min(abs(off), self.keep_offset_m, road.width_m / 2.0 - self.edge_keep_m)), off)
+                routes.insert(0, route_to_local(shift_into_lane(np.asarray(self.route.points), off), local_from_world))
         speed = self._route_speed(prior)
         now = self.belief.local
         try:
             if out.navigable is None:
                 raise NoRoadPath(f"no road seen ({out.failure or 'nothing found'})")
-            path = await asyncio.to_thread(plan_road_path, self.planner, tuple(now), out.navigable, tuple(at_capture), route,
-                                           frame.stamp, self.cfg.model_copy(update={"speed_mps": speed}))
+            for k, along in enumerate(routes):
+                try:
+                    path = await asyncio.to_thread(plan_road_path, self.planner, tuple(now), out.navigable, tuple(at_capture), along,
+                                                   frame.stamp, self.cfg.model_copy(update={"speed_mps": speed}))
+                    break
+                except NoRoadPath:
+                    if k == len(routes) - 1:
+                        raise
         except NoRoadPath as exc:
             # vision lost the road (an intersection, a turn): dead-reckon slowly along the route until it sees it again
             if self.switch.taken != taken or not self.switch.awake:
@@ -262,7 +288,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how the road is found: PERCEPTION's colored-range segmentation, or the SCARF, YARF or ALVINN follower")
     p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
     p.add_argument("--keep", choices=["centre", "right", "left"], default="centre",
-                   help="with a road follower: drive on the road's centre or keep right / left (a quarter of its width off the centre)")
+                   help="drive on the road's centre or keep right / left (a quarter of its width off the centre): the mission step's side")
     add_network_args(p)
     return p
 

@@ -74,7 +74,7 @@ def _monitor_preflight(cfg, console) -> Optional[str]:  # noqa: ANN001 - RunConf
 
 
 def run(
-    world: Annotated[str, typer.Option(help="World name (worlds/<name>.world.geojson) or file")] = "campus",
+    world: Annotated[Optional[str], typer.Option(help="World name (worlds/<name>.world.geojson) or file (default: the mission's world, else campus)")] = None,
     mission: Annotated[str, typer.Option(help="Mission name (worlds/<name>.yaml) or file")] = "campus-tour",
     vehicle: Annotated[Optional[str], typer.Option(help="terregator or navlab (default: the mission's, else terregator)")] = None,
     rtf: Annotated[float, typer.Option(help="Real-time factor of the simulator")] = 20.0,
@@ -131,6 +131,8 @@ def run(
         raise typer.BadParameter(f"{road_method!r} is not perception, scarf, yarf or alvinn", param_hint="--road-method")
     if max_speed is not None and not (math.isfinite(max_speed) and max_speed > 0):
         raise typer.BadParameter(f"{max_speed!r} is not a speed > 0 (m/s)", param_hint="--max-speed")
+    if world is None:  # the mission names its world: `--mission amv-delivery` alone runs on north_hills
+        world = _mission_world(mission) or "campus"
     try:
         cfg = RunConfig(world=world, mission=mission, vehicle=vehicle, rtf=rtf, seed=seed, out=out,
                         perception=not no_perception, pose_error_m=pe_m, pose_error_deg=pe_deg, map_error_m=map_error,
@@ -407,3 +409,14 @@ def register(app: typer.Typer) -> None:
     app.command("submit")(submit)
     app.command("status")(status)
     app.command("cancel")(cancel)
+
+
+def _mission_world(mission: str) -> str | None:
+    """Return the world the mission file names (None: it names none, or it cannot be read; preflight says why)."""
+    from modules.captain.missionfile import MissionFileError, load_mission
+    from sidewalk.launcher import mission_path
+
+    try:
+        return load_mission(mission_path(mission)).world
+    except (FileNotFoundError, MissionFileError):
+        return None

@@ -34,7 +34,6 @@ from eddie.toolkit.message import Message
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 from modules.perception.obstacles import LaserScan, detect_obstacles
-from modules.helm.tracker import tracker_config_for
 from modules.pilot import pilot_config_for
 from modules.runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
@@ -56,9 +55,8 @@ class ObstacleStop:
     """The obstacle stop loop on one module endpoint."""
 
     def __init__(self, m: Module, *, awake: bool = True, cfg: ObstacleStopConfig = ObstacleStopConfig(),
-                 start: tuple[float, float, float] = (0.0, 0.0, 0.0), decel_mps2: float = 1.0) -> None:
+                 start: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> None:
         self.m = m
-        self.decel_mps2 = decel_mps2  # the controller's braking [m/s²]: a stop at an object starts this far ahead of it
         self.cfg = cfg
         self.switch = Switch(awake)
         self.stopped = False
@@ -111,8 +109,8 @@ class ObstacleStop:
         """Stop at the object's goal point (nearest approach within its tolerance), then hold, wait or go on.
 
         The believed pose (navigator ∘ controller) is watched every 0.1 s sim: the vehicle stops once
-        within `STOP_AT_NEAR_M` [m] of the point, once the point is no farther ahead than the braking
-        distance at the speed driven (and within the tolerance less `STOP_AT_MARGIN_M` [m] across), or
+        within `STOP_AT_NEAR_M` [m] of the point, once the point is no farther ahead than the travel
+        in `STOP_LATENCY_S` (and within the tolerance less `STOP_AT_MARGIN_M` [m] across), or
         inside that reach once the distance grows again (it passed its nearest approach); a path that
         ends at the point stops the vehicle there first. When the map has the object itself, the laser looks for it on
         the way in and the believed position is corrected by where the object is seen
@@ -131,7 +129,7 @@ class ObstacleStop:
                     x, y = corr.corrected(pose)
                     d = math.hypot(x - target.x, y - target.y)
                     if d <= STOP_AT_NEAR_M or (d <= reach and d > best + 0.05) \
-                            or stop_now(target.x - x, target.y - y, float(pose[2]), self.belief.speed, self.decel_mps2, reach):
+                            or stop_now(target.x - x, target.y - y, float(pose[2]), self.belief.speed, reach):
                         break
                     best = min(best, d)
                 await self.m.clock.sleep(0.1)
@@ -181,14 +179,16 @@ class ObstacleStop:
         await run_switched(self.m, self.switch, self.cycle, period_s=0.5, on_data=self.on_trigger)
 
 
-def stop_now(dx: float, dy: float, yaw: float, speed: float, decel: float, reach: float, latency_s: float = STOP_LATENCY_S) -> bool:
-    """Return whether braking now ends the vehicle nearest the goal: it lies (dx, dy) [m] `world` from the vehicle heading
-    `yaw` [rad] at `speed` [m/s], within `reach` [m] across the heading, and no farther ahead than the braking distance
-    (`latency_s` [s] of travel, then `decel` [m/s²])."""
+def stop_now(dx: float, dy: float, yaw: float, speed: float, reach: float, latency_s: float = STOP_LATENCY_S) -> bool:
+    """Return whether to stop now: the goal lies (dx, dy) [m] `world` from the vehicle heading `yaw` [rad] at `speed`
+    [m/s], within `reach` [m] across the heading, and no farther ahead than the travel in `latency_s` [s] (or behind).
+
+    The controller's stop is immediate (the vehicle's own braking, not the tracker's ramp): in the runs a
+    braking-distance lead, v²/2a at the tracker's deceleration, stopped the Navlab 1–2 m short.
+    """
     along = dx * math.cos(yaw) + dy * math.sin(yaw)
     across = abs(-dx * math.sin(yaw) + dy * math.cos(yaw))
-    v = abs(speed)
-    return across <= reach and along <= v * latency_s + v * v / (2.0 * decel)
+    return across <= reach and along <= abs(speed) * latency_s
 
 
 def _log_failure(task: asyncio.Task) -> None:
@@ -235,8 +235,7 @@ def main(argv: list[str] | None = None) -> int:
     start = parse_pose(parser, args.start_pose)
 
     async def body(m: Module) -> None:
-        await ObstacleStop(m, awake=not args.asleep, cfg=cfg, start=start,
-                           decel_mps2=tracker_config_for(args.vehicle).max_decel).run()
+        await ObstacleStop(m, awake=not args.asleep, cfg=cfg, start=start).run()
 
     return run_module("obstacle_stop", body, net)
 

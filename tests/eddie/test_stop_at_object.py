@@ -85,13 +85,13 @@ def test_the_amv_stops_in_its_lane_beside_the_mailbox_the_map_has() -> None:
     assert bend[0] == pytest.approx([0.0, 1.0]) and bend[2] == pytest.approx([9.0, 10.0])
 
 
-def test_the_stop_at_an_object_brakes_when_the_goal_is_a_braking_distance_ahead() -> None:
+def test_the_stop_at_an_object_comes_as_the_goal_is_reached_across_the_lane() -> None:
     from eddie.modules.obstacle_stop_module import stop_now
 
     south = -math.pi / 2
-    # 2 m/s, 1.5 m/s² braking, 0.3 s latency: 0.6 + 1.33 = 1.93 m
-    assert not stop_now(0.0, -2.5, south, 2.0, 1.5, reach=1.2)
-    assert stop_now(0.0, -1.8, south, 2.0, 1.5, reach=1.2)
-    assert not stop_now(1.5, -1.0, south, 2.0, 1.5, reach=1.2)  # 1.5 m across: not this lane's goal
-    assert stop_now(0.5, 0.4, south, 0.0, 1.5, reach=1.2)  # standing just past it
-    assert not stop_now(0.0, -0.5, south, 0.0, 1.5, reach=1.2)  # standing 0.5 m short: drive on
+    # 2 m/s, 0.3 s from the pose to the brakes: 0.6 m ahead
+    assert not stop_now(0.0, -1.0, south, 2.0, reach=1.2)
+    assert stop_now(0.0, -0.5, south, 2.0, reach=1.2)
+    assert not stop_now(1.5, -0.5, south, 2.0, reach=1.2)  # 1.5 m across: not this lane's goal
+    assert stop_now(0.5, 0.4, south, 0.0, reach=1.2)  # standing just past it
+    assert not stop_now(0.0, -0.5, south, 0.0, reach=1.2)  # standing 0.5 m short: drive on

@@ -25,7 +25,7 @@ from modules.pilot import LocalPathPlanner, PlanningError
 from wire.se2 import inverse, transform_points
 
 __all__ = ["RoadFollowingConfig", "RoadPath", "region_in_local", "route_goal", "plan_road_path", "route_to_local", "route_ahead",
-           "MapRoad", "map_road_at", "route_lane_offset", "lane_of", "follower_path", "road_line_fix"]
+           "MapRoad", "map_road_at", "route_lane_offset", "follower_path", "road_line_fix"]
 
 
 class RoadFollowingConfig(BaseModel):
@@ -176,11 +176,6 @@ def route_lane_offset(route_world: np.ndarray, road: MapRoad) -> float:
     line = LineString(np.asarray(route_world, dtype=np.float64))
     q = line.interpolate(line.project(Point(road.x, road.y)))
     return float(-math.sin(road.direction_rad) * (q.x - road.x) + math.cos(road.direction_rad) * (q.y - road.y))
-
-
-def lane_of(keep: str, width_m: float) -> float:
-    """Return the lane's offset [m] left of the road centre for `keep` (centre, right, left): a quarter of the width, as the MAP NAVIGATOR keeps to a side."""
-    return {"centre": 0.0, "right": -width_m / 4.0, "left": width_m / 4.0}[keep]
 
 
 def follower_path(obs: RoadObservation, at_capture: tuple[float, float, float], now_local: tuple[float, float, float],

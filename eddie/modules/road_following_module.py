@@ -35,7 +35,7 @@ from eddie.modules.args import parse_pose
 from eddie.modules.errors import NoRoadPath
 from eddie.modules.landmark_matching import calibration_fix, fix_message
 from eddie.missions.lane import lane_offset, shift_into_lane
-from eddie.modules.road_following import (RoadFollowingConfig, follower_path, lane_of, map_road_at, plan_road_path, road_line_fix, route_ahead,
+from eddie.modules.road_following import (RoadFollowingConfig, follower_path, map_road_at, plan_road_path, road_line_fix, route_ahead,
                                           route_lane_offset, route_to_local)
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
 from eddie.modules.switched import Switch, run_switched
@@ -205,7 +205,7 @@ class RoadFollowing:
         if self.lane_offset_m is None or self.follower.follower is None or (self._lost_run >= REBOOT_AFTER and self.method != "alvinn"):
             # bootstrap on the map's road where the vehicle believes it is (the seed's one external input: where the road starts);
             # a follower that lost the road for some frames starts afresh the same way (its prior may be from a turn)
-            self.lane_offset_m = 0.0 if road is None else route_lane_offset(route_world, road) + lane_of(self.keep, road.width_m)
+            self.lane_offset_m = 0.0 if road is None else route_lane_offset(route_world, road) + lane_offset(self.keep, road.width_m)
             if road is None:
                 self.follower.reset(self.lane_offset_m)
             else:

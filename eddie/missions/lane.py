@@ -12,12 +12,26 @@ import math
 import numpy as np
 from shapely.geometry import LineString, Point
 
-__all__ = ["lane_goal", "lane_offset", "shift_into_lane"]
+__all__ = ["KERB_MARGIN_M", "lane_goal", "lane_offset", "kept_lane_offset", "shift_into_lane"]
+
+#: kept between the vehicle's obstacle clearance and the road's edge when a step keeps to a side [m]
+KERB_MARGIN_M = 0.5
 
 
 def lane_offset(keep: str | None, width_m: float) -> float:
     """Return the lane's offset [m] left (+) of the road centre for `keep` (right, left; anything else: 0)."""
     return {"right": -width_m / 4.0, "left": width_m / 4.0}.get(keep or "", 0.0)
+
+
+def kept_lane_offset(keep: str | None, width_m: float, keep_offset_m: float, edge_keep_m: float) -> float:
+    """Return the offset [m] left (+) of the road centre a kept side is driven at.
+
+    A quarter of the road's width `width_m` [m] (the lane), at most the PILOT's `keep_offset_m` [m] for the
+    vehicle (1.5 m for the Navlab, 0.3 m for the Terregator on walks with benches beside them), and
+    leaving `edge_keep_m` [m] inside the road's edge; 0 where that does not fit.
+    """
+    off = lane_offset(keep, width_m)
+    return math.copysign(max(0.0, min(abs(off), keep_offset_m, width_m / 2.0 - edge_keep_m)), off)
 
 
 def lane_goal(map_data, line, goal: tuple[float, float], keep: str | None) -> tuple[float, float] | None:
@@ -32,14 +46,17 @@ def lane_goal(map_data, line, goal: tuple[float, float], keep: str | None) -> tu
     return goal[0] - off * math.sin(yaw), goal[1] + off * math.cos(yaw)
 
 
-def shift_into_lane(route: np.ndarray, offset_m: float) -> np.ndarray:
-    """Return the polyline `route` (N, 2) [m] moved `offset_m` [m] to the left (+) of its direction at each vertex."""
+def shift_into_lane(route: np.ndarray, offset_m: float | np.ndarray) -> np.ndarray:
+    """Return the polyline `route` (N, 2) [m] moved `offset_m` [m] (one for all, or (N,) one per vertex) to the left (+) of its direction at each vertex."""
     pts = np.asarray(route, dtype=np.float64)
-    if offset_m == 0.0 or len(pts) < 2:
+    off = np.asarray(offset_m, dtype=np.float64)
+    if not np.any(off) or len(pts) < 2:
         return pts.copy()
+    if off.ndim:
+        off = off[:, None]
     seg = np.diff(pts, axis=0)
     seg /= np.maximum(np.linalg.norm(seg, axis=1, keepdims=True), 1e-9)
     tang = np.vstack([seg[:1], seg[:-1] + seg[1:], seg[-1:]])  # a vertex: the mean of its segments' directions
     tang /= np.maximum(np.linalg.norm(tang, axis=1, keepdims=True), 1e-9)
     normal = np.column_stack([-tang[:, 1], tang[:, 0]])
-    return pts + offset_m * normal
+    return pts + off * normal

@@ -4,7 +4,8 @@ EDDIE has no CAPTAIN on a blackboard: the mission is compiled into annotations, 
 drives the route the triggers shape. The mission service only keeps the mission's status (the
 CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit` reads the same
 states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
-controller `local` pose): reached within `reach_m` of the step's goal, or (as the PILOT judges arrival
+controller `local` pose): reached within `reach_m` less a margin of the step's goal, at the closest
+approach (the route's end, or the belief passing the goal or stopping closing on it), or (as the PILOT judges arrival
 under CODGER: along its path, within `progress_m` of the end) projected within `progress_m` of the
 step route's end while within 2·`reach_m` of the goal (within `reach_m` of it or its lane's goal for a step kept to a side) → succeeded; no progress for
 `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
@@ -26,6 +27,13 @@ from modules.map_navigator import MapData, RouteError, RouteOptions, select_rout
 from modules.vocabulary import Mission, MissionStatus, MissionStep, StepResult
 
 __all__ = ["StepGoal", "MissionRouteError", "step_goals", "MissionProgress"]
+
+#: inside the reach, a belief this much closer to the goal [m] counts as still closing on it
+CLOSING_M = 0.05
+#: inside the reach, a belief this much farther than its closest [m] has passed the goal: the step ends
+PASSED_M = 0.25
+#: inside the reach, no closer for this long [s] sim (the vehicle has stopped): the step ends
+SETTLE_S = 3.0
 
 
 class MissionRouteError(EddieModuleError, ValueError):
@@ -79,6 +87,7 @@ class MissionProgress:
         self.margin_m, self.stall_s, self.progress_m = margin_m, stall_s, progress_m
         self._best = math.inf
         self._best_at = 0.0
+        self._closest, self._closest_at = math.inf, 0.0  # the nearest the belief came to the goal inside the reach [m], when [s]
         self._wait_until: float | None = None
         self._lines: dict[int, LineString] = {}
 
@@ -90,6 +99,7 @@ class MissionProgress:
     def start(self, now: float) -> MissionStep:
         """Start at sim time `now` [s]; return the first step."""
         self._best, self._best_at = math.inf, now
+        self._closest, self._closest_at = math.inf, now
         return self.run.start(now)
 
     def _apply(self, nxt: Next, now: float) -> bool:
@@ -97,6 +107,7 @@ class MissionProgress:
             self._wait_until = nxt.until
         elif nxt.kind == "step":
             self._best, self._best_at = math.inf, now
+            self._closest, self._closest_at = math.inf, now
         return True
 
     def update(self, now: float, world_xy: tuple[float, float] | None) -> bool:
@@ -112,11 +123,19 @@ class MissionProgress:
             return self._apply(self.run.wait_over(now), now)
         if world_xy is not None:
             d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (self.goals[i].goal, self.goals[i].lane_goal) if g is not None)
-            if d <= max(self.goals[i].reach_m - self.margin_m, 0.2):
-                return self._apply(self.run.step_finished(StepResult(
-                    mission_id=mid, step_index=i, success=True, reason=f"reached within {d:.2f} m of the goal"), now), now)
             # progress is measured along the route: a route may lead away from its goal for a while
             left = self._route_left(i, world_xy)
+            inside = d <= max(self.goals[i].reach_m - self.margin_m, 0.2)
+            if inside and d < self._closest - CLOSING_M:
+                self._closest, self._closest_at = d, now
+            # once inside the reach, drive on while the belief still closes on the goal: the step ends at the
+            # route's end or the closest approach (passing it, leaving the reach, or no closer for a while),
+            # not at the reach's edge (the belief is not truth)
+            if not math.isinf(self._closest) and (not inside or left <= self.progress_m or d > self._closest + PASSED_M
+                                                  or now - self._closest_at >= SETTLE_S):
+                return self._apply(self.run.step_finished(StepResult(
+                    mission_id=mid, step_index=i, success=True,
+                    reason=f"reached within {min(d, self._closest):.2f} m of the goal"), now), now)
             # a step kept to a side ends on that side: the other lane projects onto the route's end too, so
             # there the belief must be within the reach of the goal or its lane's goal
             near_end = d <= (self.goals[i].reach_m if self.goals[i].lane_goal is not None else 2.0 * self.goals[i].reach_m)

@@ -23,8 +23,10 @@ import sys
 from collections import deque
 
 import numpy as np
+from shapely.geometry import LineString, Point
 
 from eddie.messages.controller import PathCommand, Stop
+from eddie.missions.lane import KERB_MARGIN_M, kept_lane_offset, shift_into_lane
 from eddie.messages.modules import MissionRoute
 from eddie.modules.mission_progress import MissionProgress, MissionRouteError, step_goals
 from eddie.modules.args import parse_pose
@@ -64,6 +66,9 @@ class MissionService:
         self.running: MissionProgress | None = None
         self.tick_s = tick_s
         self.speed_mps = speed_mps
+        nav = pilot_config_for(vehicle).navigator
+        #: a kept side is driven at most this far off the centre [m], leaving this inside the road's edge [m]
+        self.keep_offset_m, self.edge_keep_m = nav.keep_offset, nav.obstacle_clearance + KERB_MARGIN_M
         self.keys = MissionKeys(m.net.namespace)
         self.missions: dict[str, MissionProgress] = {}
         self.queue: deque[str] = deque()
@@ -76,13 +81,24 @@ class MissionService:
         p = self.belief.world()
         return None if p is None else (float(p[0]), float(p[1]))
 
-    def _route_points(self, prog: MissionProgress) -> tuple[list[tuple[float, float]], list[float]]:
-        """Return the mission's whole route (x, y) [m] in `world` and the speed [m/s] from each point on."""
+    def _route_points(self, prog: MissionProgress, *, in_lane: bool = False) -> tuple[list[tuple[float, float]], list[float]]:
+        """Return the mission's whole route (x, y) [m] in `world` and the speed [m/s] from each point on.
+
+        The route is the roads' centre line; `in_lane`: each step kept to a side moved into its lane
+        (`eddie.missions.lane.kept_lane_offset` of the nearest road's width at each vertex), as the PILOT
+        plans it and vision road following drives it.
+        """
         pts: list[tuple[float, float]] = []
         speeds: list[float] = []
-        for g in prog.goals:
+        for g, step in zip(prog.goals, prog.run.mission.steps):
             v = min(g.speed_mps or self.speed_mps, self.speed_mps)
-            for p in g.route:
+            route = np.asarray(g.route, dtype=np.float64)
+            if in_lane and step.constraints.keep in ("right", "left") and self.map.world.edges:
+                edges = [(LineString(e.coords), e.width) for e in self.map.world.edges]
+                widths = [min(edges, key=lambda le: le[0].distance(Point(p)))[1] for p in route]
+                route = shift_into_lane(route, np.array([kept_lane_offset(step.constraints.keep, w, self.keep_offset_m, self.edge_keep_m)
+                                                         for w in widths]))
+            for p in route:
                 if pts and math.dist(pts[-1], p) < 0.05:
                     continue
                 pts.append((float(p[0]), float(p[1])))
@@ -167,7 +183,7 @@ class MissionService:
 
     async def _drive(self, prog: MissionProgress) -> None:
         """Send the whole route, in `local`, to the controller (no vision: dead reckoning on the map)."""
-        pts, speeds = self._route_points(prog)
+        pts, speeds = self._route_points(prog, in_lane=True)
         local = transform_points(inverse(self.belief.world_from_local), np.asarray(pts))
         await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                     points=tuple((float(x), float(y)) for x, y in local),

@@ -34,7 +34,7 @@ from eddie.errors import EddieError
 from eddie.modules.args import parse_pose
 from eddie.modules.errors import NoRoadPath
 from eddie.modules.landmark_matching import calibration_fix, fix_message
-from eddie.missions.lane import lane_offset, shift_into_lane
+from eddie.missions.lane import KERB_MARGIN_M, kept_lane_offset, lane_offset, shift_into_lane
 from eddie.modules.road_following import (RoadFollowingConfig, follower_path, map_road_at, plan_road_path, road_line_fix, route_ahead,
                                           route_lane_offset, route_to_local)
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
@@ -69,9 +69,6 @@ REBOOT_AFTER = 3
 #: The planner's budget per path [s wall] and [iterations] (the PILOT's is 5 s and 20,000).
 PLAN_WALL_S, PLAN_ITERATIONS = 0.5, 4000
 
-
-#: kept between the vehicle's obstacle clearance and the road's edge when a step keeps to a side [m]
-KERB_MARGIN_M = 0.5
 
 class RoadFollowing:
     """The vision road following loop on one module endpoint."""
@@ -154,8 +151,7 @@ class RoadFollowing:
             # with benches beside them), as the PILOT does; where that does not fit the road seen, on the centre
             road = map_road_at(self.map.world.edges, (float(prior[0]), float(prior[1])), float(prior[2]))
             if road is not None:
-                off = lane_offset(self.keep, road.width_m)
-                off = math.copysign(max(0.0, min(abs(off), self.keep_offset_m, road.width_m / 2.0 - self.edge_keep_m)), off)
+                off = kept_lane_offset(self.keep, road.width_m, self.keep_offset_m, self.edge_keep_m)
                 routes.insert(0, route_to_local(shift_into_lane(np.asarray(self.route.points), off), local_from_world))
         speed = self._route_speed(prior)
         now = self.belief.local

@@ -115,3 +115,55 @@ def test_a_step_to_an_unknown_place_names_the_step(campus) -> None:
     mission = parse_mission(text.encode(), source="t")
     with pytest.raises(MissionRouteError, match="step 1 \\(nowhere\\)"):
         step_goals(campus, (0.0, -28.0), mission)
+
+
+def _where_it_ends(prog: MissionProgress, drive) -> tuple[float, float] | None:
+    """Drive the belief along `drive` at 1 m/s, one update every 0.1 m; return where the mission ended (None: it did not)."""
+    prog.start(0.0)
+    t = 0.0
+    for p in _along(drive, 0.1):
+        t += 0.1
+        if prog.update(t, p) and prog.status.terminal:
+            return p
+    return None
+
+
+def test_a_step_ends_at_the_closest_approach_not_at_the_reachs_edge() -> None:
+    from eddie.modules.mission_progress import SETTLE_S, StepGoal
+
+    mission = load_mission(WORLDS_DIR / "amv-delivery.yaml").model_copy(update={"mission_id": "closest"})
+    goals = [StepGoal(step_index=0, route=((0.0, 0.0), (0.0, 20.0)), goal=(0.0, 20.0), reach_m=1.5)]
+    # driving on to the route's end: the belief enters the 1.2 m circle at 18.8 m, the step ends at the route's end
+    prog = MissionProgress(mission, goals, stall_s=20.0)
+    ended_at = _where_it_ends(prog, ((0.0, 0.0), (0.0, 20.0)))
+    assert prog.status.state == "succeeded" and ended_at is not None and ended_at[1] >= 19.4, ended_at
+    # a belief 0.9 m beside the route passes the goal's side: the step ends just past the closest approach
+    prog = MissionProgress(mission, [goals[0].model_copy(update={"route": ((0.9, 0.0), (0.9, 30.0))})], stall_s=20.0)
+    ended_at = _where_it_ends(prog, ((0.9, 0.0), (0.9, 30.0)))
+    assert ended_at is not None and 20.0 < ended_at[1] < 21.0, ended_at
+    # stopped inside the reach short of the route's end: the step ends once the belief stops closing in
+    prog = MissionProgress(mission, goals, stall_s=20.0)
+    prog.start(0.0)
+    t = 0.0
+    for p in _along(((0.0, 0.0), (0.0, 19.0)), 0.1):
+        t += 0.1
+        prog.update(t, p)
+    assert prog.status.state == "running"
+    stood = t
+    while not prog.status.terminal and t < stood + 10.0:
+        t += 0.1
+        prog.update(t, (0.0, 19.0))
+    assert prog.status.state == "succeeded" and t - stood == pytest.approx(SETTLE_S, abs=0.3)
+
+
+def test_the_dead_reckoned_route_keeps_to_the_steps_side_in_its_lane(campus) -> None:
+    from eddie.missions.lane import kept_lane_offset, shift_into_lane
+
+    # a quarter of the width, at most the keep offset, leaving the clearance inside the edge; the right is negative
+    assert kept_lane_offset("right", 8.0, 1.5, 1.0) == pytest.approx(-1.5)
+    assert kept_lane_offset("left", 4.0, 1.5, 1.0) == pytest.approx(1.0)
+    assert kept_lane_offset("right", 3.0, 1.5, 1.0) == pytest.approx(-0.5)
+    assert kept_lane_offset("right", 1.5, 1.5, 1.0) == 0.0 and kept_lane_offset(None, 8.0, 1.5, 1.0) == 0.0
+    # one offset per vertex: a road narrowing from 8 m to 3 m along the way north
+    out = shift_into_lane(np.array([[0.0, 0.0], [0.0, 10.0], [0.0, 20.0]]), np.array([-1.5, -1.5, -0.5]))
+    assert out[:, 0] == pytest.approx([1.5, 1.5, 0.5]) and out[:, 1] == pytest.approx([0.0, 10.0, 20.0])

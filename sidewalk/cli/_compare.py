@@ -12,7 +12,7 @@ from typing import Annotated, Optional
 
 import typer
 
-__all__ = ["register", "compare"]
+__all__ = ["register", "compare", "compare_check"]
 
 
 def _list(text: str, flag: str) -> tuple[str, ...]:
@@ -115,6 +115,32 @@ def compare(
                   f"({result.wall_time_s:.0f} s)")
 
 
+def compare_check(
+    a: Annotated[Path, typer.Argument(help="A `sidewalk compare --out` directory (or its compare.json)")],
+    b: Annotated[Path, typer.Argument(help="The same command's second grid")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print the check as one JSON object")] = False,
+    out: Annotated[Optional[Path], typer.Option(help="Also write the Markdown table here")] = None,
+) -> None:
+    """Hold two grids of the same command against each other: does each median lie within the other's range? Exit 1 if not."""
+    from rich.console import Console
+
+    from sidewalk.compare.errors import CompareError
+    from sidewalk.compare.repeat import check_repeat, load_summary, render_repeat
+
+    console = Console(stderr=True)
+    try:
+        check = check_repeat(load_summary(a), load_summary(b), name_a=str(a), name_b=str(b))
+    except CompareError as exc:
+        console.print(f"[red]error:[/red] {exc}")
+        raise typer.Exit(2) from None
+    text = render_repeat(check)
+    if out is not None:
+        out.write_text(text)
+    print(check.model_dump_json(indent=1) if as_json else text, end="" if not as_json else "\n")
+    raise typer.Exit(0 if check.repeats else 1)
+
+
 def register(app: typer.Typer) -> None:
-    """Add `compare` to the top-level app."""
+    """Add `compare` and `compare-check` to the top-level app."""
     app.command("compare")(compare)
+    app.command("compare-check")(compare_check)

@@ -172,3 +172,14 @@ def test_a_road_that_jumps_between_frames_is_no_road_until_it_stays() -> None:
     jumped = _road("scarf", lateral=-0.1, heading_deg=6.0)  # a driveway pulled the triangle 1.5 m over
     assert not f._gate(jumped, pose1).found and not f._gate(jumped, pose1).found
     assert f._gate(jumped, pose1).found  # the third frame in a row: the road did move
+
+
+def test_the_path_stops_at_the_routes_end_where_the_road_goes_on() -> None:
+    obs = _road("yarf", lateral=0.0)  # the road runs straight on, the route ends 6 m ahead of the vehicle
+    route = np.array([_in_local((x, 0.0)) for x in (-5.0, 6.0)])
+    path = follower_path(obs, AT_CAPTURE, AT_CAPTURE, route, CFG, lane_offset_m=-1.9, max_off_route_m=5.4)
+    ahead = (path - np.asarray(AT_CAPTURE[:2])) @ np.array([math.cos(AT_CAPTURE[2]), math.sin(AT_CAPTURE[2])])
+    assert len(path) >= 2 and ahead.max() <= 6.0 and ahead.max() > 4.0, ahead
+    # at the route's end nothing is left to follow: no path (the last one ends there)
+    with pytest.raises(NoRoadPath, match="past the route's end"):
+        follower_path(obs, AT_CAPTURE, AT_CAPTURE, np.array([_in_local((x, 0.0)) for x in (-5.0, 0.5)]), CFG)

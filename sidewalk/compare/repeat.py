@@ -1,0 +1,142 @@
+"""Is a comparison reproducible? Two `compare.json` of the same command, measure by measure.
+
+Issue 10 asks that the same command run twice give the same table within the spread it reports.
+Each architecture's summary measure (`ArchSummary.measures`: median, min, max over the runs) of
+grid A is held against grid B's: the measure repeats when each median lies within the other grid's
+range (`within_spread`). Fault verdicts (one run per fault, no spread) repeat when the verdict is
+the same; the speed sweep when the highest speed with success on every seed is the same.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+from pydantic import BaseModel, ConfigDict, ValidationError
+
+from sidewalk.compare.errors import CompareError
+from sidewalk.compare.summary import ArchSummary, Spread, within_spread
+from sidewalk.compare.tables import fmt_spread
+
+__all__ = ["MeasureRepeat", "VerdictRepeat", "RepeatCheck", "load_summary", "check_repeat", "render_repeat"]
+
+
+class MeasureRepeat(BaseModel):
+    """One measure of one architecture in both grids, and whether it repeats."""
+
+    model_config = ConfigDict(frozen=True)
+
+    architecture: str
+    measure: str
+    a: Spread
+    b: Spread
+    repeats: bool
+
+
+class VerdictRepeat(BaseModel):
+    """One fault (or the speed sweep) of one architecture in both grids: its verdict in each."""
+
+    model_config = ConfigDict(frozen=True)
+
+    architecture: str
+    what: str
+    a: Optional[str] = None
+    b: Optional[str] = None
+    repeats: bool
+
+
+class RepeatCheck(BaseModel):
+    """Every measure and verdict of grid `a` against grid `b`; `repeats` when all of them do."""
+
+    model_config = ConfigDict(frozen=True)
+
+    a: str
+    b: str
+    command_a: Optional[dict] = None
+    command_b: Optional[dict] = None
+    same_config: bool
+    measures: list[MeasureRepeat]
+    verdicts: list[VerdictRepeat]
+    repeated: int
+    total: int
+    repeats: bool
+
+
+def load_summary(path: Path) -> dict:
+    """Read a `compare.json` (or the directory holding it); raise CompareError naming the file and what is wrong."""
+    f = path / "compare.json" if path.is_dir() else path
+    try:
+        data = json.loads(f.read_text())
+    except FileNotFoundError:
+        raise CompareError(f"{f}: no such file (give a `sidewalk compare --out` directory or its compare.json)") from None
+    except json.JSONDecodeError as exc:
+        raise CompareError(f"{f}: not JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("summary"), dict):
+        raise CompareError(f"{f}: no `summary` object: not a compare.json")
+    summary = {}
+    for arch, v in data["summary"].items():
+        try:
+            summary[arch] = ArchSummary.model_validate(v)
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            raise CompareError(f"{f}: summary.{arch}.{'.'.join(str(x) for x in err['loc'])}: {err['msg']}") from None
+    data["summary"] = summary
+    return data
+
+
+def _verdicts(data: dict) -> dict[tuple[str, str], str]:
+    """Return {(architecture, what): verdict} for the faults and the speed sweep of one grid."""
+    out: dict[tuple[str, str], str] = {}
+    for f in data.get("faults") or []:
+        if isinstance(f, dict) and "architecture" in f and "fault" in f:
+            out[(f["architecture"], f"fault {f['fault']} on {f.get('mission', '?')}")] = str(f.get("verdict"))
+    for arch, v in (data.get("highest_speed") or {}).items():
+        out[(arch, "highest speed with success on every seed [m/s]")] = "none" if v is None else f"{float(v):g}"
+    return out
+
+
+def _config(data: dict) -> dict:
+    """Return what makes two grids the same command: missions, seeds, RTF, architectures, faults, speeds."""
+    c = data.get("config") or {}
+    return {k: c.get(k) for k in ("missions", "seeds", "rtf", "architectures", "faults", "speeds")}
+
+
+def check_repeat(a: dict, b: dict, *, name_a: str = "a", name_b: str = "b") -> RepeatCheck:
+    """Hold grid `a`'s summary (from `load_summary`) against grid `b`'s, measure by measure and verdict by verdict."""
+    measures: list[MeasureRepeat] = []
+    for arch, sa in a["summary"].items():
+        sb = b["summary"].get(arch)
+        for name, spa in sa.measures.items():
+            spb = sb.measures.get(name, Spread()) if sb is not None else Spread()
+            measures.append(MeasureRepeat(architecture=arch, measure=name, a=spa, b=spb, repeats=within_spread(spa, spb)))
+    va, vb = _verdicts(a), _verdicts(b)
+    verdicts = [VerdictRepeat(architecture=k[0], what=k[1], a=va.get(k), b=vb.get(k), repeats=va.get(k) == vb.get(k))
+                for k in dict.fromkeys([*va, *vb])]
+    rows = [*measures, *verdicts]
+    ok = sum(r.repeats for r in rows)
+    return RepeatCheck(a=name_a, b=name_b, command_a=_config(a), command_b=_config(b), same_config=_config(a) == _config(b),
+                       measures=measures, verdicts=verdicts, repeated=ok, total=len(rows), repeats=ok == len(rows))
+
+
+def render_repeat(check: RepeatCheck) -> str:
+    """Return the check as Markdown: a line of totals, then the measures and verdicts that do not repeat, then all."""
+    lines = [f"# `{check.a}` against `{check.b}`", ""]
+    if not check.same_config:
+        lines += [f"**Not the same command**: {check.command_a} against {check.command_b}.", ""]
+    lines += [f"{check.repeated} of {check.total} measures and verdicts repeat (a measure repeats when each grid's median lies "
+              "within the other's range; a verdict when it is the same).", ""]
+    differ = [m for m in check.measures if not m.repeats]
+    vdiffer = [v for v in check.verdicts if not v.repeats]
+    if differ or vdiffer:
+        lines += ["## Not repeated", "", f"| arch | measure or verdict | {check.a} | {check.b} |", "|---|---|---|---|"]
+        lines += [f"| {m.architecture} | {m.measure} | {fmt_spread(m.a)} | {fmt_spread(m.b)} |" for m in differ]
+        lines += [f"| {v.architecture} | {v.what} | {v.a or '–'} | {v.b or '–'} |" for v in vdiffer]
+        lines.append("")
+    lines += ["## Every measure (median [min–max])", "", f"| arch | measure | {check.a} | {check.b} | repeats |", "|---|---|---|---|---|"]
+    lines += [f"| {m.architecture} | {m.measure} | {fmt_spread(m.a)} | {fmt_spread(m.b)} | {'yes' if m.repeats else '**no**'} |" for m in check.measures]
+    if check.verdicts:
+        lines += ["", "## Faults and speed sweep", "", f"| arch | what | {check.a} | {check.b} | repeats |", "|---|---|---|---|---|"]
+        lines += [f"| {v.architecture} | {v.what} | {v.a or '–'} | {v.b or '–'} | {'yes' if v.repeats else '**no**'} |"
+                  for v in check.verdicts]
+    return "\n".join(lines) + "\n"

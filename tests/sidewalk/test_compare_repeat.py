@@ -1,0 +1,58 @@
+"""`sidewalk compare-check`: two grids of the same command held against each other, measure by measure."""
+
+import json
+import subprocess
+import sys
+
+from sidewalk.compare.repeat import check_repeat, load_summary, render_repeat
+from sidewalk.compare.summary import ArchSummary, spread
+
+CONFIG = {"missions": ["campus-tour"], "seeds": [0, 1, 2], "rtf": 8.0, "architectures": ["codger", "eddie"], "faults": ["wedge"],
+          "speeds": [], "out": "runs/x"}
+
+
+def _grid(path, latency: list[float], verdict: str = "completed", highest: float | None = 2.0) -> None:
+    """Write a compare.json whose codger sense-to-act runs are `latency` [ms] (everything else alike)."""
+    summary = {}
+    for arch, lat in (("codger", latency), ("eddie", [900.0, 950.0, 1000.0])):
+        measures = {"success": spread([1.0, 1.0, 1.0]), "sense_to_act_ms_p50": spread(lat), "bytes_per_s": spread([1e5, 1.1e5, 1.2e5])}
+        summary[arch] = ArchSummary(architecture=arch, mission="*", runs=3, success_rate=1.0, measures=measures).model_dump(mode="json")
+    faults = [{"architecture": a, "mission": "campus-tour", "seed": 0, "fault": "wedge", "verdict": verdict if a == "codger" else "completed"}
+              for a in ("codger", "eddie")]
+    path.mkdir()
+    (path / "compare.json").write_text(json.dumps({"config": CONFIG, "summary": summary, "faults": faults,
+                                                    "highest_speed": {"codger": highest, "eddie": 3.0}}))
+
+
+def test_a_grid_within_the_others_spread_repeats_and_one_outside_does_not(tmp_path):
+    _grid(tmp_path / "a", [1300.0, 1500.0, 1800.0])
+    _grid(tmp_path / "b", [1250.0, 1450.0, 1700.0])  # medians 1500 and 1450: each inside the other's range
+    _grid(tmp_path / "c", [1900.0, 2500.0, 3000.0], verdict="degraded", highest=1.0)  # median 2500 outside [1300–1800]
+    a, b, c = (load_summary(tmp_path / n) for n in "abc")
+    same = check_repeat(a, b, name_a="a", name_b="b")
+    assert same.repeats and same.same_config and same.repeated == same.total == 2 * 3 + 2 + 2
+    other = check_repeat(a, c, name_a="a", name_b="c")
+    assert not other.repeats
+    assert [(m.architecture, m.measure) for m in other.measures if not m.repeats] == [("codger", "sense_to_act_ms_p50")]
+    assert {(v.architecture, v.a, v.b) for v in other.verdicts if not v.repeats} == {("codger", "completed", "degraded"),
+                                                                                      ("codger", "2", "1")}
+    md = render_repeat(other)
+    assert "## Not repeated" in md and "| codger | sense_to_act_ms_p50 | 1,500 [1,300–1,800] | 2,500 [1,900–3,000] |" in md
+
+
+def test_the_command_exits_by_the_verdict_and_names_a_bad_file(tmp_path):
+    _grid(tmp_path / "a", [1300.0, 1500.0, 1800.0])
+    _grid(tmp_path / "c", [1900.0, 2500.0, 3000.0])
+
+    def check(*args):
+        return subprocess.run([sys.executable, "-m", "sidewalk", "compare-check", *map(str, args)], capture_output=True, text=True,
+                              timeout=60)
+
+    assert check(tmp_path / "a", tmp_path / "a").returncode == 0
+    r = check(tmp_path / "a", tmp_path / "c", "--json")
+    assert r.returncode == 1 and json.loads(r.stdout)["repeats"] is False
+    r = check(tmp_path / "a", tmp_path / "nowhere")
+    assert r.returncode == 2 and "no such file" in r.stderr and "Traceback" not in r.stderr
+    (tmp_path / "bad.json").write_text('{"summary": {"codger": {"runs": "three"}}}')
+    r = check(tmp_path / "a", tmp_path / "bad.json")
+    assert r.returncode == 2 and "bad.json: summary.codger" in " ".join(r.stderr.split())

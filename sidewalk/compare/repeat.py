@@ -2,8 +2,10 @@
 
 Issue 10 asks that the same command run twice give the same table within the spread it reports.
 Each architecture's summary measure (`ArchSummary.measures`: median, min, max over the runs) of
-grid A is held against grid B's: the measure repeats when each median lies within the other grid's
-range (`within_spread`). Fault verdicts (one run per fault, no spread) repeat when the verdict is
+grid A is held against grid B's, over every mission together (`summary`, mission "*") and per mission
+(`per_mission`: a median over two missions' runs pooled falls between the missions, so per mission is
+the finer test): the measure repeats when each median lies within the other grid's range
+(`within_spread`). Fault verdicts (one run per fault, no spread) repeat when the verdict is
 the same; the speed sweep when the highest speed with success on every seed is the same.
 """
 
@@ -28,6 +30,7 @@ class MeasureRepeat(BaseModel):
     model_config = ConfigDict(frozen=True)
 
     architecture: str
+    mission: str  # "*": every mission together
     measure: str
     a: Spread
     b: Spread
@@ -82,6 +85,15 @@ def load_summary(path: Path) -> dict:
             err = exc.errors()[0]
             raise CompareError(f"{f}: summary.{arch}.{'.'.join(str(x) for x in err['loc'])}: {err['msg']}") from None
     data["summary"] = summary
+    per_mission = {}
+    for i, v in enumerate(data.get("per_mission") or []):
+        try:
+            one = ArchSummary.model_validate(v)
+        except ValidationError as exc:
+            err = exc.errors()[0]
+            raise CompareError(f"{f}: per_mission[{i}].{'.'.join(str(x) for x in err['loc'])}: {err['msg']}") from None
+        per_mission[(one.architecture, one.mission)] = one
+    data["per_mission"] = per_mission
     return data
 
 
@@ -105,11 +117,13 @@ def _config(data: dict) -> dict:
 def check_repeat(a: dict, b: dict, *, name_a: str = "a", name_b: str = "b") -> RepeatCheck:
     """Hold grid `a`'s summary (from `load_summary`) against grid `b`'s, measure by measure and verdict by verdict."""
     measures: list[MeasureRepeat] = []
-    for arch, sa in a["summary"].items():
-        sb = b["summary"].get(arch)
+    pairs = [((arch, "*"), sa, b["summary"].get(arch)) for arch, sa in a["summary"].items()]
+    pairs += [(key, sa, b["per_mission"].get(key)) for key, sa in a["per_mission"].items()]
+    for (arch, mission), sa, sb in pairs:
         for name, spa in sa.measures.items():
             spb = sb.measures.get(name, Spread()) if sb is not None else Spread()
-            measures.append(MeasureRepeat(architecture=arch, measure=name, a=spa, b=spb, repeats=within_spread(spa, spb)))
+            measures.append(MeasureRepeat(architecture=arch, mission=mission, measure=name, a=spa, b=spb,
+                                          repeats=within_spread(spa, spb)))
     va, vb = _verdicts(a), _verdicts(b)
     verdicts = [VerdictRepeat(architecture=k[0], what=k[1], a=va.get(k), b=vb.get(k), repeats=va.get(k) == vb.get(k))
                 for k in dict.fromkeys([*va, *vb])]
@@ -129,12 +143,14 @@ def render_repeat(check: RepeatCheck) -> str:
     differ = [m for m in check.measures if not m.repeats]
     vdiffer = [v for v in check.verdicts if not v.repeats]
     if differ or vdiffer:
-        lines += ["## Not repeated", "", f"| arch | measure or verdict | {check.a} | {check.b} |", "|---|---|---|---|"]
-        lines += [f"| {m.architecture} | {m.measure} | {fmt_spread(m.a)} | {fmt_spread(m.b)} |" for m in differ]
-        lines += [f"| {v.architecture} | {v.what} | {v.a or '–'} | {v.b or '–'} |" for v in vdiffer]
+        lines += ["## Not repeated", "", f"| arch | mission | measure or verdict | {check.a} | {check.b} |", "|---|---|---|---|---|"]
+        lines += [f"| {m.architecture} | {m.mission} | {m.measure} | {fmt_spread(m.a)} | {fmt_spread(m.b)} |" for m in differ]
+        lines += [f"| {v.architecture} | | {v.what} | {v.a or '–'} | {v.b or '–'} |" for v in vdiffer]
         lines.append("")
-    lines += ["## Every measure (median [min–max])", "", f"| arch | measure | {check.a} | {check.b} | repeats |", "|---|---|---|---|---|"]
-    lines += [f"| {m.architecture} | {m.measure} | {fmt_spread(m.a)} | {fmt_spread(m.b)} | {'yes' if m.repeats else '**no**'} |" for m in check.measures]
+    lines += ["## Every measure (median [min–max]; mission * = every mission together)", "",
+              f"| arch | mission | measure | {check.a} | {check.b} | repeats |", "|---|---|---|---|---|---|"]
+    lines += [f"| {m.architecture} | {m.mission} | {m.measure} | {fmt_spread(m.a)} | {fmt_spread(m.b)} | {'yes' if m.repeats else '**no**'} |"
+              for m in check.measures]
     if check.verdicts:
         lines += ["", "## Faults and speed sweep", "", f"| arch | what | {check.a} | {check.b} | repeats |", "|---|---|---|---|---|"]
         lines += [f"| {v.architecture} | {v.what} | {v.a or '–'} | {v.b or '–'} | {'yes' if v.repeats else '**no**'} |"

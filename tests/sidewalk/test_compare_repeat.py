@@ -19,8 +19,9 @@ def _grid(path, latency: list[float], verdict: str = "completed", highest: float
         summary[arch] = ArchSummary(architecture=arch, mission="*", runs=3, success_rate=1.0, measures=measures).model_dump(mode="json")
     faults = [{"architecture": a, "mission": "campus-tour", "seed": 0, "fault": "wedge", "verdict": verdict if a == "codger" else "completed"}
               for a in ("codger", "eddie")]
+    per_mission = [dict(v, mission="campus-tour") for v in summary.values()]  # one mission: the same figures
     path.mkdir()
-    (path / "compare.json").write_text(json.dumps({"config": CONFIG, "summary": summary, "faults": faults,
+    (path / "compare.json").write_text(json.dumps({"config": CONFIG, "summary": summary, "per_mission": per_mission, "faults": faults,
                                                     "highest_speed": {"codger": highest, "eddie": 3.0}}))
 
 
@@ -30,14 +31,15 @@ def test_a_grid_within_the_others_spread_repeats_and_one_outside_does_not(tmp_pa
     _grid(tmp_path / "c", [1900.0, 2500.0, 3000.0], verdict="degraded", highest=1.0)  # median 2500 outside [1300–1800]
     a, b, c = (load_summary(tmp_path / n) for n in "abc")
     same = check_repeat(a, b, name_a="a", name_b="b")
-    assert same.repeats and same.same_config and same.repeated == same.total == 2 * 3 + 2 + 2
+    assert same.repeats and same.same_config and same.repeated == same.total == 2 * (2 * 3) + 2 + 2  # (all, per mission) × 2 archs × 3
     other = check_repeat(a, c, name_a="a", name_b="c")
     assert not other.repeats
-    assert [(m.architecture, m.measure) for m in other.measures if not m.repeats] == [("codger", "sense_to_act_ms_p50")]
+    assert [(m.architecture, m.mission, m.measure) for m in other.measures if not m.repeats] == [
+        ("codger", "*", "sense_to_act_ms_p50"), ("codger", "campus-tour", "sense_to_act_ms_p50")]
     assert {(v.architecture, v.a, v.b) for v in other.verdicts if not v.repeats} == {("codger", "completed", "degraded"),
                                                                                       ("codger", "2", "1")}
     md = render_repeat(other)
-    assert "## Not repeated" in md and "| codger | sense_to_act_ms_p50 | 1,500 [1,300–1,800] | 2,500 [1,900–3,000] |" in md
+    assert "## Not repeated" in md and "| codger | * | sense_to_act_ms_p50 | 1,500 [1,300–1,800] | 2,500 [1,900–3,000] |" in md
 
 
 def test_the_command_exits_by_the_verdict_and_names_a_bad_file(tmp_path):

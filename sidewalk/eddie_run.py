@@ -82,7 +82,10 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
         ProcessPlan("navigator", ("-m", "sidewalk", "up", "navigator", f"--start-pose={sx},{sy},{syaw}", *zflags)),
     ]
     if annotated_map is not None:
-        plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--annotated-map", str(annotated_map), *zflags)))
+        # its state file beside the run's annotated map: the manager restarted by a fault or the supervisor takes it up
+        state = Path(annotated_map).with_name("map_manager.state.json")
+        plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--annotated-map", str(annotated_map),
+                                                 "--state", str(state), *zflags)))
     if perception:
         # obstacle stop sleeps until the route's `start_obstacles` triggers switch it on (issue 12)
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),

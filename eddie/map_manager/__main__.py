@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from modules.runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
@@ -11,6 +12,7 @@ from wire.flags import add_network_args, network_from_args
 from eddie.annotated_map import AnnotatedMapError, AnnotationDatabase, load_annotations
 from eddie.map_manager.map_manager import MapManager
 from eddie.map_manager.map_manager_module import MapManagerModule
+from eddie.map_manager.state_file import StateFileError, load_state
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 
@@ -24,6 +26,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--controller", default="controller", help="the controller module's name (its state stream)")
     p.add_argument("--navigator", default="navigator", help="the navigator module's name (its world_from_local stream)")
     p.add_argument("--name", default="map_manager", help="module name")
+    p.add_argument("--state", default=None, metavar="FILE",
+                   help="keep the used flags and the vehicle's last position here, and take them up when started again "
+                        "(a restart then fires the triggers crossed meanwhile; delete the file to start afresh)")
     add_network_args(p)
     return p
 
@@ -39,9 +44,15 @@ def main(argv: list[str] | None = None) -> int:
     except AnnotatedMapError as exc:
         parser.error(f"--annotated-map: {exc}")
     mgr = MapManager(db)
+    map_name = Path(args.annotated_map).name
+    try:
+        resume = None if args.state is None else load_state(args.state, annotated_map=map_name, known={a.id for a in db})
+    except StateFileError as exc:
+        parser.error(f"--state: {exc}")
 
     async def body(m: Module) -> None:
-        await MapManagerModule(m, mgr, controller=args.controller, navigator=args.navigator).run()
+        await MapManagerModule(m, mgr, controller=args.controller, navigator=args.navigator, state_path=args.state,
+                               map_name=map_name, resume=resume).run()
 
     return run_module(args.name, body, net)
 

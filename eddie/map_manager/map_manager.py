@@ -52,6 +52,29 @@ class MapManager:
         self.walker = TriggerWalker(db)
         self._w: WorldFromLocal | None = None
 
+    def used(self) -> tuple[str, ...]:
+        """Return the ids of the annotations whose `used` flag is set, sorted."""
+        return tuple(sorted(a.id for a in self.db if a.used))
+
+    def restore_used(self, ids: tuple[str, ...]) -> None:
+        """Set the `used` flag of annotations `ids` (a state saved before a restart)."""
+        for aid in ids:
+            self.db.set_used(aid)
+
+    def catch_up(self, path_local: list[tuple[float, float]], w: WorldFromLocal) -> TravelledCycle:
+        """Travel the path (≥ 1 point, [m] `local`) driven while the manager was away, under world←local `w`.
+
+        The walk starts at the path's first point without firing (as a first cycle does), then fires
+        every unused trigger the path meets, in travel order.
+        """
+        self._w = w
+        x, y = world_of(w, *path_local[0])
+        events = self.walker.reset(x, y)
+        for px, py in path_local[1:]:
+            x, y = world_of(w, px, py)
+            events += self.walker.advance(x, y)
+        return TravelledCycle(x=x, y=y, events=tuple(events))
+
     def query(self, q: AnnotationQuery) -> AnnotationList:
         """Answer `q`: every annotation of its type within its polygon [m `world`]."""
         return AnnotationList(annotations=tuple(record_of(a) for a in self.db.query(q.type, q.polygon)))

@@ -6,6 +6,10 @@ A cycle runs on each controller `state` sample (the controller's rate, ≥ 10 Hz
 navigator's `world_from_local` (pushed stream) is known; a fired trigger's `TriggerMessage` goes to
 its destination's inbox, and every outcome (fired, skipped, rearmed) is published on stream
 `triggers` as a `TriggerFired`. `crossed_wall` is the wall time the crossing state reached the manager.
+
+With a state file (`eddie.map_manager.state_file`) the used flags and the vehicle's last position
+survive a restart: the first cycle after one asks the controller (`recorded_path`) for the path it
+drove since that position and walks it, so triggers crossed while the manager was away fire then.
 """
 
 from __future__ import annotations
@@ -19,9 +23,10 @@ import time
 from pydantic import ValidationError
 from wire.aio import QueryAnswer, QueryRequest
 
-from eddie.errors import BadMessage
-from eddie.map_manager.map_manager import MapManager
-from eddie.messages.controller import ControllerState
+from eddie.errors import BadMessage, EddieError
+from eddie.map_manager.map_manager import MapManager, TravelledCycle
+from eddie.map_manager.state_file import SAVE_EVERY_S, ManagerState, save_state
+from eddie.messages.controller import ControllerState, RecordedPath, RecordedPathQuery
 from eddie.messages.map_manager import AnnotationQuery, TriggerFired, TriggerMessage
 from eddie.messages.navigator import WorldFromLocal
 from eddie.toolkit.message import decode_envelope, encode_envelope, error_payload
@@ -36,9 +41,18 @@ log = logging.getLogger(__name__)
 class MapManagerModule:
     """Run a `MapManager` on endpoint `m`, following modules `controller` and `navigator`."""
 
-    def __init__(self, m: Module, mgr: MapManager, *, controller: str = "controller", navigator: str = "navigator") -> None:
+    def __init__(self, m: Module, mgr: MapManager, *, controller: str = "controller", navigator: str = "navigator",
+                 state_path: str | None = None, map_name: str = "", resume: ManagerState | None = None) -> None:
+        """Follow `controller` and `navigator`; keep the state in `state_path` (None: none), resuming from `resume`."""
         self.m = m
         self.mgr = mgr
+        self.state_path = state_path
+        self.map_name = map_name
+        #: the state a restart resumes from (its used flags are set at once; its position waits for the first cycle)
+        self._resume = resume
+        if resume is not None:
+            mgr.restore_used(resume.used)
+        self._saved_at: float | None = None
         self.controller = controller
         self.navigator = navigator
         self._state: tuple[ControllerState, float] | None = None
@@ -77,11 +91,49 @@ class MapManagerModule:
             return QueryAnswer(ok=False, payload=error_payload("bad_message", str(exc)), as_json=True)
         return QueryAnswer(ok=True, payload=encode_envelope(self.m.name, self.mgr.query(msg), self.m.now()))
 
+    async def _recorded_since(self, resume: ManagerState, st: ControllerState) -> list[tuple[float, float]]:
+        """Return the path [m `local`] from the position saved before a restart to `st`'s, as the controller recorded it."""
+        path = [(resume.x, resume.y)]
+        if st.odometer < resume.odometer:
+            log.warning("map_manager: the controller's odometer (%.1f m) is behind the saved state's (%.1f m): it restarted too; "
+                        "taking up from its position now", st.odometer, resume.odometer)
+            return [(st.x, st.y)]
+        try:
+            rec = await self.m.request(self.controller, "recorded_path",
+                                       RecordedPathQuery(odometer_from=resume.odometer, odometer_to=st.odometer),
+                                       reply_type=RecordedPath)
+            path += [(float(x), float(y)) for x, y in rec.points]
+        except EddieError as exc:
+            log.warning("map_manager: no recorded path from the controller (%s): a straight line from the saved position", exc)
+        log.info("map_manager: resuming after a restart: %.1f m driven meanwhile (%d recorded points), %d annotations used",
+                 st.odometer - resume.odometer, len(path) - 1, len(resume.used))
+        return path + [(st.x, st.y)]
+
+    def _save(self, st: ControllerState, changed: bool) -> None:
+        """Write the state file on a trigger event, else at most every SAVE_EVERY_S [s] sim."""
+        if self.state_path is None or (not changed and self._saved_at is not None and st.stamp - self._saved_at < SAVE_EVERY_S):
+            return
+        try:
+            save_state(self.state_path, ManagerState(annotated_map=self.map_name, used=self.mgr.used(), odometer=max(st.odometer, 0.0),
+                                                     x=st.x, y=st.y, stamp=st.stamp))
+            self._saved_at = st.stamp
+        except OSError as exc:
+            warn_limited(log, "state-file", "map_manager: cannot write the state file %s: %s", self.state_path, exc)
+
     async def _cycle(self) -> None:
         if self._state is None or self._w is None:
             return
         st, wall = self._state
-        out = self.mgr.cycle(st.x, st.y, self._w)
+        if self._resume is not None:
+            resume, self._resume = self._resume, None
+            out: TravelledCycle = self.mgr.catch_up(await self._recorded_since(resume, st), self._w)
+        else:
+            out = self.mgr.cycle(st.x, st.y, self._w)
+        await self._dispatch(st, wall, out)
+        self._save(st, bool(out.events))
+
+    async def _dispatch(self, st: ControllerState, wall: float, out: TravelledCycle) -> None:
+        """Send each fired trigger to its destination and publish every event."""
         for ev in out.events:
             a = ev.annotation
             if ev.kind == "fired":

@@ -184,9 +184,11 @@ def follower_path(obs: RoadObservation, at_capture: tuple[float, float, float], 
     """Return the path (N, 2) [m] in `local` a follower's road gives: its line to drive, moved by the pose at capture.
 
     SCARF/YARF: the road centre seen moved `lane_offset_m` [m] left; ALVINN: its steering arc. Points
-    the vehicle has passed since the capture are dropped and the path starts at the vehicle now.
-    Raise NoRoadPath when the follower saw no road, or when the line's end is more than
-    `max_off_route_m` [m] from the route (the follower locked on something that is not the road taken).
+    the vehicle has passed since the capture are dropped, and so are points past the route's end (the
+    road goes on beyond the goal; the path stops there); the path starts at the vehicle now.
+    Raise NoRoadPath when the follower saw no road, when the line's end is more than
+    `max_off_route_m` [m] from the route (the follower locked on something that is not the road taken),
+    or when nothing of it is left before the route's end.
     """
     try:
         # ALVINN's arc is driven as far as its road point (the look-ahead it was trained for), the road seen a little beyond
@@ -198,7 +200,12 @@ def follower_path(obs: RoadObservation, at_capture: tuple[float, float, float], 
     line = line[ahead > cfg.min_path_m * 0.5]
     if len(line) < 2:
         raise NoRoadPath(f"{obs.method}: the road seen is behind the vehicle now")
-    off = LineString(np.asarray(route_local, dtype=np.float64)).distance(Point(float(line[-1, 0]), float(line[-1, 1])))
+    route = LineString(np.asarray(route_local, dtype=np.float64))
+    before_end = np.array([route.project(Point(float(x), float(y))) < route.length - 0.05 for x, y in line])
+    if not before_end.any():
+        raise NoRoadPath(f"{obs.method}: the road seen lies past the route's end")
+    line = line[:int(np.argmin(before_end)) if not before_end.all() else len(line)]
+    off = route.distance(Point(float(line[-1, 0]), float(line[-1, 1])))
     if off > max_off_route_m:
         raise NoRoadPath(f"{obs.method}: the road seen ends {off:.1f} m off the route (limit {max_off_route_m:.1f} m)")
     return np.vstack([np.asarray(now_local[:2], dtype=np.float64), line])

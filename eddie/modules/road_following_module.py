@@ -234,7 +234,10 @@ class RoadFollowing:
             self._tally(False, str(exc))
             if self.switch.taken != taken or not self.switch.awake:
                 return f"{exc}; a trigger came meanwhile"
-            ahead = route_ahead(route, now[:2], self.cfg.lookahead_m)
+            # in the lane the follower kept: the route is the road's centre line
+            kept = lane - (route_lane_offset(route_world, road) if road is not None else 0.0)
+            along = route if kept == 0.0 else route_to_local(shift_into_lane(route_world, kept), tuple(inverse(self.belief.world_from_local)))
+            ahead = route_ahead(along, now[:2], self.cfg.lookahead_m)
             if len(ahead) < 2:
                 return f"{exc}; at the route's end"
             await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",

@@ -42,10 +42,10 @@ def main(argv: list[str] | None = None) -> int:
     road = None
     if args.road_method != "perception":
         try:
-            net = load_alvinn_weights(args.alvinn_weights) if args.road_method == "alvinn" else None
+            alvinn = load_alvinn_weights(args.alvinn_weights) if args.road_method == "alvinn" else None
         except RoadFollowingError as exc:
             parser.error(f"--alvinn-weights: {exc}")
-        road = RoadMethodPerception(CameraRoadFollower(args.road_method, alvinn_net=net))
+        road = RoadMethodPerception(CameraRoadFollower(args.road_method, alvinn_net=alvinn))
 
     async def body(rt) -> None:
         await PerceptionModule(rt, cfg, road=road).run()

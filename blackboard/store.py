@@ -1,9 +1,12 @@
-"""The token store: SQLite in WAL mode with an R*Tree over geometry bounding boxes.
+"""The token store: SQLite in WAL mode, with spatial indexes over token geometry.
 
-Tokens, poses and static frames live in the database file. The R*Tree is derived data: it lives in
-an in-memory database attached to the same connection (`idx.token_rtree`), so it commits and
-rolls back with the tokens, is rebuilt from the tokens when the store opens, and costs no
-page writes to the WAL (an R*Tree insert in the file doubled the commit cost of a post).
+Tokens, poses and static frames live in the database file. The spatial indexes are derived data,
+rebuilt from the tokens when the store opens: point tokens (nearly all of them) are kept in an
+in-memory hash grid per frame (`blackboard.pointgrid`, updated as each commit is published: an
+R*Tree insert cost 7–12 µs a row, the largest single cost of a post); the bounding boxes of other
+geometries are in an R*Tree in an in-memory database attached to the same connection
+(`idx.token_rtree`), so it commits and rolls back with the tokens and costs no page writes to the
+WAL (an R*Tree insert in the file doubled the commit cost of a post).
 
 The node holds an in-memory mirror of every token (for fast predicate evaluation and replies);
 SQLite is the durable copy and the spatial index. Writes are staged in a transaction (`begin`,
@@ -40,6 +43,7 @@ import numpy as np
 from blackboard.errors import StoreOpenError
 from blackboard.limits import check_token_size
 from blackboard.geometry import coords_to_wire
+from blackboard.pointgrid import PointGrid
 
 __all__ = ["Record", "Store", "SyncMode", "token_id", "token_rid"]
 
@@ -108,6 +112,16 @@ class Record:
             xy = self._xy = np.array((self._pt,), dtype=np.float64)
         return xy
 
+    def point(self) -> tuple[float, float] | None:
+        """Return (x, y) [m] of a point token, or None for any other geometry (or none)."""
+        if self.kind != "point":
+            return None
+        pt = self._pt
+        if pt is not None:
+            return pt
+        xy = self._xy
+        return (float(xy[0, 0]), float(xy[0, 1]))  # type: ignore[index]
+
     def geom_packed(self) -> bytes | None:
         """Return the msgpack of (kind, [[x, y], …]) stored in SQLite, or None without geometry."""
         if self.kind is None:
@@ -171,6 +185,11 @@ class Record:
 _packb = msgpack.Packer(use_bin_type=True).pack
 
 
+def _in_rtree(rec: Record) -> bool:
+    """Return whether a record's bounding box belongs in the R*Tree (a geometry other than a point)."""
+    return rec.kind is not None and rec.kind != "point"
+
+
 def _points(xy: np.ndarray | tuple[float, float] | None) -> int:
     """Return how many points a record's geometry holds."""
     return 0 if xy is None else 1 if type(xy) is tuple else len(xy)
@@ -220,13 +239,15 @@ class Store:
         self.records: dict[int, Record] = {}
         self.by_type: dict[str, dict[int, None]] = {}
         self.by_frame: dict[str, dict[int, None]] = {}
+        #: frame → the points of its point tokens (committed)
+        self.points: dict[str, PointGrid] = {}
         self._pending: dict[int, Record | None] = {}
         #: statements of the open transaction: (sql, params), journaled at commit
         self._stmts: list[tuple[str, tuple]] = []
         #: committed (journaled) statements not yet run in SQLite
         self._unapplied: list[tuple[str, tuple]] = []
         self._rid_at_begin = 0
-        #: committed changes not yet in the R*Tree: (rid, record to index or None to delete)
+        #: committed changes not yet in the R*Tree (geometries other than points): (rid, record to index or None to delete)
         self._index_queue: list[tuple[int, Record | None]] = []
         self._in_txn = False
         self._next_rid = 1
@@ -322,10 +343,7 @@ class Store:
         hw = self._db.execute("SELECT value FROM meta WHERE key='next_rid'").fetchone()
         self._next_rid = max(top + 1, int(hw[0]) if hw else 1)
         self._db.execute("BEGIN")
-        self._db.executemany(
-            "INSERT INTO idx.token_rtree(rid, minx, maxx, miny, maxy) VALUES (?,?,?,?,?)",
-            ((r.rid, *bb) for r in self.records.values() if (bb := r.bbox()) is not None),
-        )
+        self._db.executemany(_IDX_INSERT, ((r.rid, *r.bbox()) for r in self.records.values() if _in_rtree(r)))  # type: ignore[misc]
         self._db.execute("COMMIT")
 
     def poses(self) -> Iterator[tuple[str, str, float, float, float, float, float]]:
@@ -340,12 +358,22 @@ class Store:
 
     # ------------------------------------------------------------------ mirror
     def _mirror_put(self, rec: Record) -> None:
-        self.by_type.setdefault(rec.type, {})[rec.rid] = None
-        old = self.records.get(rec.rid)
-        if old is not None and old.frame != rec.frame:
-            self.by_frame.get(old.frame, {}).pop(rec.rid, None)
-        self.by_frame.setdefault(rec.frame, {})[rec.rid] = None
-        self.records[rec.rid] = rec
+        rid = rec.rid
+        self.by_type.setdefault(rec.type, {})[rid] = None
+        old = self.records.get(rid)
+        if old is not None:
+            if old.frame != rec.frame:
+                self.by_frame.get(old.frame, {}).pop(rid, None)
+            if old.kind == "point" and (old.frame != rec.frame or rec.kind != "point"):
+                self.points[old.frame].remove(rid)
+        self.by_frame.setdefault(rec.frame, {})[rid] = None
+        self.records[rid] = rec
+        pt = rec.point()
+        if pt is not None:
+            grid = self.points.get(rec.frame)
+            if grid is None:
+                grid = self.points[rec.frame] = PointGrid()
+            grid.put(rid, pt[0], pt[1])
 
     def _mirror_remove(self, rid: int) -> None:
         rec = self.records.pop(rid, None)
@@ -356,6 +384,8 @@ class Store:
             f = self.by_frame.get(rec.frame)
             if f is not None:
                 f.pop(rid, None)
+            if rec.kind == "point":
+                self.points[rec.frame].remove(rid)
 
     def get(self, rid: int) -> Record | None:
         """Return the record (staged changes included) or None."""
@@ -451,16 +481,18 @@ class Store:
         queue = self._index_queue
         for rid, rec in self._pending.items():  # type: ignore[assignment]
             if rec is None:
+                old = self.records.get(rid)
                 self._mirror_remove(rid)
                 changes.append(rid)
-                queue.append((rid, None))
+                if old is not None and _in_rtree(old):
+                    queue.append((rid, None))
             else:
                 old = self.records.get(rid)
                 self._mirror_put(rec)  # type: ignore[arg-type]
                 changes.append(rec)  # type: ignore[arg-type]
-                if old is not None and old.kind is not None:
+                if old is not None and _in_rtree(old):
                     queue.append((rid, None))
-                if rec.kind is not None:  # type: ignore[union-attr]
+                if _in_rtree(rec):  # type: ignore[arg-type]
                     queue.append((rid, rec))  # type: ignore[arg-type]
         self._pending.clear()
         return changes
@@ -499,8 +531,18 @@ class Store:
 
     # ------------------------------------------------------------------ reading
     def bbox_query(self, minx: float, maxx: float, miny: float, maxy: float) -> list[int]:
-        """Return the row ids whose bounding box meets the box [m] (committed tokens)."""
-        if self._index_queue or self._unapplied:
+        """Return the row ids whose bounding box meets the box [m] (committed tokens), points of every frame included."""
+        rids = self.shapes_in_box(minx, maxx, miny, maxy)
+        for grid in self.points.values():
+            prids, xy = grid.query(minx, maxx, miny, maxy)
+            if prids:
+                inside = (xy[:, 0] >= minx) & (xy[:, 0] <= maxx) & (xy[:, 1] >= miny) & (xy[:, 1] <= maxy)
+                rids.extend(rid for rid, ok in zip(prids, inside.tolist()) if ok)
+        return rids
+
+    def shapes_in_box(self, minx: float, maxx: float, miny: float, maxy: float) -> list[int]:
+        """Return the row ids of the tokens other than points whose bounding box meets the box [m] (committed tokens)."""
+        if self._index_queue:
             self.settle()
         return [
             r[0]
@@ -509,6 +551,15 @@ class Store:
                 (maxx, minx, maxy, miny),
             )
         ]
+
+    def points_in_box(self, frame: str, minx: float, maxx: float, miny: float, maxy: float) -> tuple[list[int], np.ndarray]:
+        """Return the row ids and (N,2) float64 points [m] of `frame`'s point tokens near the box [m]: every one inside
+        it, and others of the grid cells it meets (the caller tests the exact predicate)."""
+        grid = self.points.get(frame)
+        if grid is None:
+            return [], np.empty((0, 2), dtype=np.float64)
+        rids, xy = grid.query(minx, maxx, miny, maxy)
+        return rids.tolist(), xy
 
     def close(self) -> None:
         """Settle what is committed into SQLite, drop the journal and close the database."""

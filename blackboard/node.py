@@ -74,6 +74,11 @@ _MAX_CLIENT_PUBLISHERS = 4096
 _ACK_CACHE = 64
 #: most clients whose dropped monitors are remembered (to tell them to re-register on return)
 _MAX_DROPPED = 4096
+#: the node process's collector thresholds: a batch of 1,000 posts allocates some 20,000 containers and keeps
+#: about 2,000; at Python's default (700, 10, 10) most of a batch's temporaries were promoted to the oldest
+#: generation and full collections ran every few batches, each scanning every token (6-13 µs per post at
+#: 40,000-120,000 tokens, measured); at these they run about once per 100,000 posts
+_GC_THRESHOLDS = (20_000, 20, 10)
 
 
 class _Ack:
@@ -599,6 +604,7 @@ def serve(
 
         gc.collect()
         gc.freeze()  # what was loaded at start is long-lived: keep it out of the collector's scans
+        gc.set_threshold(*_GC_THRESHOLDS)
         await node.run(on_ready=ready)
 
     asyncio.run(main())

@@ -259,6 +259,8 @@ class Store:
         self.by_frame: dict[str, dict[int, None]] = {}
         #: frame → the points of its point tokens (committed)
         self.points: dict[str, PointGrid] = {}
+        #: committed tokens whose geometry is not a point (indexed in the R*Tree)
+        self._shapes = 0
         self._pending: dict[int, Record | None] = {}
         #: statements of the open transaction: (sql, params), journaled at commit
         self._stmts: list[tuple[str, tuple]] = []
@@ -384,6 +386,8 @@ class Store:
                 self.by_frame.get(old.frame, {}).pop(rid, None)
             if old.kind == "point" and (old.frame != rec.frame or rec.kind != "point"):
                 self.points[old.frame].remove(rid)
+            self._shapes -= _in_rtree(old)
+        self._shapes += _in_rtree(rec)
         self.by_frame.setdefault(rec.frame, {})[rid] = None
         self.records[rid] = rec
         pt = rec.point()
@@ -404,6 +408,7 @@ class Store:
                 f.pop(rid, None)
             if rec.kind == "point":
                 self.points[rec.frame].remove(rid)
+            self._shapes -= _in_rtree(rec)
 
     def get(self, rid: int) -> Record | None:
         """Return the record (staged changes included) or None."""
@@ -560,6 +565,8 @@ class Store:
 
     def shapes_in_box(self, minx: float, maxx: float, miny: float, maxy: float) -> list[int]:
         """Return the row ids of the tokens other than points whose bounding box meets the box [m] (committed tokens)."""
+        if not self._shapes:
+            return []
         if self._index_queue:
             self.settle()
         return [

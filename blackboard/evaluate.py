@@ -209,24 +209,23 @@ class Evaluator:
                     T = frames.lookup(gframe, 0.0, region.frame, 0.0)  # region frame -> token frame
                 except BlackboardError:
                     continue
-                xy = apply_se2(T, region.xy)
-                lo = xy.min(axis=0) - region.pad
-                hi = xy.max(axis=0) + region.pad
-                # widen by a rounding margin: the exact test below is made in the region's frame
-                minx, miny = (float(v) - 1e-9 * (1.0 + abs(float(v))) for v in lo)
-                maxx, maxy = (float(v) + 1e-9 * (1.0 + abs(float(v))) for v in hi)
-                Tinv = None if T == (0.0, 0.0, 0.0) else frames.lookup(region.frame, 0.0, gframe, 0.0)
+                identity = T == (0.0, 0.0, 0.0)
+                xy = region.xy if identity else apply_se2(T, region.xy)
+                xs, ys, pad = xy[:, 0].tolist(), xy[:, 1].tolist(), region.pad
+                # widened by a rounding margin: the exact test below is made in the region's frame
+                minx, miny = (v - pad - 1e-9 * (1.0 + abs(v)) for v in (min(xs), min(ys)))
+                maxx, maxy = (v + pad + 1e-9 * (1.0 + abs(v)) for v in (max(xs), max(ys)))
+                Tinv = None if identity else frames.lookup(region.frame, 0.0, gframe, 0.0)
                 prids, pxy = store.points_in_box(gframe, minx, maxx, miny, maxy)
-                if prids:
+                if len(prids):
                     # the geometric test first, on every point at once; then the per-token filters on what passed
                     inside = region.test_points(pxy if Tinv is None else apply_se2(Tinv, pxy))
                     plain = not spec.where and not spec.any_of
                     records = store.records
-                    for rid, ok in zip(prids, inside.tolist()):
-                        if ok:
-                            rec = records[rid]
-                            if (types is None or rec.type in types) and (plain or (self._plain_ok(spec, rec) and tail_ok(rec))):
-                                out[rid] = rec
+                    for rid in prids[inside].tolist():
+                        rec = records[rid]
+                        if (types is None or rec.type in types) and (plain or (self._plain_ok(spec, rec) and tail_ok(rec))):
+                            out[rid] = rec
                 cands = []
                 for rid in store.shapes_in_box(minx, maxx, miny, maxy):
                     rec = store.records.get(rid)

@@ -560,7 +560,7 @@ class Store:
             prids, xy = grid.query(minx, maxx, miny, maxy)
             if prids:
                 inside = (xy[:, 0] >= minx) & (xy[:, 0] <= maxx) & (xy[:, 1] >= miny) & (xy[:, 1] <= maxy)
-                rids.extend(rid for rid, ok in zip(prids, inside.tolist()) if ok)
+                rids.extend(np.frombuffer(prids, dtype=np.int64)[inside].tolist())
         return rids
 
     def shapes_in_box(self, minx: float, maxx: float, miny: float, maxy: float) -> list[int]:
@@ -577,14 +577,14 @@ class Store:
             )
         ]
 
-    def points_in_box(self, frame: str, minx: float, maxx: float, miny: float, maxy: float) -> tuple[list[int], np.ndarray]:
-        """Return the row ids and (N,2) float64 points [m] of `frame`'s point tokens near the box [m]: every one inside
-        it, and others of the grid cells it meets (the caller tests the exact predicate)."""
+    def points_in_box(self, frame: str, minx: float, maxx: float, miny: float, maxy: float) -> tuple[np.ndarray, np.ndarray]:
+        """Return the (N,) int64 row ids and (N,2) float64 points [m] of `frame`'s point tokens near the box [m]:
+        every one inside it, and others of the grid cells it meets (the caller tests the exact predicate)."""
         grid = self.points.get(frame)
         if grid is None:
-            return [], np.empty((0, 2), dtype=np.float64)
+            return np.empty(0, dtype=np.int64), np.empty((0, 2), dtype=np.float64)
         rids, xy = grid.query(minx, maxx, miny, maxy)
-        return rids.tolist(), xy
+        return np.frombuffer(rids, dtype=np.int64), xy
 
     def close(self) -> None:
         """Settle what is committed into SQLite, drop the journal and close the database."""

@@ -574,6 +574,18 @@ class BlackboardClient:
                 attrs = self.registry.decode(w["type"], w["attrs"])
         return token_from_wire(w, attrs)
 
+    def _tokens(self, ws: list[dict]) -> list[Token]:
+        """Build the Tokens of wire dicts as `_token` does, each type's attrs decoder looked up once."""
+        decoders: dict[str, Any] = {}
+        out = []
+        for w in ws:
+            typ = w["type"]
+            dec = decoders.get(typ)
+            if dec is None:
+                dec = decoders[typ] = (_same if self.lenient and typ not in self.registry else self.registry.decoder(typ))
+            out.append(token_from_wire(w, dec(w["attrs"])))
+        return out
+
     def _spec_wire(self, spec: Spec) -> dict:
         hit = self._spec_cache.get(id(spec))
         if hit is not None and hit[0] is spec:
@@ -679,8 +691,7 @@ class BlackboardClient:
 
     async def retrieve(self, spec: Spec, *, frame: str | None = None, frame_stamp: float | None = None) -> list[Token]:
         """Return the tokens matching `spec`; geometry in `frame` (at `frame_stamp`, default each token's stamp)."""
-        ws = await self.retrieve_raw(spec, frame=frame, frame_stamp=frame_stamp)
-        return [self._token(w) for w in ws]
+        return self._tokens(await self.retrieve_raw(spec, frame=frame, frame_stamp=frame_stamp))
 
     async def wait(self, spec: Spec, timeout: float | None = None) -> Token:
         """Return the first token matching `spec`, already there or still to come; TimeoutError after `timeout` [s]."""
@@ -766,6 +777,10 @@ class BlackboardClient:
     async def stats(self) -> NodeStats:
         """Return the node's counters (posts, retrieves, monitors, events, bytes in/out, tokens, …)."""
         return NodeStats.model_validate(await self._query(self.keys.stats, None))
+
+
+def _same(x: Any) -> Any:
+    return x
 
 
 def _distribute(batch: list[tuple[WriteOp, asyncio.Future, Any]], results: Any, exc: BaseException | None) -> None:

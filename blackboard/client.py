@@ -70,6 +70,8 @@ _packb = msgpack.Packer(use_bin_type=True).pack
 _unpackb = msgpack.unpackb
 _SAFE = re.compile(r"[^A-Za-z0-9_-]")
 _EVENT_FIELDS = {"kind", "token"}
+#: every field of a PostOp, as its fields set (one set shared by all: a frozen model's is never changed in place)
+_POST_FIELDS = set(PostOp.model_fields)
 #: while the node is away, warn this often [s] wall that requests are held
 _WAIT_WARN_S = 5.0
 #: a write batch unacknowledged while the node is up is sent this many times, the wait doubling
@@ -624,7 +626,7 @@ class BlackboardClient:
                 "source": self.source,
                 "geometry": g,
                 "reply": "id",
-            })
+            }, _POST_FIELDS)
         except Exception as exc:  # noqa: BLE001 - raised when awaited, like any other failure
             return self._failed(exc)
         geom = _geom_from_wire(g) if isinstance(geometry, dict) else geometry
@@ -646,7 +648,7 @@ class BlackboardClient:
         except Exception as exc:  # noqa: BLE001
             return self._failed(exc)
         return self._write(PostOp.trusted({"op": "post", "type": type, "attrs": attrs, "frame": frame, "stamp": stamp,
-                                           "source": self.source, "geometry": g, "reply": None}))
+                                           "source": self.source, "geometry": g, "reply": None}, _POST_FIELDS))
 
     async def update(
         self,

@@ -59,7 +59,7 @@ from blackboard.ops import (
 from blackboard.registry import TypeRegistry, default_registry
 from blackboard.replies import FrameListing, NodeStats
 from blackboard.spec import Spec, parse_spec
-from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_wire
+from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_owned_wire, token_from_wire
 from wire.ratelimit import warn_limited
 
 __all__ = ["BlackboardClient", "MonitorStream"]
@@ -577,7 +577,8 @@ class BlackboardClient:
         return token_from_wire(w, attrs)
 
     def _tokens(self, ws: list[dict]) -> list[Token]:
-        """Build the Tokens of wire dicts as `_token` does, each type's attrs decoder looked up once."""
+        """Build the Tokens of just-decoded wire dicts (they become the tokens' fields) as `_token` does,
+        each type's attrs decoder looked up once."""
         decoders: dict[str, Any] = {}
         out = []
         for w in ws:
@@ -585,7 +586,7 @@ class BlackboardClient:
             dec = decoders.get(typ)
             if dec is None:
                 dec = decoders[typ] = (_same if self.lenient and typ not in self.registry else self.registry.decoder(typ))
-            out.append(token_from_wire(w, dec(w["attrs"])))
+            out.append(token_from_owned_wire(w, dec(w["attrs"])))
         return out
 
     def _spec_wire(self, spec: Spec) -> dict:

@@ -8,7 +8,7 @@ from pydantic import BaseModel, ConfigDict
 
 from blackboard.geometry import Geometry, Point, Polygon, Polyline
 
-__all__ = ["Token", "MonitorEvent", "token_from_wire", "make_token"]
+__all__ = ["Token", "MonitorEvent", "token_from_wire", "token_from_owned_wire", "make_token"]
 
 
 class Token(BaseModel):
@@ -87,6 +87,15 @@ def token_from_wire(d: dict, attrs: Any) -> Token:
         },
         _TOKEN_FIELDS,
     )
+
+
+def token_from_owned_wire(d: dict, attrs: Any) -> Token:
+    """Like `token_from_wire`, for a wire dict nobody else holds (just decoded): it becomes the token's fields."""
+    if d.keys() != _TOKEN_FIELDS:
+        return token_from_wire(d, attrs)
+    d["geometry"] = _geom_from_wire(d["geometry"])
+    d["attrs"] = attrs
+    return _trusted(Token, d, _TOKEN_FIELDS)
 
 
 def make_token(id: str, type: str, version: int, stamp: float, source: str, frame: str, geometry: Any, attrs: Any) -> Token:

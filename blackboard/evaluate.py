@@ -216,16 +216,20 @@ class Evaluator:
                 minx, miny = (v - pad - 1e-9 * (1.0 + abs(v)) for v in (min(xs), min(ys)))
                 maxx, maxy = (v + pad + 1e-9 * (1.0 + abs(v)) for v in (max(xs), max(ys)))
                 Tinv = None if identity else frames.lookup(region.frame, 0.0, gframe, 0.0)
-                prids, pxy = store.points_in_box(gframe, minx, maxx, miny, maxy)
+                prids, pxy = store.points_in_box(gframe, types, minx, maxx, miny, maxy)
                 if len(prids):
-                    # the geometric test first, on every point at once; then the per-token filters on what passed
+                    # the geometric test first, on every point (of the types asked for) at once; then the
+                    # per-token filters on what passed
                     inside = region.test_points(pxy if Tinv is None else apply_se2(Tinv, pxy))
-                    plain = not spec.where and not spec.any_of
                     records = store.records
-                    for rid in prids[inside].tolist():
-                        rec = records[rid]
-                        if (types is None or rec.type in types) and (plain or (self._plain_ok(spec, rec) and tail_ok(rec))):
-                            out[rid] = rec
+                    if not spec.where and not spec.any_of:
+                        for rid in prids[inside].tolist():
+                            out[rid] = records[rid]
+                    else:
+                        for rid in prids[inside].tolist():
+                            rec = records[rid]
+                            if self._plain_ok(spec, rec) and tail_ok(rec):
+                                out[rid] = rec
                 cands = []
                 for rid in store.shapes_in_box(minx, maxx, miny, maxy):
                     rec = store.records.get(rid)

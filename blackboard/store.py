@@ -2,7 +2,7 @@
 
 Tokens, poses and static frames live in the database file. The spatial indexes are derived data,
 rebuilt from the tokens when the store opens: point tokens (nearly all of them) are kept in an
-in-memory hash grid per frame (`blackboard.pointgrid`, updated as each commit is published: an
+in-memory hash grid per frame and token type (`blackboard.pointgrid`, updated as each commit is published: an
 R*Tree insert cost 7–12 µs a row, the largest single cost of a post); the bounding boxes of other
 geometries are in an R*Tree in an in-memory database attached to the same connection
 (`idx.token_rtree`), so it commits and rolls back with the tokens and costs no page writes to the
@@ -257,8 +257,8 @@ class Store:
         self.records: dict[int, Record] = {}
         self.by_type: dict[str, dict[int, None]] = {}
         self.by_frame: dict[str, dict[int, None]] = {}
-        #: frame → the points of its point tokens (committed)
-        self.points: dict[str, PointGrid] = {}
+        #: frame → token type → the points of its point tokens (committed)
+        self.points: dict[str, dict[str, PointGrid]] = {}
         #: committed tokens whose geometry is not a point (indexed in the R*Tree)
         self._shapes = 0
         self._pending: dict[int, Record | None] = {}
@@ -385,16 +385,19 @@ class Store:
             if old.frame != rec.frame:
                 self.by_frame.get(old.frame, {}).pop(rid, None)
             if old.kind == "point" and (old.frame != rec.frame or rec.kind != "point"):
-                self.points[old.frame].remove(rid)
+                self.points[old.frame][old.type].remove(rid)
             self._shapes -= _in_rtree(old)
         self._shapes += _in_rtree(rec)
         self.by_frame.setdefault(rec.frame, {})[rid] = None
         self.records[rid] = rec
         pt = rec.point()
         if pt is not None:
-            grid = self.points.get(rec.frame)
+            grids = self.points.get(rec.frame)
+            if grids is None:
+                grids = self.points[rec.frame] = {}
+            grid = grids.get(rec.type)
             if grid is None:
-                grid = self.points[rec.frame] = PointGrid()
+                grid = grids[rec.type] = PointGrid()
             grid.put(rid, pt[0], pt[1])
 
     def _mirror_remove(self, rid: int) -> None:
@@ -407,7 +410,7 @@ class Store:
             if f is not None:
                 f.pop(rid, None)
             if rec.kind == "point":
-                self.points[rec.frame].remove(rid)
+                self.points[rec.frame][rec.type].remove(rid)
             self._shapes -= _in_rtree(rec)
 
     def get(self, rid: int) -> Record | None:
@@ -556,7 +559,7 @@ class Store:
     def bbox_query(self, minx: float, maxx: float, miny: float, maxy: float) -> list[int]:
         """Return the row ids whose bounding box meets the box [m] (committed tokens), points of every frame included."""
         rids = self.shapes_in_box(minx, maxx, miny, maxy)
-        for grid in self.points.values():
+        for grid in (g for grids in self.points.values() for g in grids.values()):
             prids, xy = grid.query(minx, maxx, miny, maxy)
             if prids:
                 inside = (xy[:, 0] >= minx) & (xy[:, 0] <= maxx) & (xy[:, 1] >= miny) & (xy[:, 1] <= maxy)
@@ -577,14 +580,18 @@ class Store:
             )
         ]
 
-    def points_in_box(self, frame: str, minx: float, maxx: float, miny: float, maxy: float) -> tuple[np.ndarray, np.ndarray]:
-        """Return the (N,) int64 row ids and (N,2) float64 points [m] of `frame`'s point tokens near the box [m]:
-        every one inside it, and others of the grid cells it meets (the caller tests the exact predicate)."""
-        grid = self.points.get(frame)
-        if grid is None:
+    def points_in_box(self, frame: str, types: set[str] | None, minx: float, maxx: float, miny: float, maxy: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """Return the (N,) int64 row ids and (N,2) float64 points [m] of `frame`'s point tokens of `types` (None: any)
+        near the box [m]: every one inside it, and others of the grid cells it meets (the caller tests the exact predicate)."""
+        grids = self.points.get(frame, {})
+        found = [grid.query(minx, maxx, miny, maxy) for t, grid in grids.items() if types is None or t in types]
+        if len(found) == 1:
+            return np.frombuffer(found[0][0], dtype=np.int64), found[0][1]
+        if not found:
             return np.empty(0, dtype=np.int64), np.empty((0, 2), dtype=np.float64)
-        rids, xy = grid.query(minx, maxx, miny, maxy)
-        return np.frombuffer(rids, dtype=np.int64), xy
+        return (np.concatenate([np.frombuffer(r, dtype=np.int64) for r, _ in found]),
+                np.concatenate([xy for _, xy in found]))
 
     def close(self) -> None:
         """Settle what is committed into SQLite, drop the journal and close the database."""

@@ -71,7 +71,10 @@ def test_store_keeps_points_indexed_through_updates_frame_changes_deletes_and_re
     store.close()
     again = Store(db)
     try:
-        assert {f: len(g) for f, g in again.points.items()} == {f: len(g) for f, g in core.store.points.items()}
+        def counts(st: Store) -> dict:
+            return {(f, t): len(g) for f, grids in st.points.items() for t, g in grids.items()}
+
+        assert counts(again) == counts(core.store) and counts(again)[("world", "bbt_obstacle")] == 7
         def where(st: Store) -> list:
             return sorted((st.records[r].frame, st.records[r].bbox()) for r in st.bbox_query(-0.5, 9.5, 0.0, 2.0))
 

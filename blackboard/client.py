@@ -59,7 +59,7 @@ from blackboard.ops import (
 from blackboard.registry import TypeRegistry, default_registry
 from blackboard.replies import FrameListing, NodeStats
 from blackboard.spec import Spec, parse_spec
-from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_owned_wire, token_from_wire
+from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_owned_wire
 from wire.ratelimit import warn_limited
 
 __all__ = ["BlackboardClient", "MonitorStream"]
@@ -569,12 +569,13 @@ class BlackboardClient:
 
     # ------------------------------------------------------------------ tokens
     def _token(self, w: dict, attrs: Any = None) -> Token:
+        """Build the Token of a just-decoded wire dict (it becomes the token's fields)."""
         if attrs is None:
             if self.lenient and w["type"] not in self.registry:
                 attrs = w["attrs"]
             else:
                 attrs = self.registry.decode(w["type"], w["attrs"])
-        return token_from_wire(w, attrs)
+        return token_from_owned_wire(w, attrs)
 
     def _tokens(self, ws: list[dict]) -> list[Token]:
         """Build the Tokens of just-decoded wire dicts (they become the tokens' fields) as `_token` does,

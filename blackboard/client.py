@@ -70,6 +70,7 @@ _packb = msgpack.Packer(use_bin_type=True).pack
 _unpackb = msgpack.unpackb
 _SAFE = re.compile(r"[^A-Za-z0-9_-]")
 _EVENT_FIELDS = {"kind", "token"}
+_POSE_FIELDS = {"x", "y", "yaw"}
 #: every field of a PostOp, as its fields set (one set shared by all: a frozen model's is never changed in place)
 _POST_FIELDS = set(PostOp.model_fields)
 #: while the node is away, warn this often [s] wall that requests are held
@@ -753,7 +754,7 @@ class BlackboardClient:
         """Return T_{target@target_stamp ← source@source_stamp} (None stamp: newest)."""
         x, y, yaw = await self._request(self.keys.lookup, LookupRequest.trusted(
             {"target": target, "target_stamp": target_stamp, "source": source, "source_stamp": source_stamp}).wire())
-        return Pose2D.model_construct(x=x, y=y, yaw=yaw)
+        return _trusted(Pose2D, {"x": x, "y": y, "yaw": yaw}, _POSE_FIELDS)
 
     async def lookup_pose(self, *, parent: str, child: str, stamp: float | None = None) -> Pose2D:
         """Return the pose of `child` in `parent` at `stamp` [s] (None: newest)."""

@@ -116,7 +116,7 @@ Geometry = Annotated[Union[Point, Polyline, Polygon], Field(discriminator="kind"
 
 
 def _check_polygon(xy: np.ndarray) -> None:
-    if len(xy) >= 2 and np.array_equal(xy[0], xy[-1]):
+    if len(xy) >= 2 and xy[0, 0] == xy[-1, 0] and xy[0, 1] == xy[-1, 1]:  # (np.array_equal costs 2 µs here)
         xy = xy[:-1]
     if len(xy) < 3:
         raise ValueError("a polygon needs at least 3 distinct vertices")

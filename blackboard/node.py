@@ -384,10 +384,12 @@ class BlackboardNode:
         for (q, _, single), res in zip(pending, results):
             if type(q) is _Ack:
                 acks.setdefault(q.client, []).append((q.rid, res))
-                self._remember_ack(q.client, q.rid, res)
             else:
                 queries.append((q, single, res))
         self._deliver(acks, events)  # monitor events and put-channel acks: one message per client
+        for client, done in acks.items():  # remembered after sending (still under the lock a re-sent batch waits for)
+            for rid, res in done:
+                self._remember_ack(client, rid, res)
         for q, single, res in queries:
             try:
                 if single:

@@ -59,7 +59,7 @@ from blackboard.ops import (
 from blackboard.registry import TypeRegistry, default_registry
 from blackboard.replies import FrameListing, NodeStats
 from blackboard.spec import Spec, parse_spec
-from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_wire
+from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_owned_wire
 from wire.ratelimit import warn_limited
 
 __all__ = ["BlackboardClient", "MonitorStream"]
@@ -70,6 +70,9 @@ _packb = msgpack.Packer(use_bin_type=True).pack
 _unpackb = msgpack.unpackb
 _SAFE = re.compile(r"[^A-Za-z0-9_-]")
 _EVENT_FIELDS = {"kind", "token"}
+_POSE_FIELDS = {"x", "y", "yaw"}
+#: every field of a PostOp, as its fields set (one set shared by all: a frozen model's is never changed in place)
+_POST_FIELDS = set(PostOp.model_fields)
 #: while the node is away, warn this often [s] wall that requests are held
 _WAIT_WARN_S = 5.0
 #: a write batch unacknowledged while the node is up is sent this many times, the wait doubling
@@ -567,12 +570,26 @@ class BlackboardClient:
 
     # ------------------------------------------------------------------ tokens
     def _token(self, w: dict, attrs: Any = None) -> Token:
+        """Build the Token of a just-decoded wire dict (it becomes the token's fields)."""
         if attrs is None:
             if self.lenient and w["type"] not in self.registry:
                 attrs = w["attrs"]
             else:
                 attrs = self.registry.decode(w["type"], w["attrs"])
-        return token_from_wire(w, attrs)
+        return token_from_owned_wire(w, attrs)
+
+    def _tokens(self, ws: list[dict]) -> list[Token]:
+        """Build the Tokens of just-decoded wire dicts (they become the tokens' fields) as `_token` does,
+        each type's attrs decoder looked up once."""
+        decoders: dict[str, Any] = {}
+        out = []
+        for w in ws:
+            typ = w["type"]
+            dec = decoders.get(typ)
+            if dec is None:
+                dec = decoders[typ] = (_same if self.lenient and typ not in self.registry else self.registry.decoder(typ))
+            out.append(token_from_owned_wire(w, dec(w["attrs"])))
+        return out
 
     def _spec_wire(self, spec: Spec) -> dict:
         hit = self._spec_cache.get(id(spec))
@@ -612,7 +629,7 @@ class BlackboardClient:
                 "source": self.source,
                 "geometry": g,
                 "reply": "id",
-            })
+            }, _POST_FIELDS)
         except Exception as exc:  # noqa: BLE001 - raised when awaited, like any other failure
             return self._failed(exc)
         geom = _geom_from_wire(g) if isinstance(geometry, dict) else geometry
@@ -634,7 +651,7 @@ class BlackboardClient:
         except Exception as exc:  # noqa: BLE001
             return self._failed(exc)
         return self._write(PostOp.trusted({"op": "post", "type": type, "attrs": attrs, "frame": frame, "stamp": stamp,
-                                           "source": self.source, "geometry": g, "reply": None}))
+                                           "source": self.source, "geometry": g, "reply": None}, _POST_FIELDS))
 
     async def update(
         self,
@@ -679,8 +696,7 @@ class BlackboardClient:
 
     async def retrieve(self, spec: Spec, *, frame: str | None = None, frame_stamp: float | None = None) -> list[Token]:
         """Return the tokens matching `spec`; geometry in `frame` (at `frame_stamp`, default each token's stamp)."""
-        ws = await self.retrieve_raw(spec, frame=frame, frame_stamp=frame_stamp)
-        return [self._token(w) for w in ws]
+        return self._tokens(await self.retrieve_raw(spec, frame=frame, frame_stamp=frame_stamp))
 
     async def wait(self, spec: Spec, timeout: float | None = None) -> Token:
         """Return the first token matching `spec`, already there or still to come; TimeoutError after `timeout` [s]."""
@@ -738,7 +754,7 @@ class BlackboardClient:
         """Return T_{target@target_stamp ← source@source_stamp} (None stamp: newest)."""
         x, y, yaw = await self._request(self.keys.lookup, LookupRequest.trusted(
             {"target": target, "target_stamp": target_stamp, "source": source, "source_stamp": source_stamp}).wire())
-        return Pose2D.model_construct(x=x, y=y, yaw=yaw)
+        return _trusted(Pose2D, {"x": x, "y": y, "yaw": yaw}, _POSE_FIELDS)
 
     async def lookup_pose(self, *, parent: str, child: str, stamp: float | None = None) -> Pose2D:
         """Return the pose of `child` in `parent` at `stamp` [s] (None: newest)."""
@@ -766,6 +782,10 @@ class BlackboardClient:
     async def stats(self) -> NodeStats:
         """Return the node's counters (posts, retrieves, monitors, events, bytes in/out, tokens, …)."""
         return NodeStats.model_validate(await self._query(self.keys.stats, None))
+
+
+def _same(x: Any) -> Any:
+    return x
 
 
 def _distribute(batch: list[tuple[WriteOp, asyncio.Future, Any]], results: Any, exc: BaseException | None) -> None:

@@ -25,6 +25,7 @@ from blackboard.ops import (
     StaticOp,
     UpdateOp,
     parse_write,
+    plain_post,
 )
 from blackboard.registry import TypeRegistry
 from blackboard.replies import FrameEdge, FrameListing, NodeStats
@@ -134,18 +135,24 @@ class BlackboardCore:
         self.evaluator.frames = fresh
 
     def _apply(self, raw: object, changes: list[Change]) -> Any:
-        try:
-            op = parse_write(raw)
-        except InvalidTokenError:
-            if type(raw) is dict and raw.get("op", "post") == "post" and type(raw.get("type")) is str:
-                self.registry.model(raw["type"])  # an unknown type is the first thing to say
-            raise
-        kind = type(op)
-        if kind is PostOp:
-            rec = self._post(op)
+        post = plain_post(raw)  # the common post without building its model; anything else is validated in full
+        op: Any = None
+        if post is None:
+            try:
+                op = parse_write(raw)
+            except InvalidTokenError:
+                if type(raw) is dict and raw.get("op", "post") == "post" and type(raw.get("type")) is str:
+                    self.registry.model(raw["type"])  # an unknown type is the first thing to say
+                raise
+            if type(op) is PostOp:
+                post = (op.type, op.attrs, op.frame, op.stamp, op.source, op.geometry, op.reply)
+        if post is not None:
+            typ, attrs, frame, stamp, source, geometry, reply = post
+            rec = self._post(typ, attrs, frame, stamp, source, geometry)
             changes.append(("new", rec, None))
             self.stats.posts += 1
-            return rec.id if op.reply == "id" else rec.wire()
+            return rec.id if reply == "id" else rec.wire()
+        kind = type(op)
         if kind is UpdateOp:
             rec, old = self._update(op)
             changes.append(("updated", rec, old))
@@ -166,11 +173,10 @@ class BlackboardCore:
         self.stats.statics += 1
         return None
 
-    def _post(self, op: PostOp) -> Record:
-        attrs = self.registry.validate_raw(op.type, op.attrs)
-        g = op.geometry
-        kind, xy = (None, None) if g is None else parse_geometry_wire_fast(g)
-        return self.store.insert(op.type, op.stamp, op.source, op.frame, kind, xy, attrs)
+    def _post(self, typ: str, attrs: Any, frame: str, stamp: float, source: str, geometry: Any) -> Record:
+        valid = self.registry.validate_raw(typ, attrs)
+        kind, xy = (None, None) if geometry is None else parse_geometry_wire_fast(geometry)
+        return self.store.insert(typ, stamp, source, frame, kind, xy, valid)
 
     def _existing(self, tid: str, expected_version: int | None) -> Record:
         rid = token_rid(tid)

@@ -1,8 +1,9 @@
 """Evaluate retrieval specifications against the store and the frame tree (pure: no network).
 
 Geometric predicates are stated in a frame F at a time s. Tokens whose frame G relates to F by a
-time-invariant transform are found through the R*Tree (the predicate's region mapped into G);
-tokens in moving frames (e.g. `vehicle@t`) are mapped one by one into F@s with the pose history
+time-invariant transform are found through the store's spatial indexes (the predicate's region
+mapped into G): point tokens from the point grid, tested together on their coordinates; other
+geometries from the R*Tree, tested shape by shape. Tokens in moving frames (e.g. `vehicle@t`) are mapped one by one into F@s with the pose history
 at their own stamp. Tokens whose geometry cannot be expressed in F (no pose at their stamp, or
 frames not connected) do not match a geometric predicate.
 """
@@ -131,6 +132,12 @@ class _Region:
             return shapely.distance(self.shape, arr) <= p.distance + 1e-12
         return np.ones(len(shapes), dtype=bool)
 
+    def test_points(self, xy: np.ndarray) -> np.ndarray:
+        """Return a bool mask: which (N,2) points [m] (in this region's frame) satisfy the predicate."""
+        if isinstance(self.pred, (Within, Intersects)):
+            return shapely.intersects_xy(self.shape, xy[:, 0], xy[:, 1])
+        return self.test(list(shapely.points(xy)))
+
     def test_records(self, recs: list[Record], T: SE2 | None) -> np.ndarray:
         """Return a bool mask over records whose geometry, mapped by T (None: as stored) into this
         region's frame, satisfies the predicate; points are tested from coordinates, not objects."""
@@ -141,12 +148,7 @@ class _Region:
         pidx = [i for i, r in enumerate(recs) if r.kind == "point"]
         if pidx:
             xy = np.concatenate([recs[i].xy for i in pidx])
-            if T is not None:
-                xy = apply_se2(T, xy)
-            if isinstance(self.pred, (Within, Intersects)):
-                mask[pidx] = shapely.intersects_xy(self.shape, xy[:, 0], xy[:, 1])
-            else:
-                mask[pidx] = self.test(list(shapely.points(xy)))
+            mask[pidx] = self.test_points(xy if T is None else apply_se2(T, xy))
         if len(pidx) < n:
             oidx = [i for i, r in enumerate(recs) if r.kind != "point"]
             shapes = [recs[i].shape() if T is None else to_shapely(recs[i].kind, apply_se2(T, recs[i].xy)) for i in oidx]
@@ -207,11 +209,29 @@ class Evaluator:
                     T = frames.lookup(gframe, 0.0, region.frame, 0.0)  # region frame -> token frame
                 except BlackboardError:
                     continue
-                xy = apply_se2(T, region.xy)
-                minx, miny = xy.min(axis=0) - region.pad
-                maxx, maxy = xy.max(axis=0) + region.pad
+                identity = T == (0.0, 0.0, 0.0)
+                xy = region.xy if identity else apply_se2(T, region.xy)
+                xs, ys, pad = xy[:, 0].tolist(), xy[:, 1].tolist(), region.pad
+                # widened by a rounding margin: the exact test below is made in the region's frame
+                minx, miny = (v - pad - 1e-9 * (1.0 + abs(v)) for v in (min(xs), min(ys)))
+                maxx, maxy = (v + pad + 1e-9 * (1.0 + abs(v)) for v in (max(xs), max(ys)))
+                Tinv = None if identity else frames.lookup(region.frame, 0.0, gframe, 0.0)
+                prids, pxy = store.points_in_box(gframe, types, minx, maxx, miny, maxy)
+                if len(prids):
+                    # the geometric test first, on every point (of the types asked for) at once; then the
+                    # per-token filters on what passed
+                    inside = region.test_points(pxy if Tinv is None else apply_se2(Tinv, pxy))
+                    records = store.records
+                    if not spec.where and not spec.any_of:
+                        for rid in prids[inside].tolist():
+                            out[rid] = records[rid]
+                    else:
+                        for rid in prids[inside].tolist():
+                            rec = records[rid]
+                            if self._plain_ok(spec, rec) and tail_ok(rec):
+                                out[rid] = rec
                 cands = []
-                for rid in store.bbox_query(float(minx), float(maxx), float(miny), float(maxy)):
+                for rid in store.shapes_in_box(minx, maxx, miny, maxy):
                     rec = store.records.get(rid)
                     if rec is None or rec.frame != gframe or (types is not None and rec.type not in types):
                         continue
@@ -219,7 +239,6 @@ class Evaluator:
                         cands.append(rec)
                 if not cands:
                     continue
-                Tinv = None if T == (0.0, 0.0, 0.0) else frames.lookup(region.frame, 0.0, gframe, 0.0)
                 mask = region.test_records(cands, Tinv)
                 for r, ok in zip(cands, mask):
                     if ok:

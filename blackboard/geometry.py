@@ -29,9 +29,22 @@ __all__ = [
     "parse_geometry_wire_fast",
     "coords_to_wire",
     "to_shapely",
+    "positional_init",
 ]
 
 _XY = tuple[float, float]
+
+
+def positional_init(init: Any) -> Any:
+    """Mark a model's `__init__` that only maps positional arguments to fields as pydantic's own.
+
+    Pydantic calls a custom `__init__` for every nested object it validates, and then runs the
+    model's after-validators a second time (measured: a Within spec's polygon checked twice, 35 µs
+    of a retrieve's 45 µs of validation). Validating a dict needs no positional mapping, so it can
+    skip the `__init__`; a call `Polygon(points)` still goes through it.
+    """
+    init.__pydantic_base_init__ = True
+    return init
 
 
 def _finite_points(pts: tuple[_XY, ...]) -> tuple[_XY, ...]:
@@ -49,6 +62,7 @@ class Point(BaseModel):
     x: float = Field(allow_inf_nan=False)
     y: float = Field(allow_inf_nan=False)
 
+    @positional_init
     def __init__(self, x: float | None = None, y: float | None = None, /, **kw: Any) -> None:
         if x is not None:
             kw["x"] = x
@@ -64,6 +78,7 @@ class Polyline(BaseModel):
     kind: Literal["polyline"] = "polyline"
     points: tuple[_XY, ...]
 
+    @positional_init
     def __init__(self, points: Any = None, /, **kw: Any) -> None:
         if points is not None:
             kw["points"] = points
@@ -84,6 +99,7 @@ class Polygon(BaseModel):
     kind: Literal["polygon"] = "polygon"
     points: tuple[_XY, ...]
 
+    @positional_init
     def __init__(self, points: Any = None, /, **kw: Any) -> None:
         if points is not None:
             kw["points"] = points
@@ -100,7 +116,7 @@ Geometry = Annotated[Union[Point, Polyline, Polygon], Field(discriminator="kind"
 
 
 def _check_polygon(xy: np.ndarray) -> None:
-    if len(xy) >= 2 and np.array_equal(xy[0], xy[-1]):
+    if len(xy) >= 2 and xy[0, 0] == xy[-1, 0] and xy[0, 1] == xy[-1, 1]:  # (np.array_equal costs 2 µs here)
         xy = xy[:-1]
     if len(xy) < 3:
         raise ValueError("a polygon needs at least 3 distinct vertices")

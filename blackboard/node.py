@@ -74,6 +74,11 @@ _MAX_CLIENT_PUBLISHERS = 4096
 _ACK_CACHE = 64
 #: most clients whose dropped monitors are remembered (to tell them to re-register on return)
 _MAX_DROPPED = 4096
+#: the node process's collector thresholds: a batch of 1,000 posts allocates some 20,000 containers and keeps
+#: about 2,000; at Python's default (700, 10, 10) most of a batch's temporaries were promoted to the oldest
+#: generation and full collections ran every few batches, each scanning every token (6-13 µs per post at
+#: 40,000-120,000 tokens, measured); at these they run about once per 100,000 posts
+_GC_THRESHOLDS = (20_000, 20, 10)
 
 
 class _Ack:
@@ -379,10 +384,12 @@ class BlackboardNode:
         for (q, _, single), res in zip(pending, results):
             if type(q) is _Ack:
                 acks.setdefault(q.client, []).append((q.rid, res))
-                self._remember_ack(q.client, q.rid, res)
             else:
                 queries.append((q, single, res))
         self._deliver(acks, events)  # monitor events and put-channel acks: one message per client
+        for client, done in acks.items():  # remembered after sending (still under the lock a re-sent batch waits for)
+            for rid, res in done:
+                self._remember_ack(client, rid, res)
         for q, single, res in queries:
             try:
                 if single:
@@ -599,6 +606,7 @@ def serve(
 
         gc.collect()
         gc.freeze()  # what was loaded at start is long-lived: keep it out of the collector's scans
+        gc.set_threshold(*_GC_THRESHOLDS)
         await node.run(on_ready=ready)
 
     asyncio.run(main())

@@ -14,6 +14,7 @@ admin requests: `RetrieveRequest`, `LookupRequest`, `MonitorRegister` / `Monitor
 from __future__ import annotations
 
 import math
+import re
 from typing import Annotated, Any, ClassVar, Literal, Union
 
 from pydantic import AllowInfNan, BaseModel, ConfigDict, Field, Strict, StringConstraints, ValidationError
@@ -37,6 +38,7 @@ __all__ = [
     "FramesRequest",
     "StatsRequest",
     "parse_write",
+    "plain_post",
     "parse_monitor",
 ]
 
@@ -203,6 +205,30 @@ class StaticOp(_Write):
     parent: FrameName
     child: FrameName
     pose: _Pose3 = Field(description="[x [m], y [m], yaw [rad]]")
+
+
+_POST_KEYS = frozenset(PostOp.model_fields)
+_FRAME_NAME = re.compile(r"[A-Za-z0-9_.\-]{1,128}").fullmatch  # FrameName's pattern, anchored at both ends as there
+
+
+def plain_post(obj: object) -> tuple[str, Any, str, float, str, Any, str | None] | None:
+    """Return (type, attrs, frame, stamp [s], source, geometry, reply) of a post operation in its
+    common form — a dict of PostOp's fields only, each of its exact type — or None for any other
+    input, which `parse_write` then validates (and answers with the typed error, if any).
+
+    Every dict this accepts PostOp accepts with the same values; it saves building the model
+    for each token of a batch.
+    """
+    if type(obj) is not dict or not _POST_KEYS.issuperset(obj):
+        return None
+    get = obj.get
+    op, typ, frame, stamp, source, reply = get("op", "post"), get("type"), get("frame", "world"), get("stamp"), get("source", ""), get("reply")
+    if (type(op) is str and op == "post" and type(typ) is str and type(stamp) is float and math.isfinite(stamp)
+            and type(frame) is str and _FRAME_NAME(frame) is not None and type(source) is str and len(source) <= 128
+            and (reply is None or (type(reply) is str and reply == "id"))):
+        attrs = obj["attrs"] if "attrs" in obj else {}
+        return typ, attrs, frame, stamp, source, get("geometry"), reply
+    return None
 
 
 WriteOp = Union[PostOp, UpdateOp, DeleteOp, PoseOp, StaticOp]

@@ -85,6 +85,19 @@ class TypeRegistry:
         except ValidationError as exc:
             raise InvalidTokenError(f"stored {name!r} attrs do not validate here: {_short(exc)}") from None
 
+    def decoder(self, name: str) -> Callable[[dict], BaseModel]:
+        """Return `decode` for type `name` with its model looked up once (for many tokens of one type); raise UnknownTypeError."""
+        validate = self.model(name).__pydantic_validator__.validate_python
+        decode = self.decode
+
+        def decode_one(attrs: dict) -> BaseModel:
+            try:
+                return validate(attrs)
+            except ValidationError:
+                return decode(name, attrs)  # raises the typed error
+
+        return decode_one
+
     def import_module(self, module: str) -> None:
         """Import a module whose @token_type declarations register into this registry (or the default)."""
         try:

@@ -13,7 +13,7 @@ from typing import Annotated, Any, Literal, Union
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from blackboard.errors import BadSpecError
-from blackboard.geometry import Geometry, Point, Polygon
+from blackboard.geometry import Geometry, Point, Polygon, positional_init
 
 __all__ = [
     "AttrPredicate",
@@ -65,6 +65,7 @@ class Within(_GeoBase):
     op: Literal["within"] = "within"
     polygon: Polygon
 
+    @positional_init
     def __init__(self, polygon: Polygon | None = None, frame: str | None = None, /, **kw: Any) -> None:
         if polygon is not None:
             kw["polygon"] = polygon
@@ -79,6 +80,7 @@ class Intersects(_GeoBase):
     op: Literal["intersects"] = "intersects"
     geometry: Geometry
 
+    @positional_init
     def __init__(self, geometry: Any = None, frame: str | None = None, /, **kw: Any) -> None:
         if geometry is not None:
             kw["geometry"] = geometry
@@ -94,6 +96,7 @@ class Near(_GeoBase):
     geometry: Geometry
     distance: float = Field(ge=0.0, allow_inf_nan=False)
 
+    @positional_init
     def __init__(self, geometry: Any = None, distance: float | None = None, frame: str | None = None, /, **kw: Any) -> None:
         if geometry is not None:
             kw["geometry"] = geometry
@@ -111,6 +114,7 @@ class Nearest(_GeoBase):
     point: Point
     k: int = Field(1, ge=1, le=100_000)
 
+    @positional_init
     def __init__(self, point: Point | None = None, k: int | None = None, frame: str | None = None, /, **kw: Any) -> None:
         if point is not None:
             kw["point"] = point

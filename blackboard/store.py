@@ -1,9 +1,12 @@
-"""The token store: SQLite in WAL mode with an R*Tree over geometry bounding boxes.
+"""The token store: SQLite in WAL mode, with spatial indexes over token geometry.
 
-Tokens, poses and static frames live in the database file. The R*Tree is derived data: it lives in
-an in-memory database attached to the same connection (`idx.token_rtree`), so it commits and
-rolls back with the tokens, is rebuilt from the tokens when the store opens, and costs no
-page writes to the WAL (an R*Tree insert in the file doubled the commit cost of a post).
+Tokens, poses and static frames live in the database file. The spatial indexes are derived data,
+rebuilt from the tokens when the store opens: point tokens (nearly all of them) are kept in an
+in-memory hash grid per frame and token type (`blackboard.pointgrid`, updated as each commit is published: an
+R*Tree insert cost 7–12 µs a row, the largest single cost of a post); the bounding boxes of other
+geometries are in an R*Tree in an in-memory database attached to the same connection
+(`idx.token_rtree`), so it commits and rolls back with the tokens and costs no page writes to the
+WAL (an R*Tree insert in the file doubled the commit cost of a post).
 
 The node holds an in-memory mirror of every token (for fast predicate evaluation and replies);
 SQLite is the durable copy and the spatial index. Writes are staged in a transaction (`begin`,
@@ -40,6 +43,7 @@ import numpy as np
 from blackboard.errors import StoreOpenError
 from blackboard.limits import check_token_size
 from blackboard.geometry import coords_to_wire
+from blackboard.pointgrid import PointGrid
 
 __all__ = ["Record", "Store", "SyncMode", "token_id", "token_rid"]
 
@@ -108,6 +112,16 @@ class Record:
             xy = self._xy = np.array((self._pt,), dtype=np.float64)
         return xy
 
+    def point(self) -> tuple[float, float] | None:
+        """Return (x, y) [m] of a point token, or None for any other geometry (or none)."""
+        if self.kind != "point":
+            return None
+        pt = self._pt
+        if pt is not None:
+            return pt
+        xy = self._xy
+        return (float(xy[0, 0]), float(xy[0, 1]))  # type: ignore[index]
+
     def geom_packed(self) -> bytes | None:
         """Return the msgpack of (kind, [[x, y], …]) stored in SQLite, or None without geometry."""
         if self.kind is None:
@@ -118,6 +132,14 @@ class Record:
     @property
     def id(self) -> str:
         return token_id(self.rid)
+
+    def _geometry_wire(self) -> dict | None:
+        if self.kind is None:
+            return None
+        pt = self._pt
+        if pt is not None:
+            return {"kind": "point", "x": pt[0], "y": pt[1]}
+        return coords_to_wire(self.kind, self.xy)  # type: ignore[arg-type]
 
     def wire(self) -> dict:
         """Return the token's wire dict (cached)."""
@@ -130,19 +152,27 @@ class Record:
                 "stamp": self.stamp,
                 "source": self.source,
                 "frame": self.frame,
-                "geometry": None if self.kind is None else (
-                    {"kind": "point", "x": self._pt[0], "y": self._pt[1]} if self._pt is not None
-                    else coords_to_wire(self.kind, self.xy)  # type: ignore[arg-type]
-                ),
+                "geometry": self._geometry_wire(),
                 "attrs": self.attrs,
             }
         return w
 
-    def packed(self) -> bytes:
-        """Return the msgpack encoding of the wire dict (cached)."""
+    def packed(self, attrs_packed: bytes | None = None) -> bytes:
+        """Return the msgpack encoding of the wire dict (cached); `attrs_packed`: the attrs' msgpack, if already made.
+
+        Made without building the wire dict: the same bytes as packing it (a map of the same
+        keys in the same order), one dict fewer kept per token.
+        """
         p = self._packed
         if p is None:
-            p = self._packed = _packb(self.wire())
+            if self._wire is not None:
+                p = _packb(self._wire)
+            else:
+                # a 14-element array's encoding after its 1-byte head is the body of the map's first 7 pairs
+                p = _MAP8 + _packb(("id", token_id(self.rid), "type", self.type, "version", self.version, "stamp", self.stamp,
+                                    "source", self.source, "frame", self.frame, "geometry", self._geometry_wire()))[1:] + _ATTRS_KEY + (
+                    _packb(self.attrs) if attrs_packed is None else attrs_packed)
+            self._packed = p
         return p
 
     def shape(self):
@@ -169,6 +199,13 @@ class Record:
 
 
 _packb = msgpack.Packer(use_bin_type=True).pack
+_MAP8 = b"\x88"  # msgpack head of a map of 8 pairs
+_ATTRS_KEY = _packb("attrs")
+
+
+def _in_rtree(rec: Record) -> bool:
+    """Return whether a record's bounding box belongs in the R*Tree (a geometry other than a point)."""
+    return rec.kind is not None and rec.kind != "point"
 
 
 def _points(xy: np.ndarray | tuple[float, float] | None) -> int:
@@ -220,13 +257,17 @@ class Store:
         self.records: dict[int, Record] = {}
         self.by_type: dict[str, dict[int, None]] = {}
         self.by_frame: dict[str, dict[int, None]] = {}
+        #: frame → token type → the points of its point tokens (committed)
+        self.points: dict[str, dict[str, PointGrid]] = {}
+        #: committed tokens whose geometry is not a point (indexed in the R*Tree)
+        self._shapes = 0
         self._pending: dict[int, Record | None] = {}
         #: statements of the open transaction: (sql, params), journaled at commit
         self._stmts: list[tuple[str, tuple]] = []
         #: committed (journaled) statements not yet run in SQLite
         self._unapplied: list[tuple[str, tuple]] = []
         self._rid_at_begin = 0
-        #: committed changes not yet in the R*Tree: (rid, record to index or None to delete)
+        #: committed changes not yet in the R*Tree (geometries other than points): (rid, record to index or None to delete)
         self._index_queue: list[tuple[int, Record | None]] = []
         self._in_txn = False
         self._next_rid = 1
@@ -322,10 +363,7 @@ class Store:
         hw = self._db.execute("SELECT value FROM meta WHERE key='next_rid'").fetchone()
         self._next_rid = max(top + 1, int(hw[0]) if hw else 1)
         self._db.execute("BEGIN")
-        self._db.executemany(
-            "INSERT INTO idx.token_rtree(rid, minx, maxx, miny, maxy) VALUES (?,?,?,?,?)",
-            ((r.rid, *bb) for r in self.records.values() if (bb := r.bbox()) is not None),
-        )
+        self._db.executemany(_IDX_INSERT, ((r.rid, *r.bbox()) for r in self.records.values() if _in_rtree(r)))  # type: ignore[misc]
         self._db.execute("COMMIT")
 
     def poses(self) -> Iterator[tuple[str, str, float, float, float, float, float]]:
@@ -340,12 +378,27 @@ class Store:
 
     # ------------------------------------------------------------------ mirror
     def _mirror_put(self, rec: Record) -> None:
-        self.by_type.setdefault(rec.type, {})[rec.rid] = None
-        old = self.records.get(rec.rid)
-        if old is not None and old.frame != rec.frame:
-            self.by_frame.get(old.frame, {}).pop(rec.rid, None)
-        self.by_frame.setdefault(rec.frame, {})[rec.rid] = None
-        self.records[rec.rid] = rec
+        rid = rec.rid
+        self.by_type.setdefault(rec.type, {})[rid] = None
+        old = self.records.get(rid)
+        if old is not None:
+            if old.frame != rec.frame:
+                self.by_frame.get(old.frame, {}).pop(rid, None)
+            if old.kind == "point" and (old.frame != rec.frame or rec.kind != "point"):
+                self.points[old.frame][old.type].remove(rid)
+            self._shapes -= _in_rtree(old)
+        self._shapes += _in_rtree(rec)
+        self.by_frame.setdefault(rec.frame, {})[rid] = None
+        self.records[rid] = rec
+        pt = rec.point()
+        if pt is not None:
+            grids = self.points.get(rec.frame)
+            if grids is None:
+                grids = self.points[rec.frame] = {}
+            grid = grids.get(rec.type)
+            if grid is None:
+                grid = grids[rec.type] = PointGrid()
+            grid.put(rid, pt[0], pt[1])
 
     def _mirror_remove(self, rid: int) -> None:
         rec = self.records.pop(rid, None)
@@ -356,6 +409,9 @@ class Store:
             f = self.by_frame.get(rec.frame)
             if f is not None:
                 f.pop(rid, None)
+            if rec.kind == "point":
+                self.points[rec.frame][rec.type].remove(rid)
+            self._shapes -= _in_rtree(rec)
 
     def get(self, rid: int) -> Record | None:
         """Return the record (staged changes included) or None."""
@@ -383,7 +439,7 @@ class Store:
         check_token_size(type, len(blob) + (len(geom) if geom is not None else 0), _points(xy))
         self._stmts.append((_INSERT, (rid, type, 1, stamp, source, frame, geom, blob)))
         self._next_rid = rid + 1
-        rec.packed()  # encode once, at write time: retrieves and monitor events reuse the bytes
+        rec.packed(blob)  # encode once, at write time: retrieves and monitor events reuse the bytes
         self._pending[rid] = rec
         return rec
 
@@ -398,7 +454,7 @@ class Store:
         geom, blob = rec.geom_packed(), _packb(attrs)
         check_token_size(old.type, len(blob) + (len(geom) if geom is not None else 0), _points(xy))
         self._stmts.append((_UPDATE, (rec.version, stamp, frame, geom, blob, rec.rid)))
-        rec.packed()
+        rec.packed(blob)
         self._pending[rec.rid] = rec
         return rec
 
@@ -451,16 +507,18 @@ class Store:
         queue = self._index_queue
         for rid, rec in self._pending.items():  # type: ignore[assignment]
             if rec is None:
+                old = self.records.get(rid)
                 self._mirror_remove(rid)
                 changes.append(rid)
-                queue.append((rid, None))
+                if old is not None and _in_rtree(old):
+                    queue.append((rid, None))
             else:
                 old = self.records.get(rid)
                 self._mirror_put(rec)  # type: ignore[arg-type]
                 changes.append(rec)  # type: ignore[arg-type]
-                if old is not None and old.kind is not None:
+                if old is not None and _in_rtree(old):
                     queue.append((rid, None))
-                if rec.kind is not None:  # type: ignore[union-attr]
+                if _in_rtree(rec):  # type: ignore[arg-type]
                     queue.append((rid, rec))  # type: ignore[arg-type]
         self._pending.clear()
         return changes
@@ -499,8 +557,20 @@ class Store:
 
     # ------------------------------------------------------------------ reading
     def bbox_query(self, minx: float, maxx: float, miny: float, maxy: float) -> list[int]:
-        """Return the row ids whose bounding box meets the box [m] (committed tokens)."""
-        if self._index_queue or self._unapplied:
+        """Return the row ids whose bounding box meets the box [m] (committed tokens), points of every frame included."""
+        rids = self.shapes_in_box(minx, maxx, miny, maxy)
+        for grid in (g for grids in self.points.values() for g in grids.values()):
+            prids, xy = grid.query(minx, maxx, miny, maxy)
+            if prids:
+                inside = (xy[:, 0] >= minx) & (xy[:, 0] <= maxx) & (xy[:, 1] >= miny) & (xy[:, 1] <= maxy)
+                rids.extend(np.frombuffer(prids, dtype=np.int64)[inside].tolist())
+        return rids
+
+    def shapes_in_box(self, minx: float, maxx: float, miny: float, maxy: float) -> list[int]:
+        """Return the row ids of the tokens other than points whose bounding box meets the box [m] (committed tokens)."""
+        if not self._shapes:
+            return []
+        if self._index_queue:
             self.settle()
         return [
             r[0]
@@ -509,6 +579,19 @@ class Store:
                 (maxx, minx, maxy, miny),
             )
         ]
+
+    def points_in_box(self, frame: str, types: set[str] | None, minx: float, maxx: float, miny: float, maxy: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+        """Return the (N,) int64 row ids and (N,2) float64 points [m] of `frame`'s point tokens of `types` (None: any)
+        near the box [m]: every one inside it, and others of the grid cells it meets (the caller tests the exact predicate)."""
+        grids = self.points.get(frame, {})
+        found = [grid.query(minx, maxx, miny, maxy) for t, grid in grids.items() if types is None or t in types]
+        if len(found) == 1:
+            return np.frombuffer(found[0][0], dtype=np.int64), found[0][1]
+        if not found:
+            return np.empty(0, dtype=np.int64), np.empty((0, 2), dtype=np.float64)
+        return (np.concatenate([np.frombuffer(r, dtype=np.int64) for r, _ in found]),
+                np.concatenate([xy for _, xy in found]))
 
     def close(self) -> None:
         """Settle what is committed into SQLite, drop the journal and close the database."""

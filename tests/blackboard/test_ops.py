@@ -24,6 +24,7 @@ from blackboard.ops import (
     UpdateOp,
     parse_monitor,
     parse_write,
+    plain_post,
 )
 from blackboard.replies import FrameEdge, FrameListing, NodeStats
 
@@ -128,3 +129,27 @@ def test_replies_keep_their_wire_form():
     # the counters keep the node's names (reports and tools read them by name)
     assert set(NodeStats.model_fields) == {f.name for f in dataclasses.fields(Stats)} | {"tokens", "monitors"}
     assert Stats(posts=3).snapshot(tokens=2, monitors=1) == NodeStats(posts=3, tokens=2, monitors=1)
+
+
+_PLAIN = {"op": "post", "type": "t", "attrs": {"a": 1}, "frame": "world", "stamp": 1.5, "source": "s",
+          "geometry": {"kind": "point", "x": 1.0, "y": 2.0}, "reply": "id"}
+_ODD_VALUES = ["", "world", "a b", "w\n", "x" * 128, "x" * 129, "id", "post", "update", None, 0, 1, 1.5, -0.0, math.inf,
+               math.nan, True, b"world", ["world"], {"a": 1}, (1.0, 2.0)]
+
+
+def test_the_plain_post_shortcut_accepts_only_what_post_op_accepts_with_the_same_values():
+    cases = [dict(_PLAIN), {"type": "t", "stamp": 0.0}]
+    for key in _PLAIN:
+        cases.append({k: v for k, v in _PLAIN.items() if k != key})
+        cases += [{**_PLAIN, key: v} for v in _ODD_VALUES]
+    cases += [{**_PLAIN, "extra": 1}, {**_PLAIN, "source": "é" * 128}, {**_PLAIN, "source": "é" * 129}]
+    accepted = 0
+    for raw in cases:
+        fields = plain_post(raw)
+        if fields is None:
+            continue
+        accepted += 1
+        op = PostOp.parse(raw)
+        assert fields == (op.type, op.attrs, op.frame, op.stamp, op.source, op.geometry, op.reply), raw
+    assert accepted >= 20
+    assert plain_post([_PLAIN]) is None and plain_post(PostOp.parse(_PLAIN)) is None

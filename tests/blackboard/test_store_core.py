@@ -147,3 +147,13 @@ def test_newest_monitor_reports_only_new_newest(core):
     assert len(core.match_changes(ch)) == 1
     _, ch = core.apply_requests([[{"op": "post", "type": "bbt_segment", "attrs": {"index": 2}, "stamp": 1.0}]])
     assert core.match_changes(ch) == []  # older than the newest: not the newest match
+
+
+@pytest.mark.parametrize("geometry", [None, pt(1.5, -2.0), square(0, 0, 1, 2), {"kind": "polyline", "points": [[0, 0], [3, 4.5]]}])
+def test_a_tokens_stored_bytes_are_its_wire_dict_packed(core, geometry):
+    import msgpack
+
+    t = post(core, "bbt_segment", {"index": 7}, stamp=2.5, geometry=geometry)
+    rec = core.store.records[int(t["id"][1:])]
+    assert msgpack.unpackb(rec.packed()) == t
+    assert rec.packed() == msgpack.packb(rec.wire(), use_bin_type=True)

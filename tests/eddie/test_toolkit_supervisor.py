@@ -10,7 +10,7 @@ import pytest
 from eddie.errors import SupervisorError, SystemConfigError
 from eddie.toolkit import Module, Supervisor, load_system_config, parse_system_config
 from eddie.toolkit.echo import Echo
-from tests.eddie._net import net_pair
+from tests.eddie._net import net_pair, retry
 
 SYSTEM = """
 modules:
@@ -34,7 +34,8 @@ async def test_supervisor_starts_watches_and_reports_a_killed_module(tmp_path):
         await sup.wait_for("two", "ready", 20.0)
         async with Module("tester", connect) as me:
             await me.wait_connected(10.0)
-            reply = await me.request("two", "echo", Echo(seq=5, data=b"x"), timeout=5.0, reply_type=Echo)
+            # a session just connected may not yet have the router's route to two's queryable: ask until it has
+            reply = await retry(lambda: me.request("two", "echo", Echo(seq=5, data=b"x"), timeout=5.0, reply_type=Echo))
             assert reply == Echo(seq=5, data=b"x")
         os.kill(sup.pid("two"), signal.SIGKILL)
         st = await sup.wait_for("two", "dead", 20.0)

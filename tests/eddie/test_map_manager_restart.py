@@ -90,7 +90,14 @@ async def test_a_restarted_manager_fires_the_triggers_crossed_while_it_was_down_
                 me.link.put(me.keys.topic("navigator", "world_from_local"), encode_body(W))
 
             fired: list[TriggerFired] = []
-            me.subscribe("map_manager", "triggers", TriggerFired, fired.append)
+            two_fired = asyncio.Event()
+
+            def on_fired(f: TriggerFired) -> None:
+                fired.append(f)
+                if len(fired) >= 2:
+                    two_fired.set()
+
+            me.subscribe("map_manager", "triggers", TriggerFired, on_fired)
             await start_manager()
             drive(0)
             await me.request("map_manager", "query", AnnotationQuery(type="set_speed"), reply_type=AnnotationList)
@@ -98,7 +105,8 @@ async def test_a_restarted_manager_fires_the_triggers_crossed_while_it_was_down_
                 drive(k)
             got = await me.receive(timeout=15.0)
             assert isinstance(got.message, TriggerMessage) and got.message.annotation_id == "b"
-            async with asyncio.timeout(10):  # b's event writes the state at once
+            # b's event writes the state file right after b is sent (a file: read until it holds b, within 10 s)
+            async with asyncio.timeout(10):
                 while "b" not in json.loads(state.read_text() if state.exists() else "{}").get("used", ()):
                     await asyncio.sleep(0.02)
             procs[-1].kill()
@@ -115,9 +123,7 @@ async def test_a_restarted_manager_fires_the_triggers_crossed_while_it_was_down_
             assert asked and asked[0].odometer_to == pytest.approx(0.25 * 27) and asked[0].odometer_from <= 2.5
             ans = await me.request("map_manager", "query", AnnotationQuery(type="set_speed"), reply_type=AnnotationList)
             assert [(r.id, r.used) for r in ans.annotations] == [("a", False), ("b", True), ("c", True)]
-            async with asyncio.timeout(10):
-                while len(fired) < 2:
-                    await asyncio.sleep(0.02)
+            await asyncio.wait_for(two_fired.wait(), 10)
             assert [(f.annotation_id, f.event) for f in fired] == [("b", "fired"), ("c", "fired")]  # b not again
             assert me.pending() == 0
     finally:

@@ -90,12 +90,11 @@ async def test_a_restarted_manager_fires_the_triggers_crossed_while_it_was_down_
                 me.link.put(me.keys.topic("navigator", "world_from_local"), encode_body(W))
 
             fired: list[TriggerFired] = []
-            two_fired = asyncio.Event()
+            one_fired, two_fired = asyncio.Event(), asyncio.Event()
 
             def on_fired(f: TriggerFired) -> None:
                 fired.append(f)
-                if len(fired) >= 2:
-                    two_fired.set()
+                (two_fired if len(fired) >= 2 else one_fired).set()
 
             me.subscribe("map_manager", "triggers", TriggerFired, on_fired)
             await start_manager()
@@ -105,10 +104,11 @@ async def test_a_restarted_manager_fires_the_triggers_crossed_while_it_was_down_
                 drive(k)
             got = await me.receive(timeout=15.0)
             assert isinstance(got.message, TriggerMessage) and got.message.annotation_id == "b"
-            # b's event writes the state file right after b is sent (a file: read until it holds b, within 10 s)
-            async with asyncio.timeout(10):
-                while "b" not in json.loads(state.read_text() if state.exists() else "{}").get("used", ()):
-                    await asyncio.sleep(0.02)
+            # the cycle that reports b writes the state file before the manager's loop takes anything else:
+            # b's report, then a query answered after it, and the file holds b
+            await asyncio.wait_for(one_fired.wait(), 10)
+            await me.request("map_manager", "query", AnnotationQuery(type="set_speed"), reply_type=AnnotationList)
+            assert "b" in json.loads(state.read_text())["used"]
             procs[-1].kill()
             procs[-1].wait(10)
             for k in range(11, 27):  # while it is down: local 2.75 → 6.5 m, world 5.75 → 9.5, across c (world 8)

@@ -90,11 +90,11 @@ class MissionService:
         """
         pts: list[tuple[float, float]] = []
         speeds: list[float] = []
+        edges = [(LineString(e.coords), e.width) for e in self.map.world.edges] if in_lane else []
         for g, step in zip(prog.goals, prog.run.mission.steps):
             v = min(g.speed_mps or self.speed_mps, self.speed_mps)
             route = np.asarray(g.route, dtype=np.float64)
-            if in_lane and step.constraints.keep in ("right", "left") and self.map.world.edges:
-                edges = [(LineString(e.coords), e.width) for e in self.map.world.edges]
+            if edges and step.constraints.keep in ("right", "left"):
                 widths = [min(edges, key=lambda le: le[0].distance(Point(p)))[1] for p in route]
                 route = shift_into_lane(route, np.array([kept_lane_offset(step.constraints.keep, w, self.keep_offset_m, self.edge_keep_m)
                                                          for w in widths]))

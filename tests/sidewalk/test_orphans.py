@@ -42,6 +42,18 @@ async def _drain(proc: asyncio.subprocess.Process) -> None:
         pass
 
 
+def _described(pids: list[int]) -> list[str]:
+    """Return each pid with its state and command line (which module was left, and doing what)."""
+    out = []
+    for pid in pids:
+        try:
+            p = psutil.Process(pid)
+            out.append(f"{pid} {p.status()} {' '.join(p.cmdline())[:200]}")
+        except psutil.Error:
+            out.append(f"{pid} (gone)")
+    return out
+
+
 @pytest.mark.e2e
 @pytest.mark.timeout(400)
 @pytest.mark.parametrize(("arch", "last", "sig"), [("codger", "captain", signal.SIGKILL), ("eddie", "mission_service", signal.SIGTERM)])
@@ -68,7 +80,7 @@ async def test_a_killed_run_leaves_no_child_behind(tmp_path, arch, last, sig):
         assert await run.wait() == -sig
         await drain
         left = await asyncio.to_thread(wait_gone, children, 30.0)
-        assert not left, f"{arch} run killed by {signal.Signals(sig).name}: children left running: {left}"
+        assert not left, f"{arch} run killed by {signal.Signals(sig).name}: children left running: {_described(left)}"
     finally:
         if link is not None:
             link.close()

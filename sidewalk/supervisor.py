@@ -182,6 +182,7 @@ class Supervisor:
         self.gave_up: list[GiveUp] = []
         self._policy: RestartPolicy | None = None
         self._beats: BeatSource | None = None
+        self._guard_t0 = 0.0
         self._guards: dict[str, _Guard] = {}
         self._held: set[str] = set()
         self._wake = asyncio.Event()
@@ -356,6 +357,8 @@ class Supervisor:
         """Keep the named processes running under `policy`; `beats` tells their newest heartbeats (None: no wedge watch)."""
         self._policy = policy
         self._beats = beats
+        if not self._guard_t0:
+            self._guard_t0 = time.monotonic()
         for n in names:
             self._guards.setdefault(n, _Guard())
         if self._guard_task is None:
@@ -389,14 +392,14 @@ class Supervisor:
                     if not mp.expected_exit:
                         self._revive(name, g, f"exited with code {mp.proc.returncode}")
                     continue
-                beat = self._beats(name) if self._beats is not None else None
-                if beat is None or beat[0] != mp.pid or mp.ready_at is None or pol.restart_wedged_after_s is None:
-                    continue  # judged only once this life was heard beating
-                silent = now - beat[1]
+                last = self._last_sign(mp)
+                if last is None or pol.restart_wedged_after_s is None:
+                    continue
+                silent = now - last
                 if silent >= pol.restart_wedged_after_s:
                     self._revive(name, g, f"wedged: no heartbeat for {silent:.1f} s", kill=mp)
                     continue
-                next_check = min(next_check, beat[1] + pol.restart_wedged_after_s)
+                next_check = min(next_check, last + pol.restart_wedged_after_s)
             with contextlib.suppress(asyncio.TimeoutError):
                 await asyncio.wait_for(self._wake.wait(), max(0.01, next_check - time.monotonic()))
 
@@ -413,12 +416,12 @@ class Supervisor:
                 if (mp is None or g.gave_up or name in self._held or mp.ready_at is None or mp.exited.is_set()
                         or g.wedge_reported_pid == mp.pid or (g.reviving is not None and not g.reviving.done())):
                     continue
-                beat = self._beats(name)
-                if beat is None or beat[0] != mp.pid:
-                    continue  # judged only once this life was heard beating
-                silent = now - beat[1]
+                last = self._last_sign(mp)
+                if last is None:
+                    continue
+                silent = now - last
                 if silent < pol.wedged_after_s:
-                    due = min(due, beat[1] + pol.wedged_after_s)
+                    due = min(due, last + pol.wedged_after_s)
                     continue
                 g.wedge_reported_pid = mp.pid
                 self.wedges.append(WedgeReport(module=name, at_s=self._since(), silent_s=round(silent, 3), pid=mp.pid))
@@ -426,6 +429,20 @@ class Supervisor:
                 with contextlib.suppress(RuntimeError):  # the loop closed: nobody left to tell
                     loop.call_soon_threadsafe(self._notice, text)
             wait = max(0.01, due - time.monotonic())
+
+    def _last_sign(self, mp: ManagedProcess) -> float | None:
+        """Return when [s, time.monotonic] this life last showed it works: its newest heartbeat, else its ready line.
+
+        A life never heard beating is judged from when it was ready or the watch began, whichever is
+        later: one stopped before its first heartbeat reached us is as wedged as one that went quiet.
+        None: not ready yet, or no heartbeats to judge by.
+        """
+        if self._beats is None or mp.ready_at is None:
+            return None
+        beat = self._beats(mp.plan.name)
+        if beat is not None and beat[0] == mp.pid:
+            return beat[1]
+        return max(mp.ready_at, self._guard_t0)
 
     def _revive(self, name: str, g: _Guard, reason: str, *, kill: ManagedProcess | None = None) -> None:
         g.reviving = asyncio.create_task(self._revive_task(name, g, reason, kill), name=f"revive-{name}")

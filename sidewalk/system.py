@@ -76,6 +76,8 @@ class SystemRun:
                 on_starting(plan.name)
             await self.sup.start(plan, ready_timeout=ready_timeout)
         self.link = Link.open(self.net)
+        # heard from the first moment: a module stopped right after `guard()` has beaten into it already
+        self._beats = BeatLog(self.link, ModuleKeys(self.ns))
         self.bb = await BlackboardClient.connect(self.net, source="launcher")
         self.recorder = Recorder(self.link, self.bb, self.ns)
         self.recorder.start()

@@ -51,7 +51,7 @@ async def _supervised(cfg: RunConfig, policy: RestartPolicy):
 @pytest.mark.e2e
 @pytest.mark.timeout(400)  # as the other HELM fault test: six processes start one by one on a loaded machine
 async def test_a_sigstopped_helm_is_reported_wedged_within_3_s_restarted_and_the_mission_arrives(tmp_path, capsys):
-    cfg = RunConfig(world="campus", mission=str(DATA / "short-hop.yaml"), rtf=10.0, seed=5, out=tmp_path, perception=False)
+    cfg = RunConfig(world="campus", mission=str(DATA / "short-hop-dead-reckoning.yaml"), rtf=10.0, seed=5, out=tmp_path, perception=False)
     system, setup, seen, when = await _supervised(cfg, RestartPolicy())
     try:
         mid = await system.submit(mission_path(cfg.mission).read_text())
@@ -61,7 +61,16 @@ async def test_a_sigstopped_helm_is_reported_wedged_within_3_s_restarted_and_the
         old_pid = helm.pid
         t_stop = time.monotonic()
         os.kill(old_pid, signal.SIGSTOP)
-        await asyncio.wait_for(seen["wedged"].wait(), 30)  # the notice reaches this loop when it gets round to it
+        try:
+            await asyncio.wait_for(seen["wedged"].wait(), 30)  # the notice reaches this loop when it gets round to it
+        except TimeoutError:
+            sup = system.sup
+            beat = system._beats.newest("helm") if system._beats is not None else None
+            raise AssertionError(
+                f"no wedge reported 30 s after SIGSTOP of helm pid {old_pid}: newest beat (pid, age s) "
+                f"{beat and (beat[0], round(time.monotonic() - beat[1], 2))}, ready_at {helm.ready_at}, exited {helm.exited.is_set()}, "
+                f"watch thread alive {sup._watch is not None and sup._watch.is_alive()}, wedges {sup.wedges}, restarts {sup.restarts}, "
+                f"guards {sup._guards}, procs {[(n, p.pid) for n, p in sup.procs.items()]}") from None
         # when the supervisor reported it (its own watch thread), not when this busy loop heard of it
         reported_s = system.sup.t0 + system.sup.wedges[0].at_s - t_stop
         await asyncio.wait_for(seen["restarted"].wait(), 90)
@@ -96,7 +105,7 @@ async def test_a_crash_looping_map_navigator_is_backed_off_given_up_and_the_miss
     own_map = tmp_path / "given-map.geojson"
     shutil.copy(world_path("campus", kind="map"), own_map)
     out = tmp_path / "run"
-    cfg = RunConfig(world="campus", mission=str(DATA / "short-hop.yaml"), rtf=10.0, seed=5, out=out, perception=False,
+    cfg = RunConfig(world="campus", mission=str(DATA / "short-hop-dead-reckoning.yaml"), rtf=10.0, seed=5, out=out, perception=False,
                     map_file=own_map)
     system, setup, seen, when = await _supervised(cfg, RestartPolicy(give_up_after=3))
     try:

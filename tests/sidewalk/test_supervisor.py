@@ -3,6 +3,7 @@
 import asyncio
 import signal
 import sys
+import time
 
 import pytest
 
@@ -146,3 +147,32 @@ async def test_a_process_killed_by_its_owner_is_left_to_the_owner(tmp_path):
     finally:
         codes = await sup.stop_all(grace=5)
     assert codes["a"] == 0
+
+
+async def test_a_ready_life_never_heard_beating_is_reported_wedged_from_when_the_watch_began(tmp_path):
+    # the heartbeats it might have sent before the watch began were never heard: it is judged from then
+    from sidewalk.supervisor import RestartPolicy
+
+    sup = Supervisor(tmp_path)
+    heard: dict[str, tuple[int, float]] = {}
+    mp = await sup.start(ProcessPlan("mute", ("-c", SERVER)), ready_timeout=30)
+    await sup.start(ProcessPlan("beating", ("-c", SERVER)), ready_timeout=30)
+    wedged = asyncio.Event()
+    sup.on_notice = lambda text: wedged.set() if "wedged" in text else None
+    loop = asyncio.get_running_loop()
+
+    def beat() -> None:  # "beating" beats at 4 Hz (its pid, now), "mute" never
+        heard["beating"] = (sup.procs["beating"].pid, time.monotonic())
+        handle[0] = loop.call_later(0.25, beat)
+
+    handle = [loop.call_later(0.0, beat)]
+    t0 = time.monotonic()
+    sup.guard(["mute", "beating"], RestartPolicy(wedged_after_s=1.0, restart_wedged_after_s=None), beats=heard.get)
+    try:
+        await asyncio.wait_for(wedged.wait(), 10)
+        (w,) = sup.wedges
+        assert w.module == "mute" and w.pid == mp.pid and 1.0 <= w.silent_s < 1.5
+        assert sup.t0 + w.at_s - t0 < 1.5
+    finally:
+        handle[0].cancel()
+        await sup.stop_all(grace=10)

@@ -26,11 +26,13 @@ ROUTER_READY = "router ready"
 
 
 def serve_router(net: NetworkConfig, stop: threading.Event, *, out: TextIO | None = None,
-                 heartbeat_period: float = 1.0) -> None:
+                 heartbeat_period: float = 1.0, close_timeout: float = 5.0) -> bool:
     """Run a Zenoh router for `net` until `stop` is set; print the ready line once listening.
 
     Like every process it declares a liveliness token and publishes a heartbeat every
     `heartbeat_period` [s] wall, so `sidewalk status` tells a wedged router from a live one.
+    Return whether its session closed within `close_timeout` [s] wall: a router holds no state, so
+    its process may exit without waiting longer (every peer of a run going away at once with it).
     """
     if net.mode != "router":
         net = net.model_copy(update={"mode": "router"})
@@ -49,4 +51,7 @@ def serve_router(net: NetworkConfig, stop: threading.Event, *, out: TextIO | Non
                 usage=process_usage(traffic()))))
             stop.wait(heartbeat_period)
     finally:
-        s.close()
+        closer = threading.Thread(target=s.close, name="router-close", daemon=True)
+        closer.start()
+        closer.join(close_timeout)
+    return not closer.is_alive()

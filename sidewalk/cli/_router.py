@@ -1,7 +1,10 @@
 """`sidewalk router serve` (also `sidewalk up router`): the system's Zenoh router."""
 
 # No `from __future__ import annotations`: `with_network` copies the signature without evaluating it.
+import faulthandler
+import os
 import signal
+import sys
 import threading
 
 import typer
@@ -32,8 +35,12 @@ def serve(*, net: NetworkConfig) -> None:
         net = net.model_copy(update={"secure": net.secure.model_copy(update={"access_control": acl})})
     stop = threading.Event()
     old = {s: signal.signal(s, lambda *_: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
+    faulthandler.register(signal.SIGUSR1, all_threads=True)  # `kill -USR1` prints where a stuck router is
     try:
-        serve_router(net, stop)
+        if not serve_router(net, stop):
+            print("router: its Zenoh session did not close within 5 s; exiting without it (a router keeps no state)",
+                  file=sys.stderr, flush=True)
+            os._exit(0)  # an interpreter exit would wait for the session's threads
     except WireError as exc:
         typer.echo(f"error: {exc}", err=True)
         raise typer.Exit(3) from None

@@ -5,6 +5,7 @@ Its children live in sessions of their own, so only the parent-death signal arme
 """
 
 import asyncio
+import contextlib
 import os
 import re
 import signal
@@ -80,7 +81,14 @@ async def test_a_killed_run_leaves_no_child_behind(tmp_path, arch, last, sig):
         assert await run.wait() == -sig
         await drain
         left = await asyncio.to_thread(wait_gone, children, 30.0)
-        assert not left, f"{arch} run killed by {signal.Signals(sig).name}: children left running: {_described(left)}"
+        if left:
+            described = _described(left)
+            for pid in left:  # the router prints its threads' stacks on SIGUSR1 (faulthandler), into its log
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGUSR1)
+            await asyncio.to_thread(wait_gone, left, 2.0)
+            logs = {p.name: p.read_text(errors="replace")[-3000:] for p in (tmp_path / "logs").glob("router*.log")}
+            raise AssertionError(f"{arch} run killed by {signal.Signals(sig).name}: children left running: {described}\n{logs}")
     finally:
         if link is not None:
             link.close()

@@ -4,11 +4,8 @@ The PILOT's `PoseFilter` (an EKF on world←vehicle) is the library: it predicts
 `local` motion and updates with point and line fixes. A fix is related to the present through the
 motion since its stamp: the local pose at the fix comes with the fix (or from the navigator's own
 short buffer of the controller's states). world←local = world←vehicle ∘ (local←vehicle)⁻¹ changes
-only when a fix arrives, never by prediction. A fix far outside the estimate's uncertainty (`FIX_GATE`)
-is refused and counted, not applied. Refusals in a row mean the estimate, not the fixes, is wrong
-(an overconfident filter drifting away would refuse every true fix after it): from the
-`REFUSALS_TO_DOUBT`-th on, each refusal doubles the covariance, up to `DOUBT_SIGMA_XY` /
-`DOUBT_SIGMA_YAW`, so consistent fixes get in again while a grossly wrong match stays out.
+only when a fix arrives, never by prediction. Fixes pass the PILOT's gate (`modules.pilot.fix_gate`):
+one far outside the estimate's uncertainty is refused and counted, and refusals in a row doubt the estimate.
 """
 
 from __future__ import annotations
@@ -17,6 +14,7 @@ import math
 
 import numpy as np
 
+from modules.pilot.fix_gate import DOUBT_SIGMA_XY, DOUBT_SIGMA_YAW, FIX_GATE, REFUSALS_TO_DOUBT, FixGate
 from modules.pilot.kalman import EstimatorError, FixRefused, LineFix, PointFix, PoseFilter
 from wire.se2 import compose
 
@@ -25,15 +23,6 @@ from eddie.messages.navigator import LineFixMessage, PointFixMessage, WorldFromL
 from eddie.navigator.local_pose_buffer import LocalPoseBuffer
 
 __all__ = ["Navigator", "FIX_GATE", "REFUSALS_TO_DOUBT", "DOUBT_SIGMA_XY", "DOUBT_SIGMA_YAW"]
-
-#: A fix whose innovation's squared Mahalanobis distance exceeds this is refused (χ² with 3 degrees
-#: of freedom at 99.9 %): a landmark matched to the wrong map object must not turn the world←local.
-FIX_GATE = 16.27
-#: Refused fixes in a row after which each further refusal doubles the covariance.
-REFUSALS_TO_DOUBT = 2
-#: The doubt's ceiling: standard deviations [m], [rad] the covariance is not inflated beyond.
-DOUBT_SIGMA_XY = 3.0
-DOUBT_SIGMA_YAW = math.radians(10.0)
 
 
 class Navigator:
@@ -47,10 +36,24 @@ class Navigator:
         self.filter: PoseFilter | None = None
         self.local: np.ndarray | None = None
         self.stamp = 0.0
-        self.fixes_used = 0
-        self.fixes_rejected = 0
-        self.refused_in_row = 0
+        self.fix_gate = FixGate()
+        self._unusable = 0
         self.gate = gate
+
+    @property
+    def fixes_used(self) -> int:
+        """Return how many fixes were applied."""
+        return self.fix_gate.used
+
+    @property
+    def fixes_rejected(self) -> int:
+        """Return how many fixes were refused by the gate or unusable."""
+        return self.fix_gate.refused + self._unusable
+
+    @property
+    def refused_in_row(self) -> int:
+        """Return how many fixes in a row the gate refused."""
+        return self.fix_gate.refused_in_row
 
     @property
     def started(self) -> bool:
@@ -99,17 +102,13 @@ class Navigator:
                                                 yaw=msg.yaw, yaw_var=None if msg.sigma_yaw is None else msg.sigma_yaw**2),
                                         motion_since=motion)
         except FixRefused as exc:
-            self.fixes_rejected += 1
-            self.refused_in_row += 1
-            if self.refused_in_row >= REFUSALS_TO_DOUBT:
-                self.filter.inflate(2.0, DOUBT_SIGMA_XY, DOUBT_SIGMA_YAW)
+            self.fix_gate.on_refused(self.filter)
             raise BadMessage(f"fix from {msg.source or '?'}: {exc} ({self.refused_in_row} in a row)", sender=msg.source or "?",
                              field="sigma") from None
         except EstimatorError as exc:
-            self.fixes_rejected += 1
+            self._unusable += 1
             raise BadMessage(f"fix from {msg.source or '?'}: {exc}", sender=msg.source or "?", field="sigma") from None
-        self.fixes_used += 1
-        self.refused_in_row = 0
+        self.fix_gate.on_used()
         self.stamp = now
         out = self.world_from_local()
         assert out is not None

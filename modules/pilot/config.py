@@ -8,6 +8,7 @@ from typing import Literal
 from pydantic import BaseModel, ConfigDict, Field
 
 from modules.pilot.driving_units import DrivingUnitConfig
+from modules.pilot.fix_gate import FIX_GATE
 from modules.pilot.kalman import OdometryNoise
 from modules.pilot.navigator import NavigatorConfig
 from modules.pilot.planner import PlannerConfig
@@ -45,6 +46,7 @@ class PilotConfig(BaseModel):
     start_sigma_yaw: float = Field(math.radians(3.0), gt=0.0, description="[rad]")
     landmark_replan_m: float = Field(0.3, ge=0.0, description="a landmark fix moving the estimate farther than this replans [m]")
     landmark_gate: float = Field(13.8, gt=0.0, description="χ² gate (2 dof, 99.9 %) a landmark_fix must pass to be used")
+    fix_gate: float | None = Field(FIX_GATE, gt=0.0, description="χ² gate (3 dof, 99.9 %) a PERCEPTION fix must pass (None: every fix applied)")
     min_goal_ahead_m: float = Field(2.0, ge=0.0, description="intermediate goals closer than this along the path are skipped [m]")
     region_extension_m: float = Field(0.0, ge=0.0, description="the map region reaches this far past a segment's ends [m]")
     seed: int = 0

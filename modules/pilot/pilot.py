@@ -58,9 +58,10 @@ class Pilot:
 
     @property
     def stats(self) -> dict[str, int]:
-        """Return the counters: plans posted, units posted, fixes used, planning failures."""
+        """Return the counters: plans posted, units posted, fixes used and refused by the gate, planning failures."""
         return {"plans": self.planner.seq, "units": self.monitor.units_posted, "fixes": self.estimator.fixes,
-                "landmark_fixes": self.estimator.landmark_fixes, "plan_failures": self.plan_failures}
+                "fixes_refused": self.estimator.fix_gate.refused, "landmark_fixes": self.estimator.landmark_fixes,
+                "plan_failures": self.plan_failures}
 
     @staticmethod
     async def _pump(mon, queue: asyncio.Queue) -> None:

@@ -1,8 +1,9 @@
 """POSITION ESTIMATOR (seed: Sidewalk §2.3.3): the perceived vehicle position from dead reckoning and PERCEPTION's fixes.
 
 Predicts with the HELM's moving vehicle position (`local←vehicle` on the blackboard), updates with
-PERCEPTION's fixes and the OBSTACLE DETECTOR's laser landmark fixes (`landmark_fix`, position only,
-behind a χ² gate; Navlab 1990 §2.5.4) (`world` frame) through the Kalman filter of `modules.pilot.kalman`, and posts
+PERCEPTION's fixes (behind the fix gate of `modules.pilot.fix_gate`, as EDDIE's navigator) and the
+OBSTACLE DETECTOR's laser landmark fixes (`landmark_fix`, position only, behind a χ² gate; Navlab 1990
+§2.5.4) (`world` frame) through the Kalman filter of `modules.pilot.kalman`, and posts
 the perceived vehicle position: the `world←local` correction and a `position_estimate` token.
 Times are sim time [s].
 """
@@ -18,7 +19,8 @@ import numpy as np
 from blackboard import Pose2D
 from blackboard.errors import BlackboardError
 from modules.pilot.config import PilotConfig
-from modules.pilot.kalman import EstimatorError, LineFix, PointFix, PoseFilter
+from modules.pilot.fix_gate import FixGate
+from modules.pilot.kalman import EstimatorError, FixRefused, LineFix, PointFix, PoseFilter
 from modules.pilot.polyline import PathLine
 from modules.vocabulary import LandmarkFix
 from modules.vocabulary import LineFix as VLineFix
@@ -59,6 +61,7 @@ class PositionEstimator:
         self.filter: PoseFilter | None = None
         self.odom: Odometry | None = None
         self.fixes = 0
+        self.fix_gate = FixGate()
         self.landmark_fixes = 0
         self.landmark_refused = 0
         self._fixes_seen: set[tuple[str, float]] = set()
@@ -147,7 +150,7 @@ class PositionEstimator:
         if start is None:
             return False  # wait for the first route segment to say where we are
         cov = np.diag([cfg.start_sigma_xy**2, cfg.start_sigma_xy**2, cfg.start_sigma_yaw**2])
-        self.filter = PoseFilter(start, cov, cfg.odometry)
+        self.filter = PoseFilter(start, cov, cfg.odometry, gate=cfg.fix_gate)
         log.info("pilot: estimator starts at %s (%s)", np.round(start, 3).tolist(), how)
         await self.post(force=True, source="dead-reckoning")
         return True
@@ -174,9 +177,14 @@ class PositionEstimator:
                 self.filter.update_point(meas, motion_since=motion)
             else:
                 self.filter.update_line(meas, motion_since=motion)
+        except FixRefused as exc:
+            self.fix_gate.on_refused(self.filter)
+            log.warning("pilot: perception fix for %s refused: %s (%d in a row)", res.unit_id, exc, self.fix_gate.refused_in_row)
+            return False
         except EstimatorError as exc:
             log.warning("pilot: perception fix for %s ignored: %s", res.unit_id, exc)
             return False
+        self.fix_gate.on_used()
         self.fixes += 1
         return True
 

@@ -28,11 +28,12 @@ from modules.runtime import Link
 from modules.vocabulary import MissionStatus
 from sidewalk.observers import observer_plans
 from sidewalk.eddie_observe import subscribe_eddie
+from sidewalk.health import BeatLog
 from sidewalk.recorder import Recorder
 from sidewalk.run_record import FiredTrigger, RecordedPlan, StampedStatus
 from sidewalk.supervisor import ProcessPlan
 from sidewalk.system import SystemRun
-from wire.keys import EddieKeys, MissionKeys
+from wire.keys import EddieKeys, MissionKeys, ModuleKeys
 from wire.se2 import compose
 
 if TYPE_CHECKING:
@@ -154,6 +155,7 @@ class EddieSystemRun(SystemRun):
                 on_starting(plan.name)
             await self.sup.start(plan, ready_timeout=ready_timeout)
         self.link = Link.open(self.net)
+        self._beats = BeatLog(self.link, ModuleKeys(self.ns))  # heard from the first moment, as `SystemRun.start`
         self.recorder = Recorder(self.link, None, self.ns, estimator=self.pose.at)
         self.recorder.start()
         await self.recorder.wait_clock()

@@ -1,7 +1,8 @@
 """The simulator node: runs a `Simulator` against the wall clock at a real-time factor and serves it over Zenoh.
 
 Keys under `sidewalk/<ns>/` (see `wire.keys.SimKeys`, docs/keys.md): sim/clock, sim/odom, sim/truth, sim/events
-(published, msgpack), sim/cmd (subscribed: `DriveCommand`, msgpack or JSON), sim/capture, sim/info,
+(published, msgpack), sim/cmd (subscribed: `DriveCommand`, msgpack or JSON), sim/slip (subscribed:
+`OdometrySlip`, the position-jump fault), sim/capture, sim/info,
 sim/map, sim/world (queryables), alive/sim (liveliness), heartbeat/sim (1 Hz wall clock).
 Threads: the physics loop, a capture worker; zenoh callbacks only enqueue.
 """
@@ -24,7 +25,7 @@ from wire.keys import SimKeys
 from wire.network import NetworkConfig
 from wire.health import process_usage
 from wire.session import Query, Session, open_session, traffic
-from wire.drive import DriveCommand, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
+from wire.drive import DriveCommand, OdometrySlip, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
 from vehicle_sim.actors import ActorSet, load_actors
 from vehicle_sim.mapgen import map_for
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, OdometryModel
@@ -77,6 +78,7 @@ class SimNode:
         )
         self._publish_every = max(1, int(round(config.physics_hz / config.publish_hz)))
         self._cmds: deque[bytes] = deque()
+        self._slips: deque[bytes] = deque()
         self._captures: queue.Queue = queue.Queue()
         self._stop = threading.Event()
         self._wake = threading.Event()
@@ -128,6 +130,7 @@ class SimNode:
             self._pub_hb = z.publisher(k.heartbeat, droppable=True)
             self._pub_preview = z.publisher(k.preview, droppable=True)  # monitor/recorder only: may drop, never blocks
             z.subscribe_payload(k.cmd, self._on_cmd)
+            z.subscribe_payload(k.slip, lambda _k, payload: self._slips.append(payload))
             z.queryable(k.capture, self._on_capture)
             z.queryable(k.truth_capture, lambda q: self._on_capture(q, truth=True))
             z.queryable(k.info, self._on_info)
@@ -239,6 +242,14 @@ class SimNode:
 
     def _drain_commands(self) -> None:
         sim = self.sim
+        while self._slips:
+            try:
+                slip = decode(OdometrySlip, self._slips.popleft())
+            except WireError as exc:
+                log.warning("ignoring an odometry slip: %s", exc)
+                continue
+            sim.slip_odometry(slip.dx, slip.dy, slip.dyaw)
+            log.info("odometry slipped by (%.2f, %.2f) m, %.3f rad at %.2f s sim", slip.dx, slip.dy, slip.dyaw, sim.t)
         while self._cmds:
             raw = self._cmds.popleft()
             self.commands_received += 1
@@ -296,7 +307,7 @@ class SimNode:
                     with self._lock:
                         self._snapshot = (sim.t, sim.state)
                     self._publish()
-                if self._cmds:
+                if self._cmds or self._slips:
                     self._drain_commands()
             self.step_time_total += perf() - t0
             now = perf()

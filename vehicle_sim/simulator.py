@@ -75,6 +75,7 @@ class Simulator:
         self.start = (float(start[0]), float(start[1]), float(start[2]))
         self.state = VehicleState(x=self.start[0], y=self.start[1], yaw=self.start[2])
         self.odom = OdometryState()
+        self.slips = 0  # odometry jumps injected (faults)
         self.supervisor = CommandSupervisor(config.watchdog_timeout)
         self._noise = NoiseSource(rng if rng is not None else np.random.default_rng(config.seed))
         self.steps = 0
@@ -193,6 +194,18 @@ class Simulator:
         self.odom = odometry_step(self.odom, ds, dyaw, self.dt, self.config.odometry, self._noise.pair())
         self.state = new
         return self.drain_events()
+
+    def slip_odometry(self, dx: float, dy: float, dyaw: float) -> None:
+        """Jump the odometry by (dx, dy [m], dyaw [rad]) in the `vehicle` frame, the vehicle itself unmoved.
+
+        A wheel slip or encoder glitch: the `position-jump` fault (issue 10). Every estimate built on
+        the odometry jumps with it, whatever the architecture does with position fixes.
+        """
+        o = self.odom
+        c, s = math.cos(o.yaw), math.sin(o.yaw)
+        yaw = (o.yaw + dyaw + math.pi) % (2.0 * math.pi) - math.pi
+        self.odom = OdometryState(x=o.x + c * dx - s * dy, y=o.y + s * dx + c * dy, yaw=yaw, distance=o.distance, v=o.v, omega=o.omega)
+        self.slips += 1
 
     def advance(self, duration: float) -> list[SimEvent]:
         """Step for `duration` [s] of sim time; return every event that happened."""

@@ -23,6 +23,7 @@ __all__ = [
     "TruthPose",
     "SimEvent",
     "SimClock",
+    "OdometrySlip",
     "VehicleLimits",
     "SimInfo",
     "SimHeartbeat",
@@ -136,6 +137,20 @@ class SimEvent(BaseModel):
     object_id: str | None = None
     object_kind: str | None = None
     detail: str = ""
+
+
+class OdometrySlip(BaseModel):
+    """A fault for the simulator: jump the odometry by (dx, dy [m], dyaw [rad]) in the `vehicle` frame.
+
+    The one exception to `local` never jumping: a wheel slip or encoder glitch, injected by the
+    launcher's `position-jump` fault (issue 10) — evaluation only, never a module.
+    """
+
+    model_config = _FROZEN
+
+    dx: float = Field(default=0.0, allow_inf_nan=False, ge=-50.0, le=50.0)
+    dy: float = Field(default=0.0, allow_inf_nan=False, ge=-50.0, le=50.0)
+    dyaw: float = Field(default=0.0, allow_inf_nan=False, ge=-3.15, le=3.15)
 
 
 class SimClock(BaseModel):

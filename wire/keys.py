@@ -79,6 +79,8 @@ class SimKeys:
         self.clock = f"{base}/clock"
         #: subscribed: `DriveCommand` (msgpack, or JSON)
         self.cmd = f"{base}/cmd"
+        #: subscribed: `OdometrySlip` — the launcher's position-jump fault (evaluation only)
+        self.slip = f"{base}/slip"
         #: published at publish_hz sim time: `Odometry` (local frame, drifts)
         self.odom = f"{base}/odom"
         #: published at publish_hz sim time: `TruthPose` (world frame) — evaluation and monitor only

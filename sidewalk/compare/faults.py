@@ -3,11 +3,11 @@
 `kill-perception` SIGKILLs the perception module and starts it again; `kill-central` does the same
 to the central piece (CODGER: the blackboard node; EDDIE: the map manager); `wedge` SIGSTOPs the
 module that plans the vehicle's local paths (CODGER: the PILOT; EDDIE: road following) for `WEDGE_S` [s] sim, then SIGCONTs it;
-`position-jump` moves the position estimate by `JUMP_M` [m] (CODGER: the launcher's own blackboard
-client posts a perception result for a driving unit PERCEPTION has not answered yet, carrying a
-tight point fix `JUMP_M` to the left of the PILOT's estimate — the PILOT takes it like any fix;
-EDDIE: the same tight point fix sent to the navigator's inbox, as landmark matching sends fixes). A fault whose target the run lacks is recorded as not
-injected, with the reason — never faked.
+`position-jump` moves the position estimate by `JUMP_M` [m] to the left: the simulator's odometry
+slips (a wheel slip or encoder glitch, `wire.drive.OdometrySlip`), so the estimate of either
+architecture, built on that odometry, jumps the same way whatever it does with position fixes (a
+false fix would only test the fix gate both share, which refuses it). A fault whose target the run
+lacks is recorded as not injected, with the reason — never faked.
 """
 
 from __future__ import annotations
@@ -35,13 +35,10 @@ WEDGE_S = 5.0
 #: How far the position jump moves the estimate [m].
 JUMP_M = 2.0
 
-#: How long [s] wall the CODGER jump waits for a driving unit PERCEPTION has not answered yet.
-OPEN_UNIT_WAIT_S = 30.0
-
 #: architecture → fault → the process it hits (None: the architecture has no such part yet).
 TARGETS: dict[str, dict[str, Optional[str]]] = {
-    "codger": {"kill-perception": "perception", "kill-central": "blackboard", "wedge": "pilot", "position-jump": "pilot"},
-    "eddie": {"kill-perception": "road_following", "kill-central": "map_manager", "wedge": "road_following", "position-jump": "navigator"},
+    "codger": {"kill-perception": "perception", "kill-central": "blackboard", "wedge": "pilot", "position-jump": "sim"},
+    "eddie": {"kill-perception": "road_following", "kill-central": "map_manager", "wedge": "road_following", "position-jump": "sim"},
 }
 
 
@@ -102,65 +99,15 @@ async def inject_fault(system, spec: FaultSpec, arch: str) -> FaultEvent:  # noq
             proc.send_signal(signal.SIGCONT)
         return FaultEvent(name=spec.name, target=target, injected=True, at_sim_s=at, restored_sim_s=system.stamps()[1],
                           detail=f"{target} SIGSTOPped for {WEDGE_S:g} s sim, then SIGCONTed")
-    if arch == "eddie":
-        return await _eddie_jump(system, at)
-    # position-jump (CODGER): a fix JUMP_M to the left of the PILOT's estimate, for a driving unit PERCEPTION has not answered yet
-    return await _codger_jump(system, at)
+    return await _jump(system)
 
 
-async def _eddie_jump(system, at: float) -> FaultEvent:  # noqa: ANN001 - the EDDIE system run
-    """Send EDDIE's navigator a tight point fix `JUMP_M` [m] left of its estimate (world), as landmark matching sends fixes."""
-    from eddie.messages.controller import Position, PositionQuery
-    from eddie.messages.navigator import LocalPose, PointFixMessage, WorldFromLocal, WorldFromLocalQuery
-    from eddie.toolkit import Module
+async def _jump(system) -> FaultEvent:  # noqa: ANN001 - SystemRun or EDDIE's system run
+    """Have the simulator's odometry slip `JUMP_M` [m] to the vehicle's left: every estimate on it jumps."""
+    from wire.drive import OdometrySlip, encode
+    from wire.keys import SimKeys
 
-    async with Module("fault_injector", system.net) as m:
-        loop = asyncio.get_running_loop()
-        end = loop.time() + 10.0
-        while True:
-            try:
-                pos = await m.request("controller", "position", PositionQuery(), reply_type=Position, timeout=3.0)
-                wl = await m.request("navigator", "world_from_local", WorldFromLocalQuery(), reply_type=WorldFromLocal, timeout=3.0)
-                break
-            except Exception as exc:  # a fresh session may not see the services yet: ask again until the deadline
-                if loop.time() > end:
-                    return FaultEvent(name="position-jump", injected=False, at_sim_s=at, detail=f"no position to jump from: {exc}")
-                await asyncio.sleep(0.2)
-        c, s = math.cos(wl.yaw), math.sin(wl.yaw)
-        x, y, yaw = wl.x + c * pos.x - s * pos.y, wl.y + s * pos.x + c * pos.y, wl.yaw + pos.yaw
-        fx, fy = x - JUMP_M * math.sin(yaw), y + JUMP_M * math.cos(yaw)
-        await m.send("navigator", PointFixMessage(stamp=pos.stamp, x=fx, y=fy, yaw=yaw, sigma_xy=0.1, sigma_yaw=0.01,
-                                                  local=LocalPose(x=pos.x, y=pos.y, yaw=pos.yaw), source="fault-injector"))
-    return FaultEvent(name="position-jump", target="navigator", injected=True, at_sim_s=pos.stamp, restored_sim_s=None,
-                      detail=f"a fix {JUMP_M:g} m left of the estimate ({x:.2f}, {y:.2f}) sent to the navigator")
-
-
-async def _codger_jump(system, at: float) -> FaultEvent:  # noqa: ANN001 - SystemRun
-    """Post a perception result with a point fix `JUMP_M` [m] left of the PILOT's estimate (world) for the newest open unit."""
-    from blackboard import Spec
-    from modules.vocabulary import PerceptionResult, PointFix, Pose
-
-    bb = system.bb
-    loop = asyncio.get_running_loop()
-    end = loop.time() + OPEN_UNIT_WAIT_S
-    while True:  # the PILOT posts units ahead of the vehicle: wait for one PERCEPTION has not answered yet
-        answered = {t.attrs.unit_id for t in await bb.retrieve(Spec(type="perception_result"))}
-        units = sorted((t for t in await bb.retrieve(Spec(type="driving_unit")) if t.attrs.unit_id not in answered),
-                       key=lambda t: t.stamp)
-        if units:
-            break
-        if loop.time() > end:
-            return FaultEvent(name="position-jump", injected=False, at_sim_s=at,
-                              detail=f"no driving unit was waiting for PERCEPTION within {OPEN_UNIT_WAIT_S:g} s")
-        await asyncio.sleep(0.05)
-    unit = units[-1].attrs
-    est = await bb.lookup_pose(parent="world", child="vehicle", stamp=None)
-    x = est.x - JUMP_M * math.sin(est.yaw)
-    y = est.y + JUMP_M * math.cos(est.yaw)
+    system.link.put(SimKeys(system.ns).slip, encode(OdometrySlip(dy=JUMP_M)))
     now = system.stamps()[1]
-    fix = PointFix(pose=Pose(x=x, y=y, yaw=est.yaw), covariance=(0.01, 0.0, 0.0, 0.0, 0.01, 0.0, 0.0, 0.0, 1e-4))
-    res = PerceptionResult(unit_id=unit.unit_id, segment_id=unit.segment_id, status="perceived", captured_at=now,
-                           sensor="colour", frame="world", fix=fix)
-    await bb.post(res, frame="world", geometry=None, stamp=now)
-    return FaultEvent(name="position-jump", target="pilot", injected=True, at_sim_s=now, restored_sim_s=None,
-                      detail=f"a fix {JUMP_M:g} m left of the estimate ({est.x:.2f}, {est.y:.2f}) posted for unit {unit.unit_id}")
+    return FaultEvent(name="position-jump", target="sim", injected=True, at_sim_s=now, restored_sim_s=None,
+                      detail=f"the odometry slipped {JUMP_M:g} m to the vehicle's left")

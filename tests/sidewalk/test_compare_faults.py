@@ -39,7 +39,7 @@ async def test_kill_wedge_and_jump_each_happen_in_a_run(tmp_path):
     j = by_name["position-jump"]
     est = np.asarray(rec.estimate)
     truth = np.asarray(rec.truth)
-    assert j.target == "pilot"
+    assert j.target == "sim"  # the odometry slipped: the PILOT's estimate, built on it, jumps whatever the fix gate does
     err = np.hypot(est[:, 1] - np.interp(est[:, 0], truth[:, 0], truth[:, 1]), est[:, 2] - np.interp(est[:, 0], truth[:, 0], truth[:, 2]))
     before = err[(est[:, 0] < j.at_sim_s - 1.0) & (est[:, 0] > j.at_sim_s - 6.0)]  # clear of the injection's own stamp
     after = err[(est[:, 0] > j.at_sim_s) & (est[:, 0] < j.at_sim_s + 5.0)]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import os
 import queue
 import signal
@@ -223,3 +224,27 @@ def test_cli_rejects_bad_world_and_flags(tmp_path):
     p = _run_cli(["sim", "serve", "--rtf", "-1", "--listen", f"tcp/127.0.0.1:{free_port()}"])
     out, err = p.communicate(timeout=60)
     assert p.returncode != 0 and "--rtf" in err
+
+
+def test_an_odometry_slip_jumps_the_odometry_to_the_vehicles_left_and_not_the_vehicle(served):
+    # the position-jump fault: the estimate of either architecture is built on this odometry
+    from wire.drive import OdometrySlip
+
+    node, z, k = served
+    odom = Tap(z, k.odom, Odometry)
+    truth = Tap(z, k.truth, TruthPose)
+    before = odom.wait(lambda m: True)
+    true_before = truth.wait(lambda m: m.stamp >= before.stamp)
+    z.put(k.slip, encode(OdometrySlip(dy=2.0)))
+    after = odom.wait(lambda m: abs(m.x - before.x) + abs(m.y - before.y) > 1.0, timeout=10.0)
+    left = (-math.sin(before.yaw), math.cos(before.yaw))
+    moved = ((after.x - before.x), (after.y - before.y))
+    assert abs(moved[0] * left[0] + moved[1] * left[1] - 2.0) < 0.05, (before, after)
+    assert after.distance == pytest.approx(before.distance, abs=0.05)  # a slip is not travel
+    true_after = truth.wait(lambda m: m.stamp >= after.stamp)
+    assert math.hypot(true_after.x - true_before.x, true_after.y - true_before.y) < 0.05  # the vehicle stood still
+    # a bad payload is refused without stopping the node
+    z.put(k.slip, b'{"dy": "far"}')
+    z.put(k.slip, encode(OdometrySlip(dy=-2.0)))
+    back = odom.wait(lambda m: math.hypot(m.x - before.x, m.y - before.y) < 0.1, timeout=10.0)
+    assert back.stamp > after.stamp and node.error is None

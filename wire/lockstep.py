@@ -52,6 +52,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from wire.errors import PayloadError, WireError
 from wire.keys import LockstepKeys
 from wire.session import Query, Reply, Session, gets_in_flight, traffic
+from wire.timemode import LOCKSTEP_ENV, lockstep_enabled, lockstep_env
 
 __all__ = [
     "LOCKSTEP_ENV", "lockstep_enabled", "lockstep_env", "LockstepError", "LockstepPayloadError", "NotReleasedError",
@@ -60,20 +61,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-#: The environment variable that makes a process take part in lock-step ("1") and count instead of timing.
-LOCKSTEP_ENV = "SIDEWALK_LOCKSTEP"
-
-
-def lockstep_enabled() -> bool:
-    """Return whether this process runs in lock-step (`SIDEWALK_LOCKSTEP=1`)."""
-    return os.environ.get(LOCKSTEP_ENV, "") == "1"
-
-
-def lockstep_env(hash_seed: int = 0) -> tuple[tuple[str, str], ...]:
-    """Return the environment a lock-step child process gets: the switch, and a fixed hash seed (set iteration order)."""
-    return ((LOCKSTEP_ENV, "1"), ("PYTHONHASHSEED", str(int(hash_seed))))
-
 
 def participant_name(name: str, pid: int | None = None) -> str:
     """Return the participant name of process `pid` (default: this one) running `name`: `<name>-<pid>`."""
@@ -369,6 +356,7 @@ class Barrier:
         self.busy_limit_s = busy_limit_s
         self.quiet_waves = quiet_waves
         self._lock = threading.Lock()
+        self._changed = threading.Condition(self._lock)
         self._members: set[str] = set()
         self.stats = BarrierStats()
         self._gets_out = 0  # the barrier's own traffic, taken off this process's counters
@@ -380,6 +368,11 @@ class Barrier:
         """Return the participants alive now, sorted."""
         with self._lock:
             return sorted(self._members)
+
+    def wait_members(self, until: Callable[[set[str]], bool], timeout: float) -> bool:
+        """Block until `until(members)` holds (True) or `timeout` [s wall] passed (False)."""
+        with self._changed:
+            return self._changed.wait_for(lambda: until(set(self._members)), timeout)
 
     def close(self) -> None:
         """Stop following liveliness (idempotent; the session stays the caller's)."""
@@ -397,6 +390,7 @@ class Barrier:
                 self._members.discard(name)
                 self.stats.dropped += 1
                 log.info("lockstep: %s is gone (dropped)", name)
+            self._changed.notify_all()
 
     def _own_counters(self) -> tuple[int, int]:
         msgs_out, _bo, msgs_in, _bi = traffic()

@@ -22,7 +22,7 @@ from blackboard.errors import BlackboardError
 from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError, tracker_config_for
 from modules.vocabulary import LocalPathPlan, ObstacleReport
 from wire.keys import root as keys_root
-from wire.lockstep import lockstep_enabled
+from wire.timemode import lockstep_enabled
 from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
 
 __all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys"]

@@ -30,7 +30,7 @@ import shapely.ops
 from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
-from wire.lockstep import lockstep_enabled
+from wire.timemode import lockstep_enabled
 from wire.se2 import wrap_angle
 from modules.pilot.errors import PilotError
 

@@ -35,7 +35,7 @@ from sidewalk.supervisor import ProcessPlan, ProcessStartError, RestartPolicy
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
 from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
-from wire.lockstep import lockstep_env
+from wire.timemode import LOCKSTEP_ENV, lockstep_env
 from wire.ports import free_port
 
 __all__ = [
@@ -48,6 +48,9 @@ RECORD_FILE = "run_record.json"
 
 #: How much sim time [s] before the submission and after the vehicle came to rest the record keeps.
 RECORD_LEAD_S = 1.0
+
+#: Processes a lock-step simulator does not wait for: nothing the run does depends on them (only their hash seed is fixed).
+LOCKSTEP_BYSTANDERS = ("router", "recorder", "monitor")
 
 #: Every module of the Sidewalk system in start order (the consumers before the producers).
 MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
@@ -345,10 +348,13 @@ def lockstep_plans(plans: list[ProcessPlan]) -> list[ProcessPlan]:
 
     The environment (`wire.lockstep.lockstep_env`) makes each module, the blackboard node and each
     EDDIE module a barrier participant, switches their wall-clock caps to counts and fixes
-    PYTHONHASHSEED (the order of sets of strings); the router and the observers get it too (harmless).
+    PYTHONHASHSEED (the order of sets of strings). The router and the observers (recorder, monitor)
+    decide nothing the run depends on: they stay out of the barrier, so the simulator never waits for them.
     """
     env = lockstep_env()
-    return [replace(p, args=(*p.args, "--lockstep") if p.name == "sim" else p.args, env=(*p.env, *env)) for p in plans]
+    bystander = tuple(kv for kv in env if kv[0] != LOCKSTEP_ENV)
+    return [replace(p, args=(*p.args, "--lockstep") if p.name == "sim" else p.args,
+                    env=(*p.env, *(bystander if p.name in LOCKSTEP_BYSTANDERS else env))) for p in plans]
 
 
 def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[str, ...]:

@@ -527,6 +527,11 @@ class BlackboardClient:
         """Return how many monitors this client holds open."""
         return len(self._monitors)
 
+    @property
+    def awaiting_acks(self) -> bool:
+        """Return whether a write batch sent waits for its acknowledgement (a lock-step participant's busy probe)."""
+        return bool(self._inflight)
+
     async def wait_resyncs(self, count: int, *, timeout: float | None = None) -> None:
         """Return once monitors were re-registered `count` times in all; TimeoutError after `timeout` [s] wall."""
         async with asyncio.timeout(timeout):

@@ -52,6 +52,7 @@ from blackboard.frames import FrameTree
 from blackboard.ops import FramesRequest, LookupRequest, MonitorCancel, RetrieveRequest, StatsRequest, parse_monitor
 from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import BlackboardKeys
+from wire.lockstep import Participant, lockstep_enabled, participant_name
 from wire.network import NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry
 from blackboard.store import Store, SyncMode
@@ -178,6 +179,10 @@ class BlackboardNode:
                 lambda key, alive: self._submit(self._client_back if alive else self._client_gone, (key,), False),
                 history=True,  # clients alive before this node started count as alive (their monitors are kept)
             )
+            participant = None
+            if lockstep_enabled():  # the simulator's barrier waits until no request is queued or being applied
+                participant = Participant(s, participant_name("blackboard"))
+                participant.add_probe(lambda: self._lock.locked() or bool(self._inbox) or bool(self._pending))
             s.liveliness_token(k.alive)
             hb = asyncio.create_task(self._heartbeat())
             self.ready.set()
@@ -185,6 +190,8 @@ class BlackboardNode:
                 on_ready()
             await self._stop.wait()
             hb.cancel()
+            if participant is not None:
+                participant.close()
         finally:
             self.close()
 

@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import os
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Literal, Optional
 
@@ -35,11 +35,12 @@ from sidewalk.supervisor import ProcessPlan, ProcessStartError, RestartPolicy
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
 from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
+from wire.timemode import LOCKSTEP_ENV, lockstep_env
 from wire.ports import free_port
 
 __all__ = [
     "RunConfig", "RunSetup", "Progress", "preflight", "prepare_run", "build_plans", "prepare_out", "run_mission",
-    "mission_path", "MODULES", "LaunchError", "RECORD_FILE", "record_run",
+    "mission_path", "MODULES", "LaunchError", "RECORD_FILE", "record_run", "lockstep_plans",
 ]
 
 #: The run record's file name in the output directory.
@@ -47,6 +48,9 @@ RECORD_FILE = "run_record.json"
 
 #: How much sim time [s] before the submission and after the vehicle came to rest the record keeps.
 RECORD_LEAD_S = 1.0
+
+#: Processes a lock-step simulator does not wait for: nothing the run does depends on them (only their hash seed is fixed).
+LOCKSTEP_BYSTANDERS = ("router", "recorder", "monitor")
 
 #: Every module of the Sidewalk system in start order (the consumers before the producers).
 MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
@@ -98,6 +102,13 @@ class RunConfig(BaseModel):
     # ---- end issue 13 ----
     #: issue 14: how the supervisor keeps the modules running (crashed: restarted with back-off; wedged: reported, restarted)
     supervise: RestartPolicy = RestartPolicy()
+    #: lock-step (`wire.lockstep`): the simulator steps only once every process handled its inputs; `rtf` is then unused
+    lockstep: bool = False
+
+    @property
+    def time_mode(self) -> Literal["lockstep", "realtime"]:
+        """Return how sim time advanced: `lockstep` or `realtime` (at `rtf`)."""
+        return "lockstep" if self.lockstep else "realtime"
 
 
 @dataclass
@@ -332,6 +343,20 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
     return plans
 
 
+def lockstep_plans(plans: list[ProcessPlan]) -> list[ProcessPlan]:
+    """Return `plans` run in lock-step: the simulator with `--lockstep`, every process with the lock-step environment.
+
+    The environment (`wire.lockstep.lockstep_env`) makes each module, the blackboard node and each
+    EDDIE module a barrier participant, switches their wall-clock caps to counts and fixes
+    PYTHONHASHSEED (the order of sets of strings). The router and the observers (recorder, monitor)
+    decide nothing the run depends on: they stay out of the barrier, so the simulator never waits for them.
+    """
+    env = lockstep_env()
+    bystander = tuple(kv for kv in env if kv[0] != LOCKSTEP_ENV)
+    return [replace(p, args=(*p.args, "--lockstep") if p.name == "sim" else p.args,
+                    env=(*p.env, *(bystander if p.name in LOCKSTEP_BYSTANDERS else env))) for p in plans]
+
+
 def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[str, ...]:
     """Return the flags that give a road-finding module the run's road method (issue 13; none for the default).
 
@@ -345,6 +370,11 @@ def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[
         return keep
     weights = () if cfg.alvinn_weights is None else ("--alvinn-weights", str(Path(cfg.alvinn_weights).resolve()))
     return ("--road-method", cfg.road_method, *weights, *keep)
+
+
+def _timed(cfg: RunConfig, plans: list[ProcessPlan]) -> list[ProcessPlan]:
+    """Return the plans in the run's time mode (lock-step or real time)."""
+    return lockstep_plans(plans) if cfg.lockstep else plans
 
 
 def prepare_out(out: Path) -> None:
@@ -382,7 +412,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
     return RunRecord(
         architecture=cfg.arch, mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
         perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
-        rtf_requested=cfg.rtf, destinations=setup.destinations, lane_offsets=setup.lane_offsets,
+        rtf_requested=cfg.rtf, time_mode=cfg.time_mode, destinations=setup.destinations, lane_offsets=setup.lane_offsets,
         submitted_wall_s=round(submitted_wall, 6), submitted_sim_s=submitted_sim,
         ended_wall_s=round(ended_wall, 6), ended_sim_s=ended_sim, rest_sim_s=rest,
         stop_reason=stop_reason,
@@ -407,15 +437,15 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
         from sidewalk.eddie_run import EddieSystemRun, compile_annotated_map, eddie_plans
 
         amap = compile_annotated_map(setup, out)
-        system: SystemRun = EddieSystemRun(eddie_plans(
+        system: SystemRun = EddieSystemRun(_timed(cfg, eddie_plans(
             out=out, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
             watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
             map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
             secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
             road_method=road_method_flags(cfg, setup),  # issue 13
-        ), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure)
+        )), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure)
     else:
-        system = SystemRun(build_plans(cfg, setup, ns, endpoint), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)
+        system = SystemRun(_timed(cfg, build_plans(cfg, setup, ns, endpoint)), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)
     progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)
     stop_reason = ""
     gave_up_at: tuple[float, float] | None = None
@@ -435,6 +465,8 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
         system.sup.on_notice = notices.append
         system.guard(cfg.supervise)  # issue 14: crashed modules restarted with back-off, wedged ones reported and restarted
         mission_id = await system.submit(setup.mission_file.read_text())
+        if cfg.lockstep:  # every run's mission starts at the same step: the simulator held at 0 steps on now
+            await system.release_lockstep()
         submitted_wall, submitted_sim = system.submitted[mission_id]
         deadline = time.monotonic() + cfg.max_wall_time_s
         pending = sorted(cfg.faults, key=lambda f: f.at_s)  # issue 10

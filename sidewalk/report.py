@@ -13,7 +13,7 @@ import json
 import math
 from collections import Counter
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Literal, Optional, Sequence
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict
@@ -135,6 +135,8 @@ class RunReport(BaseModel):
     sim_time_s: float
     wall_time_s: float
     rtf_requested: float
+    #: how sim time advanced: `realtime` (at `rtf_requested`) or `lockstep` (the simulator waited for every module)
+    time_mode: Literal["realtime", "lockstep"] = "realtime"
     rtf_achieved: float
     distance_m: float
     steps: list[StepReport]
@@ -349,6 +351,7 @@ def build_report(rec: RunRecord) -> RunReport:
         sim_time_s=round(sim_span, 3),
         wall_time_s=round(wall_span, 3),
         rtf_requested=rec.rtf_requested,
+        time_mode=rec.time_mode,
         rtf_achieved=round((t1 - t0) / wall_span, 3) if wall_span > 0 else 0.0,
         distance_m=round(path_length(truth[:, 1:3]), 3),
         steps=steps,

@@ -122,6 +122,8 @@ class RunRecord(BaseModel):
     pose_error: tuple[float, float] = (0.0, 0.0)
     map_error: Optional[MapErrorSummary] = None
     rtf_requested: float
+    #: how sim time advanced: `realtime` (at `rtf_requested`) or `lockstep` (the simulator waited for every module)
+    time_mode: Literal["realtime", "lockstep"] = "realtime"
     destinations: tuple[Optional[tuple[float, float]], ...]
     #: per step, the lane the mission asked for: the signed offset [m] from the path centre at the
     #: destination, + left of travel (keep right on a 6 m road: −1.5); empty: every step on the centre

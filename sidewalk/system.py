@@ -15,7 +15,8 @@ from blackboard.codec import decode
 from blackboard.replies import NodeStats
 from modules.captain.client import CaptainUnavailableError, MissionClient
 from modules.runtime import ModuleKeys, Link
-from wire.keys import BlackboardKeys
+from wire.keys import BlackboardKeys, SimKeys
+from wire.lockstep import LockstepRelease, NotReleasedError, decode as decode_lockstep
 from wire.network import SecureConfig
 from modules.vocabulary import MissionStatus, RoutePlan
 from sidewalk.recorder import Recorder
@@ -109,6 +110,20 @@ class SystemRun:
                 if loop.time() + 0.2 >= end:
                     raise
                 await asyncio.sleep(0.2)
+
+    async def release_lockstep(self, *, timeout: float = 10.0) -> LockstepRelease:
+        """Let a lock-step simulator held at its start step on; return its answer (sim time [s sim], whether it was held).
+
+        Raise NotReleasedError when the simulator does not answer within `timeout` [s wall], LockstepPayloadError
+        when it answers badly.
+        """
+        assert self.link is not None
+        replies = await self.link.get(SimKeys(self.ns).lockstep_release, timeout=timeout)
+        ok = [r for r in replies if r.ok]
+        if not ok:
+            raise NotReleasedError(f"the simulator did not answer {SimKeys(self.ns).lockstep_release} "
+                                       "(is it running with --lockstep?)")
+        return decode_lockstep(LockstepRelease, ok[0].payload, as_json=ok[0].is_json)
 
     def guard(self, policy: RestartPolicy = RestartPolicy()) -> None:
         """Have the supervisor keep every process but `UNGUARDED` running: crashed ones restarted, wedged ones reported and restarted.

@@ -1,5 +1,16 @@
 """The simulator node: runs a `Simulator` against the wall clock at a real-time factor and serves it over Zenoh.
 
+In lock-step (`NodeConfig.lockstep`, `sidewalk up sim --lockstep`) there is no wall-clock pacing:
+the node publishes sim time 0 and holds there (publishing it again every `HOLD_REPUBLISH_S` [s wall]
+for processes that start late) until released on `sim/lockstep/release` (`sidewalk run` releases
+it once the mission is accepted, so every run starts its mission at the same step); then, at each
+clock publication, it publishes clock, odometry and truth, waits for the barrier
+(`wire.lockstep.Barrier`: every participant has handled what it received, captures asked at that
+sim time included: the capture worker serves them meanwhile), applies the drive commands received
+and steps on. Each publication has two phases, each closed by the barrier: odometry and truth of t,
+then the tick t (a module woken at t reads the state of t, whichever process ran first). Clock,
+odometry and truth are then never dropped under congestion.
+
 Keys under `sidewalk/<ns>/` (see `wire.keys.SimKeys`, docs/keys.md): sim/clock, sim/odom, sim/truth, sim/events
 (published, msgpack), sim/cmd (subscribed: `DriveCommand`, msgpack or JSON), sim/slip (subscribed:
 `OdometrySlip`, the position-jump fault), sim/capture, sim/info,
@@ -24,6 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from wire.keys import SimKeys
 from wire.network import NetworkConfig
 from wire.health import process_usage
+from wire.lockstep import Barrier, LockstepRelease, encode as encode_lockstep
 from wire.session import Query, Session, open_session, traffic
 from wire.drive import DriveCommand, OdometrySlip, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
 from vehicle_sim.actors import ActorSet, load_actors
@@ -35,6 +47,9 @@ from vehicle_sim.worldfile import World
 __all__ = ["SimKeys", "NodeConfig", "SimNode"]  # SimKeys re-exported from wire.keys
 
 log = logging.getLogger("vehicle_sim.node")
+
+#: How often [s wall] a lock-step node held at its start publishes its clock, odometry and truth again.
+HOLD_REPUBLISH_S = 0.2
 
 
 class NodeConfig(BaseModel):
@@ -55,6 +70,10 @@ class NodeConfig(BaseModel):
     start: tuple[float, float, float] | None = None
     #: objects not on the map: an actors file (JSON/YAML) or a preset name (`vehicle_sim.actors`)
     actors: str | None = None
+    #: step only when every lock-step participant handled its inputs (no wall-clock pacing; `rtf` unused)
+    lockstep: bool = False
+    #: lock-step: how long [s wall] a participant may stay silent before it is skipped for a step
+    lockstep_timeout_s: float = Field(default=2.0, gt=0.0)
 
 
 class SimNode:
@@ -97,6 +116,8 @@ class SimNode:
         self._error: BaseException | None = None
         self._hb_seq = 0
         self.captures_served = 0
+        self._released = threading.Event()
+        self.barrier: Barrier | None = None
 
     # ---- lifecycle ---------------------------------------------------------------------------
 
@@ -123,9 +144,10 @@ class SimNode:
         try:
             z.wait_connected(name="sim", cancelled=self._stop.is_set)  # never serve (and say ready) while connected to nothing
             k = self.keys
-            self._pub_clock = z.publisher(k.clock, droppable=True)
-            self._pub_odom = z.publisher(k.odom, droppable=True)
-            self._pub_truth = z.publisher(k.truth, droppable=True)
+            lossy = not self.config.lockstep  # in lock-step a lost tick would change what the modules do
+            self._pub_clock = z.publisher(k.clock, droppable=lossy)
+            self._pub_odom = z.publisher(k.odom, droppable=lossy)
+            self._pub_truth = z.publisher(k.truth, droppable=lossy)
             self._pub_events = z.publisher(k.events)
             self._pub_hb = z.publisher(k.heartbeat, droppable=True)
             self._pub_preview = z.publisher(k.preview, droppable=True)  # monitor/recorder only: may drop, never blocks
@@ -136,6 +158,9 @@ class SimNode:
             z.queryable(k.info, self._on_info)
             z.queryable(k.map, lambda q: self._reply_static(q, self._map_json))
             z.queryable(k.world, lambda q: self._reply_static(q, self._world_json))
+            if self.config.lockstep:
+                self.barrier = Barrier(z, timeout_s=self.config.lockstep_timeout_s)
+                z.queryable(k.lockstep_release, self._on_release)
             for i in range(self.config.capture_workers):
                 t = threading.Thread(target=self._capture_worker, name=f"sim-capture-{i}", daemon=True)
                 t.start()
@@ -162,6 +187,9 @@ class SimNode:
         for t in self._threads:
             t.join(timeout)
         self._threads.clear()
+        if self.barrier is not None:
+            log.info("lock-step barrier: %s", self.barrier.stats.model_dump_json())
+            self.barrier.close()
         if self._session is not None:
             self._session.close()
             self._session = None
@@ -184,6 +212,16 @@ class SimNode:
         with self._lock:
             t, state = self._snapshot
         self._captures.put((q, t, state, truth))
+
+    def _on_release(self, q: Query) -> None:
+        with self._lock:
+            t, _state = self._snapshot
+        was_held = not self._released.is_set()
+        self._released.set()
+        try:
+            q.reply(encode_lockstep(LockstepRelease(sim_time=t, was_held=was_held)))
+        finally:
+            q.finish()
 
     def _on_info(self, q: Query) -> None:
         try:
@@ -263,19 +301,88 @@ class SimNode:
             except CommandRejected:
                 self.commands_rejected += 1  # the simulator logged a "rejected" event
 
+    def _publish_state(self) -> None:
+        """Publish odometry and truth (lock-step: before the tick, see `_step_lockstep`)."""
+        sim = self.sim
+        self._pub_odom.put(encode(sim.odometry()))
+        self._pub_truth.put(encode(sim.truth()))
+
+    def _publish_clock(self) -> None:
+        """Publish the sim clock (lock-step: once what the odometry caused is done)."""
+        self._pub_clock.put(encode(self.sim.clock(self.config.rtf, self.rtf_actual)))
+
     def _publish(self) -> None:
         sim = self.sim
+        if self.config.lockstep:
+            self._publish_state()
+            self._publish_clock()
+            return
         self._pub_clock.put(encode(sim.clock(self.config.rtf, self.rtf_actual)))
         self._pub_odom.put(encode(sim.odometry()))
         self._pub_truth.put(encode(sim.truth()))
 
     def _run_loop(self) -> None:
         try:
-            self._loop()
+            self._loop_lockstep() if self.config.lockstep else self._loop()
         except BaseException as exc:  # noqa: BLE001 - keep the reason for the caller
             self._error = exc
             log.exception("simulator loop failed")
             self._stop.set()
+
+    def _beat(self) -> None:
+        self._hb_seq += 1
+        self._pub_hb.put(encode(SimHeartbeat(seq=self._hb_seq, sim_time=self.sim.t, wall_time=time.time(), period_s=1.0,
+                                             pid=os.getpid(), host=socket.gethostname(),
+                                             usage=process_usage(traffic()))))
+
+    def _account(self, window: deque[tuple[float, float]], now: float, hb_next: float) -> float:
+        """Update the achieved RTF over the last wall second and beat when due at `now` [s perf_counter]; return the next beat."""
+        window.append((now, self.sim.t))
+        while len(window) > 2 and now - window[0][0] > 1.0:
+            window.popleft()
+        if len(window) >= 2 and window[-1][0] > window[0][0]:
+            self.rtf_actual = (window[-1][1] - window[0][1]) / (window[-1][0] - window[0][0])
+        if now >= hb_next:
+            self._beat()
+            return now + 1.0
+        return hb_next
+
+    def _loop_lockstep(self) -> None:
+        """Step as fast as the barrier allows: publish, wait for every participant, take the commands, step."""
+        sim = self.sim
+        barrier = self.barrier
+        assert barrier is not None
+        every = self._publish_every
+        perf = time.perf_counter
+        hb_next = perf()
+        window: deque[tuple[float, float]] = deque()
+        self._publish()
+        while not self._released.wait(HOLD_REPUBLISH_S):  # held at the start: say the time again for late starters
+            if self._stop.is_set():
+                return
+            self._publish()
+            if perf() >= hb_next:
+                self._beat()
+                hb_next = perf() + 1.0
+        while not self._stop.is_set():
+            barrier.wait(sim.steps, sim.t, stop=self._stop)
+            # every command sent in answer to what was published has arrived: apply them all before the step
+            self._drain_commands()
+            t0 = perf()
+            for _ in range(every):
+                for ev in sim.step():
+                    self._pub_events.put(encode(ev))
+            self.step_time_total += perf() - t0
+            with self._lock:
+                self._snapshot = (sim.t, sim.state)
+            # two phases: the state of t (odometry, truth), everything it causes (the HELM's pose of t on the
+            # blackboard, the controller's position), and only then the tick t, so a module woken at t reads the
+            # state of t whichever process ran first
+            self._publish_state()
+            barrier.wait(sim.steps, sim.t, stop=self._stop)
+            self._publish_clock()
+            now = perf()
+            hb_next = self._account(window, now, hb_next)
 
     def _loop(self) -> None:
         sim = self.sim
@@ -311,17 +418,7 @@ class SimNode:
                     self._drain_commands()
             self.step_time_total += perf() - t0
             now = perf()
-            window.append((now, sim.t))
-            while len(window) > 2 and now - window[0][0] > 1.0:
-                window.popleft()
-            if len(window) >= 2 and window[-1][0] > window[0][0]:
-                self.rtf_actual = (window[-1][1] - window[0][1]) / (window[-1][0] - window[0][0])
-            if now >= hb_next:
-                self._hb_seq += 1
-                self._pub_hb.put(encode(SimHeartbeat(seq=self._hb_seq, sim_time=sim.t, wall_time=time.time(), period_s=1.0,
-                                                     pid=os.getpid(), host=socket.gethostname(),
-                                                     usage=process_usage(traffic()))))
-                hb_next = now + 1.0
+            hb_next = self._account(window, now, hb_next)
             next_wall = wall0 + (sim.t + dt - sim0) / rtf
             delay = max(next_wall - perf(), 0.0)
             if delay > 0.0:

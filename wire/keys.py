@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from wire.network import check_chunk
 
-__all__ = ["Keys", "BlackboardKeys", "SimKeys", "MissionKeys", "EddieKeys", "ModuleKeys", "root"]
+__all__ = ["Keys", "BlackboardKeys", "SimKeys", "MissionKeys", "EddieKeys", "ModuleKeys", "LockstepKeys", "root"]
 
 
 def root(ns: str) -> str:
@@ -100,6 +100,8 @@ class SimKeys:
         self.world = f"{base}/world"
         #: published (droppable) on every capture served: `SimPreview` (small JPEGs, no pose, no truth)
         self.preview = f"{base}/preview"
+        #: queryable (lock-step only): let a simulator held at its start step on → `LockstepRelease` (msgpack/JSON)
+        self.lockstep_release = f"{base}/lockstep/release"
         #: liveliness token while the node runs
         self.alive = f"{r}/alive/sim"
         #: heartbeat every wall second
@@ -144,6 +146,23 @@ class EddieKeys:
     def topic(self, module: str, name: str) -> str:
         """Return the key `module` publishes its stream `name` on (pushed to every subscriber)."""
         return f"{self.base}/pub/{check_chunk(module, 'module name')}/{check_chunk(name, 'stream name')}"
+
+
+class LockstepKeys:
+    """The lock-step barrier's keys for one namespace (see `wire.lockstep`)."""
+
+    def __init__(self, ns: str) -> None:
+        self.base = f"{root(ns)}/lockstep"
+        #: liveliness tokens of the participants, one per process: `lockstep/alive/<participant>`
+        self.alive_all = f"{self.base}/alive/*"
+
+    def alive(self, participant: str) -> str:
+        """Return the liveliness key of `participant` (a process taking part in the barrier)."""
+        return f"{self.base}/alive/{check_chunk(participant, 'participant name')}"
+
+    def ask(self, participant: str) -> str:
+        """Return the queryable key on which the barrier asks `participant` whether it handled its inputs."""
+        return f"{self.base}/ask/{check_chunk(participant, 'participant name')}"
 
 
 class ModuleKeys:
@@ -211,6 +230,7 @@ class Keys(ModuleKeys):
         self.sim = SimKeys(ns)
         self.mission = self._mission
         self.eddie = EddieKeys(ns)
+        self.lockstep = LockstepKeys(ns)
 
     def bench(self, name: str) -> str:
         """Return a key of the benchmarks' own traffic (the raw-Zenoh floors)."""

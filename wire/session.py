@@ -30,6 +30,7 @@ from wire.network import NetworkConfig
 
 __all__ = [
     "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "secure_hint", "session_stats", "traffic", "is_json_payload",
+    "gets_in_flight",
 ]
 
 _JSON = zenoh.Encoding.APPLICATION_JSON
@@ -79,6 +80,33 @@ class _Traffic:
 
 
 _traffic = _Traffic()
+
+
+class _InFlight:
+    """Callback gets this process sent whose end (`on_done`) has not been handed over yet (all sessions)."""
+
+    __slots__ = ("lock", "gets")
+
+    def __init__(self) -> None:
+        self.lock = threading.Lock()
+        self.gets = 0
+
+    def add(self, n: int) -> None:
+        with self.lock:
+            self.gets += n
+
+
+_in_flight = _InFlight()
+
+
+def gets_in_flight() -> int:
+    """Return how many callback gets (`Session.get`) of this process still wait for their end.
+
+    A get counts until its `on_done` callback has returned, so whatever that callback handed to a
+    loop is already queued there when the count drops (what the lock-step participant relies on).
+    """
+    with _in_flight.lock:
+        return _in_flight.gets
 
 
 def traffic() -> tuple[int, int, int, int]:
@@ -398,17 +426,29 @@ class Session:
         """Send a query; `on_reply(Reply)` per reply and `on_done()` at the end run on Zenoh threads (timeout wall [s])."""
         self._check()
         _traffic.out(len(payload or b""))
-        self._z.get(
-            selector,
-            zenoh.handlers.Callback(lambda r: on_reply(Reply(r)), on_done, indirect=False),
-            payload=payload,
-            encoding=_JSON if as_json else _MSGPACK,
-            timeout=timeout,
-            target=zenoh.QueryTarget.BEST_MATCHING,
-            consolidation=zenoh.ConsolidationMode.NONE,
-            congestion_control=zenoh.CongestionControl.BLOCK,
-            express=True,
-        )
+
+        def done() -> None:
+            try:
+                on_done()
+            finally:
+                _in_flight.add(-1)
+
+        _in_flight.add(1)
+        try:
+            self._z.get(
+                selector,
+                zenoh.handlers.Callback(lambda r: on_reply(Reply(r)), done, indirect=False),
+                payload=payload,
+                encoding=_JSON if as_json else _MSGPACK,
+                timeout=timeout,
+                target=zenoh.QueryTarget.BEST_MATCHING,
+                consolidation=zenoh.ConsolidationMode.NONE,
+                congestion_control=zenoh.CongestionControl.BLOCK,
+                express=True,
+            )
+        except BaseException:
+            _in_flight.add(-1)
+            raise
 
     def get_blocking(self, selector: str, payload: bytes | None = None, *, as_json: bool = False, timeout: float = 5.0) -> list[Reply]:
         """Send a query and wait for every reply (blocking: never call it in a callback or on a loop)."""

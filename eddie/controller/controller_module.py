@@ -13,6 +13,7 @@ import logging
 
 from wire.drive import DriveMessageError, Odometry, decode, encode
 from wire.keys import SimKeys
+from wire.lockstep import lockstep_enabled
 
 from eddie.controller.integrated_controller import ControllerConfig, IntegratedController
 from eddie.errors import BadMessage, ControlRefused
@@ -44,13 +45,22 @@ class ControllerModule:
         self.core = IntegratedController(cfg)
         self.sim = SimKeys(m.net.namespace)
         self.bad_odometry = 0
+        #: lock-step: the state goes out as the odometry of each control period arrives (the simulator announces
+        #: sim time t only once it was handled), so every module woken at t already holds the controller's pose of t
+        self._state_on_odom = lockstep_enabled()
+        self._next_state: float | None = None  # sim time [s] of the next state published on odometry (None: not started)
 
     def _on_odom(self, _key: str, payload: bytes) -> None:
         try:
-            self.core.odometry(decode(Odometry, payload))
+            od = decode(Odometry, payload)
+            self.core.odometry(od)
         except DriveMessageError as exc:
             self.bad_odometry += 1
             warn_limited(log, "bad-odometry", "controller: bad odometry: %.200s", exc)
+            return
+        if self._next_state is not None and od.stamp >= self._next_state:
+            self.m.publish("state", self.core.state(od.stamp))
+            self._next_state = od.stamp + 1.0 / self.cfg.control_hz - 1e-6
 
     def _now(self) -> float:
         return self.m.now() or 0.0
@@ -120,12 +130,16 @@ class ControllerModule:
         inbox = asyncio.ensure_future(self._inbox())
         m.ready()
         period = 1.0 / self.cfg.control_hz
+        if self._state_on_odom:
+            m.publish("state", self.core.state(m.clock.now()))
+            self._next_state = m.clock.now() + period - 1e-6
         try:
             while True:
                 now = m.clock.now()
                 cmd = self.core.tick(now)
                 m.link.put(self.sim.cmd, encode(cmd))
-                m.publish("state", self.core.state(now))
+                if not self._state_on_odom:
+                    m.publish("state", self.core.state(now))
                 self._flush()
                 await m.clock.sleep(period)
         finally:

@@ -11,12 +11,13 @@ from __future__ import annotations
 import asyncio
 import logging
 
-from eddie.errors import BadMessage
-from eddie.messages.controller import ControllerState
+from eddie.errors import BadMessage, EddieError
+from eddie.messages.controller import ControllerState, Position, PositionQuery
 from eddie.messages.navigator import LineFixMessage, PointFixMessage, WorldFromLocal, WorldFromLocalQuery
 from eddie.navigator.navigator import Navigator
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Incoming, Module
+from wire.lockstep import lockstep_enabled
 from wire.ratelimit import warn_limited
 
 __all__ = ["NavigatorModule", "DELIVERY_MODES"]
@@ -69,6 +70,8 @@ class NavigatorModule:
         m.subscribe(self.controller, "state", ControllerState, self._on_state)
         if "request" in self.deliver:
             m.serve("world_from_local", self._answer)
+        if lockstep_enabled():
+            await self._first_position()
         await self._started.wait()
         m.ready()
         republish = asyncio.ensure_future(self._republish())
@@ -91,6 +94,22 @@ class NavigatorModule:
                 self._push()
         finally:
             republish.cancel()
+
+    async def _first_position(self) -> None:
+        """Lock-step: take the first local pose from the controller's position service.
+
+        The simulator holds sim time until the mission is accepted, so the controller's state stream
+        (one message per control period of sim time) may have gone out before this module subscribed.
+        """
+        while not self._started.is_set():
+            try:
+                pos = await self.m.request(self.controller, "position", PositionQuery(), reply_type=Position)
+            except EddieError as exc:  # not up yet, or no odometry yet: ask again
+                warn_limited(log, "first-position", "navigator: waiting for the controller's position: %.200s", exc)
+                await asyncio.sleep(0.1)  # wall time: start-up only, sim time stands still meanwhile
+                continue
+            if not self.nav.started:
+                self._on_state(ControllerState(stamp=pos.stamp, x=pos.x, y=pos.y, yaw=pos.yaw, v=pos.v, curvature=0.0))
 
     async def _republish(self) -> None:
         while True:

@@ -23,6 +23,7 @@ from wire.aio import Link, QueryAnswer, QueryRequest
 from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import EddieKeys, ModuleKeys
 from wire.network import NetworkConfig, check_chunk
+from wire.lockstep import Participant, lockstep_enabled, participant_name
 from wire.session import session_stats, traffic
 
 from eddie.errors import BadMessage, LinkError, LinkTimeout, NoSuchModule, ServiceError
@@ -69,6 +70,7 @@ class Module:
         self._host = socket.gethostname()
         #: inbox messages dropped because the inbox was full
         self.dropped = 0
+        self._participant: Participant | None = None
 
     # ---- lifecycle -----------------------------------------------------------------------
 
@@ -77,6 +79,8 @@ class Module:
         try:
             self.link.subscribe(self.keys.inbox(self.name), self._on_inbox)
             self.link.subscribe(self.module_keys.sim_clock, self._on_clock)
+            if lockstep_enabled():  # the simulator's barrier waits for this module's loop (wire.lockstep)
+                self._participant = Participant(self.link.session, participant_name(self.name))
             self._beat()
             self._hb_task = asyncio.get_running_loop().create_task(self._heartbeat_loop())
         except BaseException:
@@ -92,6 +96,9 @@ class Module:
         if self._hb_task is not None:
             self._hb_task.cancel()
             self._hb_task = None
+        if self._participant is not None:
+            self._participant.close()
+            self._participant = None
         if self.link is not None and not self.link.closed:
             try:
                 self._beat("stopping")

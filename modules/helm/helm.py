@@ -22,6 +22,7 @@ from blackboard.errors import BlackboardError
 from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError, tracker_config_for
 from modules.vocabulary import LocalPathPlan, ObstacleReport
 from wire.keys import root as keys_root
+from wire.timemode import lockstep_enabled
 from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
 
 __all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys"]
@@ -91,6 +92,10 @@ class Helm:
         self.obstacle: ObstacleReport | None = None
         self.obstacle_stops = 0
         self._held = False
+        self._pose_task: asyncio.Task | None = None
+        #: lock-step: post each pose as its odometry arrives (the simulator announces sim time t only once the
+        #: pose of t is on the blackboard), not when the control loop wakes at t beside the modules reading it
+        self._pose_on_odom = lockstep_enabled()
 
     def _on_odom(self, _key: str, payload: bytes) -> None:
         try:
@@ -102,6 +107,14 @@ class Helm:
         if self.odom is None or od.stamp >= self.odom.stamp:
             self.odom = od
             self._odom_event.set()
+            if self._pose_on_odom and self.rt.is_ready:
+                self._maybe_post_pose(od)
+
+    def _maybe_post_pose(self, od: Odometry) -> None:
+        """Post `od` as the moving vehicle position when a pose period passed and the previous post is done."""
+        if od.stamp - self._last_pose_stamp >= 1.0 / self.cfg.pose_hz - 1e-6 and (self._pose_task is None or self._pose_task.done()):
+            self._last_pose_stamp = od.stamp
+            self._pose_task = asyncio.ensure_future(self._post_pose(od))
 
     def take_plan(self, plan: LocalPathPlan) -> bool:
         """Replace the plan being tracked with `plan` (frame local); return False if unusable."""
@@ -188,9 +201,7 @@ class Helm:
             log.warning("helm: cannot read the newest plan: %s", exc)
         rt.ready()
         period = 1.0 / self.cfg.control_hz
-        pose_period = 1.0 / self.cfg.pose_hz
         last_t = rt.clock.now()
-        pose_task: asyncio.Task | None = None
         try:
             while not rt.stopping:
                 od = self.odom
@@ -207,15 +218,14 @@ class Helm:
                     self._send(cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon)
                 # The pose goes out without holding up control: the drive command never waits for the
                 # blackboard's acknowledgement (at a high RTF the watchdog would stop the vehicle).
-                if od.stamp - self._last_pose_stamp >= pose_period - 1e-6 and (pose_task is None or pose_task.done()):
-                    self._last_pose_stamp = od.stamp
-                    pose_task = asyncio.ensure_future(self._post_pose(od))
+                if not self._pose_on_odom:
+                    self._maybe_post_pose(od)
                 await rt.clock.sleep(period)
         finally:
             plan_task.cancel()
             obstacle_task.cancel()
-            if pose_task is not None:
-                pose_task.cancel()
+            if self._pose_task is not None:
+                self._pose_task.cancel()
             try:
                 self._send(0.0, 0.0)
             except Exception as exc:  # the session may already be closing

@@ -8,7 +8,9 @@ turning radius: the Navlab, 7 m), `reeds_shepp` (forward and reverse, minimum tu
 The validity checker accepts a state when its position lies inside the given region (the
 DRIVING UNIT NAVIGATOR has already shrunk it by the safety margin). Sampling is reproducible: the
 OMPL RNG is seeded once per process (`seed_ompl`) and planners stop on an iteration count, not on
-wall-clock time (a wall-clock cap exists only as a safety net).
+wall-clock time (a wall-clock cap exists only as a safety net, and is off in lock-step, where the
+simulator waits for the planner: there a search ends on its count alone, so the same inputs give
+the same path however loaded the machine is).
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ import shapely.ops
 from shapely.geometry import LineString, Point
 from shapely.geometry.base import BaseGeometry
 
+from wire.timemode import lockstep_enabled
 from wire.se2 import wrap_angle
 from modules.pilot.errors import PilotError
 
@@ -60,7 +63,7 @@ class PlannerConfig(BaseModel):
     step: float = Field(0.25, gt=0.0, description="spacing of output poses along the path [m]")
     goal_tolerance: float = Field(0.3, gt=0.0, description="goal reached within this state distance [m]")
     max_iterations: int = Field(20000, gt=0, description="planner iterations per leg before giving up")
-    max_wall_s: float = Field(5.0, gt=0.0, description="wall-clock safety cap per leg [s]")
+    max_wall_s: float = Field(5.0, gt=0.0, description="wall-clock safety cap per leg [s] (off in lock-step)")
     check_resolution: float = Field(0.05, gt=0.0, description="motion check resolution [m]")
     start_slack: float = Field(1.0, ge=0.0, description="the start's neighbourhood of this radius is valid [m]")
     bounds_pad: float = Field(10.0, ge=0.0, description="padding of the sampling box around region and poses [m]")
@@ -228,7 +231,7 @@ class LocalPathPlanner:
         planner.setProblemDefinition(pdef)
         planner.setup()
         count = [0]
-        t_end = time.monotonic() + self.cfg.max_wall_s
+        t_end = math.inf if lockstep_enabled() else time.monotonic() + self.cfg.max_wall_s
 
         def stop() -> bool:
             count[0] += 1

@@ -14,6 +14,7 @@ from typing import Any, Awaitable, Callable, TextIO
 from wire.network import NetworkConfig
 from wire.aio import Link
 from wire.health import process_usage
+from wire.lockstep import Participant, lockstep_enabled, participant_name
 from wire.session import session_stats, traffic
 from modules.runtime.clock import SimClock
 from modules.runtime.heartbeat import ClockPayloadError, decode_clock, encode_heartbeat
@@ -128,10 +129,12 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
     Opens the Zenoh session, subscribes to the sim clock, publishes heartbeats every
     `heartbeat_period` wall seconds [s], connects the blackboard client (waiting up to
     `connect_timeout` [s] for the node), and closes everything explicitly on the way out.
+    In lock-step (`wire.lockstep`), the module takes part in the simulator's barrier.
     """
     loop = asyncio.get_running_loop()
     link = Link.open(net)
     rt = ModuleRuntime(name, net, link, heartbeat_period=heartbeat_period, stdout=stdout)
+    participant = Participant(link.session, participant_name(name)) if lockstep_enabled() else None
     hb_task: asyncio.Task[None] | None = None
     main_task: asyncio.Task[None] | None = None
     stop_task: asyncio.Task[bool] | None = None
@@ -153,6 +156,8 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
             await asyncio.to_thread(link.session.wait_connected, None, name=name, cancelled=rt.stop_event.is_set)
             if use_blackboard:
                 rt.bb = await _connect_blackboard(rt, connect_timeout)
+                if participant is not None:
+                    participant.add_probe(lambda: rt.bb.awaiting_acks)
             await main(rt)
 
         main_task = loop.create_task(body())
@@ -197,6 +202,8 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
                 await rt.bb.close()
             except Exception as exc:
                 log.warning("%s: closing the blackboard client failed: %s", name, exc)
+        if participant is not None:
+            participant.close()
         link.close()
     return code
 

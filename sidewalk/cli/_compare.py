@@ -36,7 +36,8 @@ def compare(
     missions: Annotated[str, typer.Option(help="Missions (comma-separated names or files)")] = "campus-tour,amv-delivery",
     worlds: Annotated[Optional[str], typer.Option(help="Only missions on these worlds (comma-separated; default: each mission's own)")] = None,
     seeds: Annotated[int, typer.Option(help="Seeds 0..N-1: each runs on every architecture")] = 3,
-    rtf: Annotated[float, typer.Option(help="Real-time factor of every run")] = 8.0,
+    rtf: Annotated[float, typer.Option(help="Real-time factor of every run (with --realtime)")] = 8.0,
+    lockstep: Annotated[bool, typer.Option("--lockstep/--realtime", help="Lock-step (default: the simulator waits for every module; the same command gives the same table) or real time at --rtf (latency under load is measured)")] = True,
     arch: Annotated[str, typer.Option("--arch", help="Architectures to compare (those `sidewalk run` offers are run)")] = "codger,eddie",
     faults: Annotated[Optional[str], typer.Option(help="Faults: kill-perception,position-jump,kill-central,wedge")] = None,
     speed_sweep: Annotated[Optional[str], typer.Option("--speed-sweep", help="Speed caps (m/s) to sweep, e.g. 1.0,2.0,3.0")] = None,
@@ -82,7 +83,7 @@ def compare(
     available, arch_flag = available_architectures()
     cfg = CompareConfig(missions=mission_list, seeds=tuple(range(seeds)), rtf=rtf, architectures=archs, faults=fault_list,
                         speeds=_speeds(speed_sweep) if speed_sweep else (), out=out, jobs=jobs, arch_flag=arch_flag,
-                        max_wall_time_s=max_wall_time, resume=resume)
+                        max_wall_time_s=max_wall_time, resume=resume, lockstep=lockstep)
     skipped = [a for a in archs if a not in available]
     if skipped:
         console.print(f"[yellow]not available in `sidewalk run`: {', '.join(skipped)} — compared without it[/yellow]")

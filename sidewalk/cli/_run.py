@@ -102,6 +102,7 @@ def run(
     # ---- issue 13: road following as the Navlab did it ----
     road_method: Annotated[str, typer.Option("--road-method", help="How the road is found: perception (colored-range segmentation), scarf, yarf or alvinn — PERCEPTION's method (codger), vision road following's (eddie)")] = "perception",
     alvinn_weights: Annotated[Optional[Path], typer.Option("--alvinn-weights", help="ALVINN's weights (.npz from `sidewalk roadfollow train`), needed with --road-method alvinn")] = None,
+    lockstep: Annotated[bool, typer.Option("--lockstep/--realtime", help="Lock-step: the simulator steps only once every module handled its inputs (reproducible; --rtf unused), or real time at --rtf (latency under load is part of the result)")] = False,
 ) -> None:
     """Run a mission as OS processes on loopback Zenoh (CODGER: blackboard and modules; --arch eddie: EDDIE, no blackboard); writes run.mcap."""
     from rich.console import Console
@@ -140,7 +141,8 @@ def run(
                         record=not no_record, monitor_port=monitor_port if monitor else None,  # issue 11
                         secure=secure, actors=actors, obstacles=obstacles, map_file=map_file,  # issue 12
                         faults=fault_specs, max_speed=max_speed,  # issue 10
-                        road_method=road_method, alvinn_weights=alvinn_weights)  # issue 13
+                        road_method=road_method, alvinn_weights=alvinn_weights,  # issue 13
+                        lockstep=lockstep)
     except ValidationError as exc:
         e = exc.errors()[0]
         field = str(e["loc"][0])

@@ -35,6 +35,7 @@ def serve(
     watchdog: Annotated[float, typer.Option("--watchdog", help="Stop the vehicle after this many sim seconds without commands")] = 0.5,
     start: Annotated[str, typer.Option("--start", help="Start pose X,Y,YAW: world frame [m, m, deg CCW from +x] (default: the world's start)")] = "",
     actors: Annotated[str, typer.Option("--actors", help="Objects not on the map: an actors file (JSON/YAML) or a preset name")] = "",
+    lockstep: Annotated[bool, typer.Option("--lockstep", help="Lock-step: hold at sim time 0 until released on sim/lockstep/release, then step only once every process started with SIDEWALK_LOCKSTEP=1 handled its inputs (no wall-clock pacing; --rtf unused)")] = False,
 ) -> None:
     """Serve the simulator over Zenoh until SIGINT/SIGTERM; prints a "ready" line once serving."""
     from pydantic import ValidationError
@@ -48,7 +49,7 @@ def serve(
     try:
         cfg = NodeConfig(vehicle=vehicle, rtf=rtf, seed=seed, physics_hz=physics_hz, publish_hz=publish_hz,  # type: ignore[arg-type]
                          watchdog_timeout=watchdog, map_error=map_error, start=start_pose,
-                         actors=actors or None)
+                         actors=actors or None, lockstep=lockstep)
     except ValidationError as exc:
         msgs = "; ".join(f"--{str(e['loc'][0]).replace('_', '-')}: {e['msg']}" for e in exc.errors())
         raise typer.BadParameter(msgs) from None
@@ -77,7 +78,7 @@ def serve(
         except WireError as exc:
             typer.echo(f"error: {exc}", err=True)
             raise typer.Exit(3) from None
-        typer.echo(f"ready sim world={w.name} vehicle={vehicle} rtf={rtf:g} ns={net.namespace} keys={node.keys.base}/**")
+        typer.echo(f"ready sim world={w.name} vehicle={vehicle} {'lockstep' if lockstep else f'rtf={rtf:g}'} ns={net.namespace} keys={node.keys.base}/**")
         sys.stdout.flush()
         while not stop.is_set() and not node.wait(0.1):
             pass

@@ -55,6 +55,8 @@ class CompareConfig(BaseModel):
     arch_flag: bool = False
     max_wall_time_s: float = Field(default=900.0, gt=0.0)
     resume: bool = False
+    #: every run in lock-step (reproducible; `rtf` unused) or, False, in real time at `rtf` (latency under load measured)
+    lockstep: bool = True
 
 
 class RunEntry(BaseModel):
@@ -103,6 +105,8 @@ class Comparison(BaseModel):
     highest_speed: dict[str, Optional[float]] = {}
     glue: list[GlueCount] = []
     wall_time_s: float = 0.0
+    #: how sim time advanced in every run: `lockstep` or `realtime`
+    time_mode: str = "realtime"
 
 
 def _entry(res: GridResult) -> RunEntry:
@@ -149,7 +153,7 @@ def _cells(cfg: CompareConfig, archs: Sequence[str], seeds: Sequence[int], *, ta
         for s in seeds:
             for a in archs:
                 budget = {"max_wall_time_s": cfg.max_wall_time_s, **_budgets(measured, a, m, cfg)}
-                out.append(GridRun(architecture=a, mission=m, world=mission_world(m), seed=s, rtf=cfg.rtf, fault=fault,
+                out.append(GridRun(architecture=a, mission=m, world=mission_world(m), seed=s, rtf=cfg.rtf, fault=fault, lockstep=cfg.lockstep,
                                    max_speed=speed, out=cfg.out / "runs" / a / m / f"seed{s}{tag}", **budget))
     return out
 
@@ -222,5 +226,5 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
         per_mission=[s for m in cfg.missions for s in summarise(measured, mission=m)],
         faults=outcomes, speed_sweep=sweep, highest_speed=highest,
         glue=[count_glue(SOURCE_ROOT, a) for a in ("codger", "eddie")],
-        wall_time_s=round(time.monotonic() - t0, 1),
+        wall_time_s=round(time.monotonic() - t0, 1), time_mode="lockstep" if cfg.lockstep else "realtime",
     )

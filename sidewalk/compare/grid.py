@@ -41,6 +41,8 @@ class GridRun(BaseModel):
     max_speed: Optional[float] = None
     max_wall_time_s: float = 900.0
     max_sim_time_s: Optional[float] = None
+    #: run in lock-step (`sidewalk run --lockstep`) rather than in real time at `rtf`
+    lockstep: bool = False
 
     @property
     def label(self) -> str:
@@ -62,6 +64,8 @@ class GridRun(BaseModel):
             args += ["--fault", self.fault.flag()]
         if self.max_speed is not None:
             args += ["--max-speed", f"{self.max_speed:g}"]
+        if self.lockstep:
+            args += ["--lockstep"]
         return args
 
 
@@ -92,6 +96,7 @@ def _finished(run: GridRun) -> Optional[int]:
         return None
     same = (rep.get("architecture") == run.architecture and rep.get("mission") == Path(run.mission).stem
             and rep.get("seed") == run.seed and rep.get("max_speed") == run.max_speed
+            and rep.get("time_mode", "realtime") == ("lockstep" if run.lockstep else "realtime")
             and [f.get("name") for f in rep.get("faults", [])] == ([run.fault.name] if run.fault else []))
     return (0 if rep.get("success") else 1) if same else None
 

@@ -49,7 +49,9 @@ def render_markdown(c: Comparison, command: str = "") -> str:
     if command:
         out += [f"Command: `{command}` — {c.wall_time_s:.0f} s wall.", ""]
     missing = [a for a in c.requested if a not in c.available]
-    out += [f"Missions: {', '.join(cfg.missions)}; seeds {', '.join(map(str, cfg.seeds))}; RTF {cfg.rtf:g}.",
+    timing = ("lock-step (the simulator waits for every module; `--realtime` for real time)" if c.time_mode == "lockstep"
+              else f"real time at RTF {cfg.rtf:g}")
+    out += [f"Missions: {', '.join(cfg.missions)}; seeds {', '.join(map(str, cfg.seeds))}; {timing}.",
             f"Architectures run: **{', '.join(archs) or 'none'}** (available to `sidewalk run`: {', '.join(c.available)})."]
     if missing:
         out.append(f"Not run: {', '.join(missing)} — `sidewalk run --help` does not offer it on this build; no rows are shown for it.")

@@ -98,3 +98,17 @@ def test_a_step_keeping_to_a_side_is_judged_in_its_lane(tmp_path):
     node = world.place("mailbox")
     width = max(e.width for e in world.edges if node.id in (e.from_node, e.to_node))
     assert setup.lane_offsets == pytest.approx((-width / 4.0, width / 4.0, 0.0))
+
+
+def test_lockstep_plans_give_the_simulator_its_flag_and_the_deciders_the_switch(tmp_path):
+    from sidewalk.launcher import LOCKSTEP_BYSTANDERS, lockstep_plans
+    from wire.timemode import LOCKSTEP_ENV
+
+    cfg = RunConfig(mission="campus-tour", out=tmp_path, lockstep=True)
+    assert cfg.time_mode == "lockstep" and RunConfig().time_mode == "realtime"
+    plans = lockstep_plans(build_plans(cfg, prepare_run(cfg), "ns", "tcp/127.0.0.1:7447"))
+    assert "--lockstep" in _args(plans, "sim") and "--lockstep" not in _args(plans, "pilot")
+    for p in plans:
+        env = dict(p.env)
+        assert env["PYTHONHASHSEED"] == "0", p.name  # the same set iteration order in every process, every run
+        assert (env.get(LOCKSTEP_ENV) == "1") == (p.name not in LOCKSTEP_BYSTANDERS), p.name

@@ -1,0 +1,141 @@
+"""The lock-step barrier against real participant processes on loopback Zenoh (multicast off).
+
+Each test starts participants (`tests.wire.lockstep_participant`) connected to this process's router
+session and holds the simulator's side, a `Barrier`, here. Synchronised on READY lines, liveliness
+and the barrier itself; a test never sleeps.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+
+import pytest
+
+from tests._procs import wait_stopped
+from wire.lockstep import Barrier, BarrierAsk, ParticipantReport, decode, encode
+from wire.network import NetworkConfig
+from wire.ports import free_port
+from wire.session import Session, open_session
+
+NS = "lockstep_test"
+
+
+class Net:
+    """This process's router session, the barrier on it, and the participant processes started."""
+
+    def __init__(self) -> None:
+        self.endpoint = f"tcp/127.0.0.1:{free_port()}"
+        self.session: Session = open_session(NetworkConfig(namespace=NS, mode="router", listen=(self.endpoint,)))
+        self.procs: list[subprocess.Popen] = []
+        self.barrier = Barrier(self.session, timeout_s=0.5, busy_limit_s=10.0)
+
+    def start(self, name: str, *extra: str) -> tuple[subprocess.Popen, str]:
+        """Start participant `name`; return its process and participant name once it is a barrier member."""
+        p = subprocess.Popen([sys.executable, "-m", "tests.wire.lockstep_participant", name, self.endpoint, NS, *extra],
+                             stdout=subprocess.PIPE, text=True)
+        self.procs.append(p)
+        line = p.stdout.readline().split()  # blocks until READY (the test's timeout bounds it)
+        assert line[:1] == ["READY"], f"participant {name} did not start: {line}"
+        pname = line[1]
+        assert self.barrier.wait_members(lambda m: pname in m, 10.0), f"{pname} never became a barrier member"
+        return p, pname
+
+    def done_event(self, name: str) -> threading.Event:
+        """Return an event set when participant `name` says its handler finished."""
+        ev = threading.Event()
+        self.session.subscribe_payload(f"sidewalk/{NS}/test/done/{name}", lambda *_: ev.set())
+        return ev
+
+    def go(self, name: str) -> None:
+        """Start participant `name`'s handler."""
+        self.session.put(f"sidewalk/{NS}/test/go/{name}", b"x")
+
+    def close(self) -> None:
+        for p in self.procs:
+            if p.poll() is None:
+                os.kill(p.pid, signal.SIGCONT)
+                p.terminate()
+        for p in self.procs:
+            try:
+                p.wait(10.0)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        self.barrier.close()
+        self.session.close()
+
+
+@pytest.fixture
+def net() -> Iterator[Net]:
+    n = Net()
+    try:
+        yield n
+    finally:
+        n.close()
+
+
+def test_payloads_round_trip_and_bad_ones_are_typed() -> None:
+    from wire.lockstep import LockstepPayloadError
+
+    ask = BarrierAsk(step=3, wave=1, sim_time=0.15)
+    assert decode(BarrierAsk, encode(ask)) == ask
+    assert decode(BarrierAsk, ask.model_dump_json().encode(), as_json=True) == ask
+    with pytest.raises(LockstepPayloadError):
+        decode(ParticipantReport, b"\x93\x01\x02")
+    with pytest.raises(ValueError):
+        Barrier.__init__(object.__new__(Barrier), None, quiet_waves=1)  # type: ignore[arg-type]
+
+
+@pytest.mark.timeout(60)
+def test_a_participant_busy_with_a_handler_holds_the_barrier(net: Net) -> None:
+    net.start("a", "--work", "0.4")
+    done = net.done_event("a")
+    net.go("a")
+    res = net.barrier.wait(1, 0.05)
+    # the handler's worker-thread job, and the put it ends with, were waited for
+    assert done.is_set(), f"the barrier returned before the handler finished: {res}"
+    assert res.skipped == () and res.waves >= 2
+
+
+@pytest.mark.timeout(60)
+def test_a_message_in_flight_between_two_participants_holds_the_barrier(net: Net) -> None:
+    net.start("b", "--work", "0.3")
+    net.start("a", "--work", "0.3", "--forward", "b")
+    done = net.done_event("b")
+    net.go("a")
+    res = net.barrier.wait(1, 0.05)
+    # a's job, a → b, b's job, b → here: all before the barrier let the step go
+    assert done.is_set(), f"the barrier returned with a message still between participants: {res}"
+    assert res.skipped == () and len(res.participants) == 2
+
+
+@pytest.mark.timeout(60)
+def test_a_dead_participant_is_dropped(net: Net) -> None:
+    net.start("a", "--work", "0.1")
+    p, pname = net.start("c")
+    p.kill()
+    p.wait()
+    assert net.barrier.wait_members(lambda m: pname not in m, 15.0), "the killed participant's token never went"
+    res = net.barrier.wait(1, 0.05)
+    assert res.skipped == () and pname not in res.participants and len(res.participants) == 1
+    assert net.barrier.stats.dropped >= 1
+
+
+@pytest.mark.timeout(60)
+def test_a_stopped_participant_is_skipped_after_the_time_out(net: Net) -> None:
+    net.start("a", "--work", "0.1")
+    p, pname = net.start("d")
+    os.kill(p.pid, signal.SIGSTOP)
+    wait_stopped(p.pid)
+    res = net.barrier.wait(1, 0.05)
+    assert res.skipped == (pname,), res
+    assert net.barrier.stats.skips == 1
+    assert res.wall_s < 10 * net.barrier.timeout_s  # skipped for the rest of the step, not asked again each wave
+    os.kill(p.pid, signal.SIGCONT)
+    res = net.barrier.wait(2, 0.10)
+    assert res.skipped == () and pname in res.participants

@@ -1,0 +1,464 @@
+"""Lock-step: the simulator steps on only once every process has handled what it received.
+
+Two sides, over the process's one Zenoh session:
+
+- a **participant** (`Participant`) in every process whose behaviour depends on sim time (each
+  CODGER module through `ModuleRuntime`, the blackboard node, each EDDIE module) serves
+  `sidewalk/<ns>/lockstep/ask/<name>` and declares the liveliness token `lockstep/alive/<name>`
+  (`<name>` = module name and pid, so a restarted module is a new participant). Asked, it answers
+  on its asyncio loop only once that loop is quiescent: no callback ready to run, no job of the
+  loop's default executor in flight (`asyncio.to_thread`, e.g. EDDIE's planning worker), no get
+  of the process still waiting for its replies (`wire.session.gets_in_flight`, e.g. a capture the
+  simulator still renders), and every busy probe the process added false (the blackboard node's
+  inline dispatch, a blackboard client's unacknowledged writes). Its answer (`ParticipantReport`)
+  carries the process's Zenoh message counters, received and sent, without the barrier's own
+  traffic. A participant still busy after `busy_reply_s` [s wall] answers `busy=True` instead, so
+  the barrier can tell a long job (it waits) from a silent process (it skips it).
+- the **barrier** (`Barrier`), in the simulator node: after each clock publication it asks every
+  participant it knows by liveliness, in waves, until two waves in a row find everyone idle with
+  the same counters, the simulator's own included (a message sent but not yet received changes a
+  receiver's counter between the waves, so the barrier waits for it). A participant whose token
+  went is dropped at once (a killed process); one that does not answer within `timeout_s` [s wall]
+  (SIGSTOPped, a wedged loop) or stays busy for `busy_limit_s` [s wall] is skipped for the rest of
+  that step and counted (`BarrierStats.skips`), so faults never hang a run.
+
+Residual hazard (documented, not closed): counters cannot see a put that is still in flight across
+two whole waves (its sender counted it in both, its receiver in neither). On loopback a put takes
+tens of microseconds and a wave a round trip plus each participant's turn of its loop, so a put
+would have to stall for longer than a wave; gets are exact (counted until their end).
+
+Processes take part when `SIDEWALK_LOCKSTEP=1` is in their environment (`lockstep_enabled()`;
+`sidewalk run --lockstep` sets it for every child, with PYTHONHASHSEED fixed); the same variable
+switches their wall-clock decisions to counts (e.g. the planners' wall-time caps). Without it
+nothing here is created and real-time behaviour is unchanged.
+
+Zenoh rules: callbacks only hand over (`call_soon_threadsafe`, an Event); replies are sent from the
+loop (participant) or collected by callbacks (barrier); every declaration is undeclared by `close()`.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import logging
+import os
+import threading
+import time
+from typing import Any, Callable
+
+import msgpack
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from wire.errors import PayloadError, WireError
+from wire.keys import LockstepKeys
+from wire.session import Query, Reply, Session, gets_in_flight, traffic
+from wire.timemode import LOCKSTEP_ENV, lockstep_enabled, lockstep_env
+
+__all__ = [
+    "LOCKSTEP_ENV", "lockstep_enabled", "lockstep_env", "LockstepError", "LockstepPayloadError", "NotReleasedError",
+    "BarrierAsk", "ParticipantReport", "BarrierResult", "BarrierStats", "LockstepRelease",
+    "Participant", "Barrier", "participant_name", "encode", "decode",
+]
+
+log = logging.getLogger(__name__)
+
+def participant_name(name: str, pid: int | None = None) -> str:
+    """Return the participant name of process `pid` (default: this one) running `name`: `<name>-<pid>`."""
+    return f"{name}-{os.getpid() if pid is None else pid}"
+
+
+class LockstepError(WireError):
+    """Root of the lock-step errors."""
+
+    code = "lockstep"
+
+
+class LockstepPayloadError(LockstepError, PayloadError):
+    """A barrier payload that does not decode (the message says which and why)."""
+
+    code = "bad_request"
+
+
+class NotReleasedError(LockstepError):
+    """Nothing answered a release: no lock-step simulator runs in the namespace (the message names the key)."""
+
+    code = "not_released"
+
+
+_FROZEN = ConfigDict(frozen=True, extra="forbid")
+
+
+class BarrierAsk(BaseModel):
+    """What the barrier asks: the step it waits for, the wave, and the sim time [s sim] just published."""
+
+    model_config = _FROZEN
+
+    step: int = Field(ge=0)
+    wave: int = Field(ge=0)
+    sim_time: float
+
+
+class ParticipantReport(BaseModel):
+    """A participant's answer: idle or still busy, and its Zenoh counters without the barrier's traffic.
+
+    `received`/`sent` count messages (samples, queries, replies) since the process started;
+    `waited_s` [s wall] is how long it held the answer back while busy.
+    """
+
+    model_config = _FROZEN
+
+    name: str
+    step: int
+    wave: int
+    busy: bool
+    received: int = Field(ge=0)
+    sent: int = Field(ge=0)
+    waited_s: float = Field(ge=0.0)
+
+
+class BarrierResult(BaseModel):
+    """One barrier: the step, its waves, who answered, who was skipped (silent or busy too long), its wall time [s wall]."""
+
+    model_config = _FROZEN
+
+    step: int
+    waves: int
+    participants: tuple[str, ...]
+    skipped: tuple[str, ...] = ()
+    wall_s: float = Field(ge=0.0)
+
+
+class BarrierStats(BaseModel):
+    """What the barrier did so far: steps, waves, skips, participants dropped, barrier wall time [s wall]."""
+
+    model_config = ConfigDict(extra="forbid")
+
+    steps: int = 0
+    waves: int = 0
+    skips: int = 0
+    joined: int = 0
+    dropped: int = 0
+    wall_s: float = 0.0
+    max_wall_s: float = 0.0
+
+
+class LockstepRelease(BaseModel):
+    """The simulator's answer to a release: the sim time [s sim] it steps on from, and whether it was held."""
+
+    model_config = _FROZEN
+
+    sim_time: float
+    was_held: bool
+
+
+def encode(model: BaseModel) -> bytes:
+    """Return a barrier payload as msgpack."""
+    return msgpack.packb(model.model_dump(mode="json"), use_bin_type=True)
+
+
+def decode(cls: type[BaseModel], payload: bytes, *, as_json: bool = False) -> Any:
+    """Return a barrier payload of type `cls` (msgpack, or JSON); raise LockstepPayloadError."""
+    try:
+        if as_json:
+            return cls.model_validate_json(payload)
+        return cls.model_validate(msgpack.unpackb(payload, raw=False))
+    except (ValidationError, ValueError, TypeError, msgpack.UnpackException) as exc:
+        raise LockstepPayloadError(f"bad {cls.__name__}: {str(exc)[:300]}") from None
+
+
+# ---- participant --------------------------------------------------------------------------------
+
+class _CountingExecutor(concurrent.futures.ThreadPoolExecutor):
+    """The loop's default executor, counting its jobs in flight until their end reached the loop."""
+
+    def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
+        super().__init__(thread_name_prefix="lockstep-worker")
+        self._loop = loop
+        self.in_flight = 0  # changed on the loop thread only
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> concurrent.futures.Future:
+        self.in_flight += 1  # run_in_executor submits from the loop thread
+        fut = super().submit(fn, *args, **kwargs)
+        # decremented by a callback queued on the loop BEFORE asyncio's own hand-over of the result
+        # (done callbacks run in registration order): when the count drops the result is queued
+        fut.add_done_callback(self._done)
+        return fut
+
+    def _done(self, _fut: concurrent.futures.Future) -> None:
+        try:
+            self._loop.call_soon_threadsafe(self._dec)
+        except RuntimeError:  # loop closed
+            pass
+
+    def _dec(self) -> None:
+        self.in_flight -= 1
+
+
+class Participant:
+    """This process's side of the barrier: answer asks once the loop is quiescent (see the module docstring).
+
+    Create it on the running loop with the process's `Session`; `add_probe(fn)` adds a busy test
+    (`fn()` true = busy; called on the loop thread, must be cheap and never block); `close()`.
+    """
+
+    def __init__(self, session: Session, name: str, *, busy_reply_s: float = 0.25, poll_s: float = 0.001) -> None:
+        self.name = name
+        self._session = session
+        self._keys = LockstepKeys(session.net.namespace)
+        self._loop = asyncio.get_running_loop()
+        self._busy_reply_s = busy_reply_s
+        self._poll_s = poll_s
+        self._probes: list[Callable[[], bool]] = []
+        self._executor = _CountingExecutor(self._loop)
+        self._loop.set_default_executor(self._executor)
+        self._asks_in = 0  # asks received (Zenoh threads; an int increment under the GIL)
+        self._replies_out = 0  # answers sent (loop thread)
+        self._pending: tuple[Query, BarrierAsk, float] | None = None
+        self._timer: asyncio.TimerHandle | None = None
+        self._closed = False
+        #: asks answered, and how many of them were answered busy
+        self.answered = 0
+        self.busy_answers = 0
+        self._q = session.queryable(self._keys.ask(name), self._on_ask)
+        self._tok = session.liveliness_token(self._keys.alive(name))
+
+    def add_probe(self, busy: Callable[[], bool]) -> None:
+        """Add a busy test run on the loop before each answer (true: not quiescent yet)."""
+        self._probes.append(busy)
+
+    @property
+    def executor_in_flight(self) -> int:
+        """Return the jobs of the loop's default executor not yet handed back to the loop."""
+        return self._executor.in_flight
+
+    def close(self) -> None:
+        """Undeclare the queryable and the token (idempotent; the session stays the caller's)."""
+        if self._closed:
+            return
+        self._closed = True
+        if self._timer is not None:
+            self._timer.cancel()
+        for h in (self._tok, self._q):
+            self._session.undeclare(h)
+        if self._pending is not None:
+            self._pending[0].finish()
+            self._pending = None
+
+    # ---- Zenoh thread -----------------------------------------------------------------------
+
+    def _on_ask(self, q: Query) -> None:
+        self._asks_in += 1
+        try:
+            self._loop.call_soon_threadsafe(self._take, q)
+        except RuntimeError:  # loop closed
+            q.finish()
+
+    # ---- loop thread -----------------------------------------------------------------------
+
+    def _take(self, q: Query) -> None:
+        try:
+            ask = decode(BarrierAsk, q.payload, as_json=q.is_json)
+        except LockstepPayloadError as exc:
+            q.reply_err(str(exc).encode(), as_json=True)
+            q.finish()
+            return
+        if self._closed:
+            q.finish()
+            return
+        if self._pending is not None:  # the barrier gave up on the older ask: only the newest is answered
+            self._pending[0].finish()
+        self._pending = (q, ask, time.monotonic())
+        self._check()
+
+    def _busy(self) -> bool:
+        ready = getattr(self._loop, "_ready", None)  # asyncio's queue of callbacks ready to run
+        if ready:
+            return True
+        if self._executor.in_flight or gets_in_flight():
+            return True
+        return any(p() for p in self._probes)
+
+    def _check(self) -> None:
+        self._timer = None
+        if self._pending is None or self._closed:
+            return
+        q, ask, t0 = self._pending
+        waited = time.monotonic() - t0
+        busy = self._busy()
+        if busy and waited < self._busy_reply_s:
+            if getattr(self._loop, "_ready", None):
+                self._loop.call_soon(self._check)  # after what is ready now: real work, not a spin
+            else:
+                self._timer = self._loop.call_later(self._poll_s, self._check)
+            return
+        self._pending = None
+        msgs_out, _bo, msgs_in, _bi = traffic()
+        rep = ParticipantReport(name=self.name, step=ask.step, wave=ask.wave, busy=busy,
+                                received=max(0, msgs_in - self._asks_in), sent=max(0, msgs_out - self._replies_out),
+                                waited_s=waited)
+        self._replies_out += 1
+        self.answered += 1
+        self.busy_answers += int(busy)
+        try:
+            q.reply(encode(rep))
+        finally:
+            q.finish()
+
+
+# ---- barrier ------------------------------------------------------------------------------------
+
+class _Wave:
+    """The replies of one wave, collected on Zenoh threads."""
+
+    def __init__(self, n: int) -> None:
+        self.lock = threading.Lock()
+        self.left = n
+        self.done = threading.Event()
+        self.reports: dict[str, ParticipantReport] = {}
+        self.replies = 0
+        if n == 0:
+            self.done.set()
+
+    def on_reply(self, name: str, r: Reply) -> None:
+        with self.lock:
+            self.replies += 1
+        if not r.ok:
+            return
+        try:
+            rep = decode(ParticipantReport, r.payload, as_json=r.is_json)
+        except LockstepPayloadError as exc:
+            log.warning("lockstep: %s answered badly: %s", name, exc)
+            return
+        with self.lock:
+            self.reports[name] = rep
+
+    def on_done(self) -> None:
+        with self.lock:
+            self.left -= 1
+            if self.left <= 0:
+                self.done.set()
+
+
+class Barrier:
+    """The simulator's side: `wait(step, sim_time)` returns once every live participant handled its inputs.
+
+    `timeout_s` [s wall]: how long an ask may go unanswered before its participant is skipped for
+    the step; `busy_limit_s` [s wall]: how long a participant may answer busy in one step before it is
+    skipped; `quiet_waves`: consecutive waves with the same idle counters that make a step quiet (≥ 2).
+    """
+
+    def __init__(self, session: Session, *, timeout_s: float = 2.0, busy_limit_s: float = 10.0, quiet_waves: int = 2) -> None:
+        if quiet_waves < 2:
+            raise ValueError("quiet_waves must be ≥ 2 (one wave alone cannot see a message in flight)")
+        self._session = session
+        self._keys = LockstepKeys(session.net.namespace)
+        self.timeout_s = timeout_s
+        self.busy_limit_s = busy_limit_s
+        self.quiet_waves = quiet_waves
+        self._lock = threading.Lock()
+        self._changed = threading.Condition(self._lock)
+        self._members: set[str] = set()
+        self.stats = BarrierStats()
+        self._gets_out = 0  # the barrier's own traffic, taken off this process's counters
+        self._replies_in = 0
+        self._closed = False
+        self._sub = session.liveliness_subscribe(self._keys.alive_all, self._on_alive, history=True)
+
+    def members(self) -> list[str]:
+        """Return the participants alive now, sorted."""
+        with self._lock:
+            return sorted(self._members)
+
+    def wait_members(self, until: Callable[[set[str]], bool], timeout: float) -> bool:
+        """Block until `until(members)` holds (True) or `timeout` [s wall] passed (False)."""
+        with self._changed:
+            return self._changed.wait_for(lambda: until(set(self._members)), timeout)
+
+    def close(self) -> None:
+        """Stop following liveliness (idempotent; the session stays the caller's)."""
+        if not self._closed:
+            self._closed = True
+            self._session.undeclare(self._sub)
+
+    def _on_alive(self, key: str, alive: bool) -> None:  # Zenoh thread: a set update under a lock
+        name = key.rsplit("/", 1)[-1]
+        with self._lock:
+            if alive and name not in self._members:
+                self._members.add(name)
+                self.stats.joined += 1
+            elif not alive and name in self._members:
+                self._members.discard(name)
+                self.stats.dropped += 1
+                log.info("lockstep: %s is gone (dropped)", name)
+            self._changed.notify_all()
+
+    def _own_counters(self) -> tuple[int, int]:
+        msgs_out, _bo, msgs_in, _bi = traffic()
+        return msgs_in - self._replies_in, msgs_out - self._gets_out
+
+    def _wave(self, names: list[str], ask: BarrierAsk) -> _Wave:
+        w = _Wave(len(names))
+        payload = encode(ask)
+        for name in names:
+            self._gets_out += 1
+            try:
+                self._session.get(self._keys.ask(name), payload, timeout=self.timeout_s,
+                                  on_reply=lambda r, n=name: w.on_reply(n, r), on_done=w.on_done)
+            except WireError:  # the session closed under us
+                w.on_done()
+        w.done.wait(self.timeout_s + 1.0)
+        with w.lock:
+            self._replies_in += w.replies
+        return w
+
+    def wait(self, step: int, sim_time: float, *, stop: threading.Event | None = None) -> BarrierResult:
+        """Return once every participant is idle with the same counters in `quiet_waves` waves in a row.
+
+        `step` is the simulator's step count, `sim_time` [s sim] the time just published; `stop` (set)
+        ends the wait at once.
+        """
+        t0 = time.monotonic()
+        skipped: set[str] = set()
+        busy_since: dict[str, float] = {}
+        prev: tuple | None = None
+        same = 1
+        waves = 0
+        answered: tuple[str, ...] = ()
+        while not self._closed and not (stop is not None and stop.is_set()):
+            names = [n for n in self.members() if n not in skipped]
+            w = self._wave(names, BarrierAsk(step=step, wave=waves, sim_time=sim_time))
+            waves += 1
+            now = time.monotonic()
+            alive = set(self.members())
+            all_idle = True
+            for n in names:
+                rep = w.reports.get(n)
+                if rep is None:
+                    if n in alive:  # silent (stopped, wedged): skipped for this step; gone: dropped by liveliness
+                        skipped.add(n)
+                        self.stats.skips += 1
+                        log.warning("lockstep: %s did not answer within %.1f s: skipped at step %d", n, self.timeout_s, step)
+                    all_idle = False
+                elif rep.busy:
+                    all_idle = False
+                    first = busy_since.setdefault(n, now - rep.waited_s)
+                    if now - first >= self.busy_limit_s:
+                        skipped.add(n)
+                        self.stats.skips += 1
+                        log.warning("lockstep: %s busy for %.1f s: skipped at step %d", n, now - first, step)
+            answered = tuple(sorted(w.reports))
+            counters = (tuple((n, w.reports[n].received, w.reports[n].sent) for n in answered), self._own_counters())
+            if all_idle and counters == prev:
+                same += 1
+                if same >= self.quiet_waves:
+                    break
+            else:
+                same = 1 if all_idle else 0
+            prev = counters if all_idle else None
+        wall = time.monotonic() - t0
+        st = self.stats
+        st.steps += 1
+        st.waves += waves
+        st.wall_s += wall
+        st.max_wall_s = max(st.max_wall_s, wall)
+        return BarrierResult(step=step, waves=waves, participants=answered, skipped=tuple(sorted(skipped)), wall_s=wall)

@@ -42,10 +42,11 @@ class LocalPoseView(Message):
 
 
 class TransformView(Message):
-    """The navigator's `world` ← `local` (x [m], y [m], yaw [rad])."""
+    """The navigator's `world` ← `local` (x [m], y [m], yaw [rad]) as of `stamp` [s] sim (its newest fix)."""
 
     model_config = _VIEW
 
+    stamp: float = 0.0
     x: float
     y: float
     yaw: float
@@ -87,7 +88,7 @@ def subscribe_eddie(link: Link, keys: EddieKeys, pose: Any, triggers: list[Fired
     link.subscribe(keys.topic(c_mod, c_stream), _reader(
         LocalPoseView, f"{c_mod}/{c_stream}", lambda m: pose.set_local(m.stamp, (m.x, m.y, m.yaw))))
     link.subscribe(keys.topic(n_mod, n_stream), _reader(
-        TransformView, f"{n_mod}/{n_stream}", lambda m: pose.set_world_from_local((m.x, m.y, m.yaw))))
+        TransformView, f"{n_mod}/{n_stream}", lambda m: pose.set_world_from_local((m.x, m.y, m.yaw), m.stamp)))
     link.subscribe(keys.topic(t_mod, t_stream), _reader(
         TriggerView, f"{t_mod}/{t_stream}", lambda m: m.event == "fired" and triggers.append(FiredTrigger(
             sim_s=m.stamp, x=m.x, y=m.y, annotation=m.annotation_id, kind=m.trigger_type, destination=m.destination, text=m.text))))

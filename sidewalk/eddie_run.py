@@ -17,6 +17,8 @@ The run uses the CODGER run's router, simulator, recorder and monitor processes 
 from __future__ import annotations
 
 import asyncio
+import contextlib
+from collections import deque
 import logging
 import math
 from pathlib import Path
@@ -102,24 +104,34 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
 
 
 class PoseComposer:
-    """Keep the newest navigator `world` ← `local` and controller `local` pose; answer the `world` pose.
+    """Keep the navigator's `world` ← `local` and the controller's `local` pose; answer the `world` pose.
 
     The estimate of an EDDIE run is what its modules believe: world←local (navigator) ∘ the
-    dead-reckoned local pose (controller); nothing keeps a history, so a sample is the newest of each.
+    dead-reckoned local pose (controller). In real time a sample is the newest of each. In lock-step
+    (`lockstep=True`) it is the belief at the truth sample's own stamp t: the controller's pose of t
+    (waited for: the observer is outside the barrier and may hear the truth first) and the newest
+    world←local of a fix before t, so two runs of one seed sample the same estimate.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, *, lockstep: bool = False, keep: int = 400) -> None:
+        self.lockstep = lockstep
         self.world_from_local: tuple[float, float, float] | None = None
         self.local: tuple[float, float, float] | None = None
         self.local_stamp: float | None = None
+        self._locals: deque[tuple[float, tuple[float, float, float]]] = deque(maxlen=keep)
+        self._transforms: deque[tuple[float, tuple[float, float, float]]] = deque(maxlen=keep)
+        self._heard = asyncio.Event()
 
-    def set_world_from_local(self, pose: tuple[float, float, float]) -> None:
-        """Take a new navigator transform (x [m], y [m], yaw [rad])."""
+    def set_world_from_local(self, pose: tuple[float, float, float], stamp: float = 0.0) -> None:
+        """Take a new navigator transform (x [m], y [m], yaw [rad]) as of `stamp` [s] sim."""
         self.world_from_local = pose
+        self._transforms.append((stamp, pose))
 
     def set_local(self, stamp: float, pose: tuple[float, float, float]) -> None:
         """Take a new controller pose in `local` at `stamp` [s] sim."""
         self.local_stamp, self.local = stamp, pose
+        self._locals.append((stamp, pose))
+        self._heard.set()
 
     def world(self) -> tuple[float, float, float] | None:
         """Return the believed pose in `world` (None before both parts were heard)."""
@@ -128,9 +140,25 @@ class PoseComposer:
         x, y, yaw = compose(self.world_from_local, self.local)
         return float(x), float(y), float(yaw)
 
-    async def at(self, _stamp: float) -> tuple[float, float, float] | None:
-        """Return the newest believed pose (the recorder's estimate source)."""
-        return self.world()
+    async def at(self, stamp: float, *, wait_s: float = 2.0) -> tuple[float, float, float] | None:
+        """Return the believed pose (the recorder's estimate source): the newest, or in lock-step the one of `stamp` [s] sim."""
+        if not self.lockstep:
+            return self.world()
+        loop = asyncio.get_running_loop()
+        end = loop.time() + wait_s
+        while self.local_stamp is None or self.local_stamp < stamp:
+            self._heard.clear()
+            left = end - loop.time()
+            if left <= 0:
+                break
+            with contextlib.suppress(asyncio.TimeoutError):
+                await asyncio.wait_for(self._heard.wait(), left)
+        local = next((p for t, p in reversed(self._locals) if t <= stamp), None)
+        w = next((p for t, p in reversed(self._transforms) if t < stamp or t == 0.0), None)  # 0: the start, no fix
+        if local is None or w is None:
+            return None
+        x, y, yaw = compose(w, local)
+        return float(x), float(y), float(yaw)
 
 
 class EddieSystemRun(SystemRun):
@@ -141,10 +169,10 @@ class EddieSystemRun(SystemRun):
     """
 
     def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path,
-                 annotated_map: Optional[Path] = None, secure: Path | None = None) -> None:
+                 annotated_map: Optional[Path] = None, secure: Path | None = None, lockstep: bool = False) -> None:
         super().__init__(plans, ns=ns, endpoint=endpoint, log_dir=log_dir, secure=secure)
         self.annotated_map = annotated_map
-        self.pose = PoseComposer()
+        self.pose = PoseComposer(lockstep=lockstep)
         self.triggers: list[FiredTrigger] = []
         self._status_q: asyncio.Queue[MissionStatus] = asyncio.Queue()
 

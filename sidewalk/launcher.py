@@ -443,7 +443,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
             secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
             road_method=road_method_flags(cfg, setup),  # issue 13
-        )), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure)
+        )), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure, lockstep=cfg.lockstep)
     else:
         system = SystemRun(_timed(cfg, build_plans(cfg, setup, ns, endpoint)), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)
     progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)

@@ -3,6 +3,13 @@
 `async with Module(name, net) as m:` opens the process's one Zenoh session (through `wire.aio.Link`),
 listens on the module's inbox, follows the sim clock and beats every `heartbeat_period` wall seconds.
 `m.ready()` declares the liveliness token and prints the READY line a supervisor waits for.
+
+In lock-step (`wire.lockstep`) the inbox is released once per sim clock tick: what arrived since the
+previous tick is handed to `receive()` grouped by sender (senders in name order, each sender's
+messages in the order it sent them). The barrier makes every message of a step arrive before the
+next tick, but not in the same order from run to run: two modules' fixes reaching the navigator in
+one step would otherwise turn world←local differently each time. The cost is one publication period
+of sim time before a message is handled.
 """
 
 from __future__ import annotations
@@ -27,7 +34,9 @@ from wire.lockstep import Participant, lockstep_enabled, participant_name
 from wire.session import session_stats, traffic
 
 from eddie.errors import BadMessage, LinkError, LinkTimeout, NoSuchModule, ServiceError
-from eddie.toolkit.message import Message, decode_body, decode_envelope, encode_body, encode_envelope, error_payload, error_text
+from eddie.toolkit.message import (
+    Message, decode_body, decode_envelope, encode_body, encode_envelope, error_payload, error_text, open_envelope,
+)
 from wire.ratelimit import warn_limited
 
 __all__ = ["Module", "Incoming", "ServiceHandler"]
@@ -71,6 +80,8 @@ class Module:
         #: inbox messages dropped because the inbox was full
         self.dropped = 0
         self._participant: Participant | None = None
+        #: lock-step: (sender, arrival) → payload of the inbox messages held until the next clock tick (None: real time)
+        self._held: list[tuple[str, int, bytes]] | None = [] if lockstep_enabled() else None
 
     # ---- lifecycle -----------------------------------------------------------------------
 
@@ -219,6 +230,16 @@ class Module:
     # ---- internals -----------------------------------------------------------------------
 
     def _on_inbox(self, _key: str, payload: bytes) -> None:
+        if self._held is not None:
+            try:
+                sender = open_envelope(payload, where=f"{self.name}'s inbox").sender
+            except BadMessage:
+                sender = ""  # `receive()` reports it, in its turn
+            self._held.append((sender, len(self._held), payload))
+            return
+        self._put(payload)
+
+    def _put(self, payload: bytes) -> None:
         try:
             self._inbox.put_nowait(payload)
         except asyncio.QueueFull:
@@ -230,6 +251,11 @@ class Module:
             self.clock.advance(decode_clock(payload))
         except ClockPayloadError as exc:
             warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
+            return
+        if self._held:
+            held, self._held = sorted(self._held), []
+            for _sender, _arrival, raw in held:
+                self._put(raw)
 
     def _beat(self, state: str | None = None) -> None:
         hb = Heartbeat(module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(),

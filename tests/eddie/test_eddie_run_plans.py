@@ -88,6 +88,23 @@ def test_the_belief_is_world_from_local_composed_with_the_local_pose() -> None:
     assert (x, y) == pytest.approx((10.0, 7.0))
 
 
+async def test_in_lockstep_the_belief_sampled_at_t_is_the_one_of_t_whatever_was_heard_since() -> None:
+    import asyncio
+
+    pc = PoseComposer(lockstep=True)
+    pc.set_world_from_local((0.0, 0.0, 0.0), 0.0)  # the start
+    pc.set_local(1.0, (1.0, 0.0, 0.0))
+    pc.set_world_from_local((0.0, 2.0, 0.0), 1.1)  # a fix handled at the tick of 1.1: after the truth of 1.1
+    pc.set_local(1.1, (1.1, 0.0, 0.0))
+    pc.set_local(1.2, (1.2, 0.0, 0.0))  # heard before the sample was taken: must not count
+    assert await pc.at(1.1) == pytest.approx((1.1, 0.0, 0.0))
+    assert await pc.at(1.2) == pytest.approx((1.2, 2.0, 0.0))
+    # the truth of 1.3 may arrive before the controller's pose of 1.3: the sample waits for it
+    asyncio.get_running_loop().call_later(0.05, pc.set_local, 1.3, (1.3, 0.0, 0.0))
+    assert await pc.at(1.3) == pytest.approx((1.3, 2.0, 0.0))
+    assert pc.world() == pytest.approx((1.3, 2.0, 0.0))  # real time: the newest of each
+
+
 def test_the_observer_views_read_the_streams_bare_fields_and_ignore_the_rest() -> None:
     from eddie.messages.controller import ControllerState
     from eddie.messages.navigator import WorldFromLocal

@@ -170,7 +170,7 @@ class EddieSystemRun(SystemRun):
 
     def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path,
                  annotated_map: Optional[Path] = None, secure: Path | None = None, lockstep: bool = False) -> None:
-        super().__init__(plans, ns=ns, endpoint=endpoint, log_dir=log_dir, secure=secure)
+        super().__init__(plans, ns=ns, endpoint=endpoint, log_dir=log_dir, secure=secure, lockstep=lockstep)
         self.annotated_map = annotated_map
         self.pose = PoseComposer(lockstep=lockstep)
         self.triggers: list[FiredTrigger] = []
@@ -184,7 +184,7 @@ class EddieSystemRun(SystemRun):
             await self.sup.start(plan, ready_timeout=ready_timeout)
         self.link = Link.open(self.net)
         self._beats = BeatLog(self.link, ModuleKeys(self.ns))  # heard from the first moment, as `SystemRun.start`
-        self.recorder = Recorder(self.link, None, self.ns, estimator=self.pose.at)
+        self.recorder = Recorder(self.link, None, self.ns, estimator=self.pose.at, lockstep=self.lockstep)
         self.recorder.start()
         await self.recorder.wait_clock()
         # every process's first heartbeat heard, so a fault injected at once still counts the first life's cost

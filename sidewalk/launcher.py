@@ -445,7 +445,8 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             road_method=road_method_flags(cfg, setup),  # issue 13
         )), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure, lockstep=cfg.lockstep)
     else:
-        system = SystemRun(_timed(cfg, build_plans(cfg, setup, ns, endpoint)), ns=ns, endpoint=endpoint, log_dir=out / "logs", secure=cfg.secure)
+        system = SystemRun(_timed(cfg, build_plans(cfg, setup, ns, endpoint)), ns=ns, endpoint=endpoint, log_dir=out / "logs",
+                           secure=cfg.secure, lockstep=cfg.lockstep)
     progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)
     stop_reason = ""
     gave_up_at: tuple[float, float] | None = None

@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import logging
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Awaitable, Callable, Optional
 
@@ -44,8 +45,13 @@ class Recorder:
     """
 
     def __init__(self, link: Link, bb: BlackboardClient | None, ns: str, *, estimate_period_s: float = 0.5,
-                 estimator: EstimateSource | None = None) -> None:
-        """Record in namespace `ns`; the estimate comes from `estimator` (EDDIE), else from the blackboard `bb` (CODGER)."""
+                 estimator: EstimateSource | None = None, lockstep: bool = False) -> None:
+        """Record in namespace `ns`; the estimate comes from `estimator` (EDDIE), else from the blackboard `bb` (CODGER).
+
+        The estimate is sampled every `estimate_period_s` [s] sim. In real time a sample due while the
+        previous one is still being looked up is skipped; with `lockstep` none is, so two runs of one
+        seed sample the same stamps (the lookups are by stamp).
+        """
         self.link = link
         self.bb = bb
         self.estimator = estimator or self._blackboard_pose
@@ -63,6 +69,8 @@ class Recorder:
         self._last_estimate_t = -1e9
         self._estimating = False
         self._tasks: set[asyncio.Task] = set()
+        self.lockstep = lockstep
+        self._due: deque[float] = deque()
 
     def start(self) -> None:
         """Declare the subscribers."""
@@ -108,22 +116,30 @@ class Recorder:
             return
         self.truth.rows.append((t.stamp, t.x, t.y, t.yaw))
         self._new_truth.set()
-        if t.stamp - self._last_estimate_t >= self.estimate_period_s and not self._estimating:
-            self._last_estimate_t = t.stamp
+        if t.stamp - self._last_estimate_t < self.estimate_period_s or (self._estimating and not self.lockstep):
+            return
+        self._last_estimate_t = t.stamp
+        self._due.append(t.stamp)
+        if not self._estimating:
             self._estimating = True
-            task = asyncio.ensure_future(self._sample_estimate(t.stamp))
+            task = asyncio.ensure_future(self._sample_estimates())
             self._tasks.add(task)
             task.add_done_callback(self._tasks.discard)
 
-    async def _sample_estimate(self, stamp: float) -> None:
+    async def _sample_estimates(self) -> None:
+        """Look up the estimate at each due stamp, in order."""
         try:
-            # a little in the past: the HELM's poses trail the simulator's truth by a publish period
-            at = max(0.0, stamp - 0.25)
-            pose = await self.estimator(at)
-            if pose is not None:
-                self.estimate.rows.append((at, *pose))
-        except (BlackboardError, asyncio.TimeoutError, TimeoutError) as exc:
-            log.debug("no estimate at %.2f: %s", stamp, exc)
+            while self._due:
+                stamp = self._due.popleft()
+                # a little in the past: the HELM's poses trail the simulator's truth by a publish period
+                at = max(0.0, stamp - 0.25)
+                try:
+                    pose = await self.estimator(at)
+                except (BlackboardError, asyncio.TimeoutError, TimeoutError) as exc:
+                    log.debug("no estimate at %.2f: %s", stamp, exc)
+                    continue
+                if pose is not None:
+                    self.estimate.rows.append((at, *pose))
         finally:
             self._estimating = False
 

@@ -45,9 +45,12 @@ class SystemRun:
     reach the recorder) and returns the exit code of each process.
     """
 
-    def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path, secure: Path | None = None) -> None:
+    def __init__(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path, secure: Path | None = None,
+                 lockstep: bool = False) -> None:
         self.plans = {p.name: p for p in plans}
         self.ns = ns
+        #: the simulator steps in lock-step: the recorder samples the estimate on a fixed grid of sim time
+        self.lockstep = lockstep
         # under --secure the observer is `evaluation` (it reads truth) and submits as the `operator`
         self.net = NetworkConfig(namespace=ns, connect=(endpoint,),
                                  secure=None if secure is None else SecureConfig(dir=secure, role="evaluation"))
@@ -80,7 +83,7 @@ class SystemRun:
         # heard from the first moment: a module stopped right after `guard()` has beaten into it already
         self._beats = BeatLog(self.link, ModuleKeys(self.ns))
         self.bb = await BlackboardClient.connect(self.net, source="launcher")
-        self.recorder = Recorder(self.link, self.bb, self.ns)
+        self.recorder = Recorder(self.link, self.bb, self.ns, lockstep=self.lockstep)
         self.recorder.start()
         await self.recorder.wait_clock()
         # every process's first heartbeat heard, so a fault injected at once still counts the first life's cost

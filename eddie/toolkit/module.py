@@ -4,12 +4,13 @@
 listens on the module's inbox, follows the sim clock and beats every `heartbeat_period` wall seconds.
 `m.ready()` declares the liveliness token and prints the READY line a supervisor waits for.
 
-In lock-step (`wire.lockstep`) the inbox is released once per sim clock tick: what arrived since the
-previous tick is handed to `receive()` grouped by sender (senders in name order, each sender's
+In lock-step (`wire.lockstep`) what a module receives is released once per sim clock tick: the
+streams it follows, then its inbox, each grouped by sender (senders in name order, each sender's
 messages in the order it sent them). The barrier makes every message of a step arrive before the
-next tick, but not in the same order from run to run: two modules' fixes reaching the navigator in
-one step would otherwise turn world←local differently each time. The cost is one publication period
-of sim time before a message is handled.
+next tick, but not in the same order from run to run, nor in the same slices of the module's loop:
+two modules' fixes reaching the navigator in one step, or the map manager cycling once on two state
+updates instead of twice, would otherwise change what happens next. The cost is up to one
+publication period of sim time before a message is handled.
 """
 
 from __future__ import annotations
@@ -80,8 +81,10 @@ class Module:
         #: inbox messages dropped because the inbox was full
         self.dropped = 0
         self._participant: Participant | None = None
-        #: lock-step: (sender, arrival) → payload of the inbox messages held until the next clock tick (None: real time)
-        self._held: list[tuple[str, int, bytes]] | None = [] if lockstep_enabled() else None
+        #: lock-step: what arrived since the last clock tick, as (0 stream / 1 inbox, sender, arrival, payload,
+        #: stream callback or None for the inbox), released at the next tick in that order (None: real time)
+        self._held: list[tuple[int, str, int, bytes, Callable[[str, bytes], None] | None]] | None = (
+            [] if lockstep_enabled() else None)
 
     # ---- lifecycle -----------------------------------------------------------------------
 
@@ -225,7 +228,15 @@ class Module:
                 return
             on_message(msg)  # type: ignore[arg-type]
 
-        return self._link.subscribe(self.keys.topic(module, stream), on_sample)
+        if self._held is None:
+            return self._link.subscribe(self.keys.topic(module, stream), on_sample)
+        where = f"{module}/{stream}"
+
+        def held(key: str, payload: bytes) -> None:
+            assert self._held is not None
+            self._held.append((0, where, len(self._held), payload, on_sample))
+
+        return self._link.subscribe(self.keys.topic(module, stream), held)
 
     # ---- internals -----------------------------------------------------------------------
 
@@ -235,7 +246,7 @@ class Module:
                 sender = open_envelope(payload, where=f"{self.name}'s inbox").sender
             except BadMessage:
                 sender = ""  # `receive()` reports it, in its turn
-            self._held.append((sender, len(self._held), payload))
+            self._held.append((1, sender, len(self._held), payload, None))
             return
         self._put(payload)
 
@@ -253,9 +264,12 @@ class Module:
             warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
             return
         if self._held:
-            held, self._held = sorted(self._held), []
-            for _sender, _arrival, raw in held:
-                self._put(raw)
+            held, self._held = sorted(self._held, key=lambda h: h[:3]), []
+            for _kind, where, _arrival, raw, on_sample in held:
+                if on_sample is None:
+                    self._put(raw)
+                else:
+                    on_sample(where, raw)
 
     def _beat(self, state: str | None = None) -> None:
         hb = Heartbeat(module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(),

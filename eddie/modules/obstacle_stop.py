@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from modules.perception.obstacles import LaserScan, ObstacleConfig, path_clear_distance, path_in_vehicle
 
-__all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead", "remaining_m"]
+__all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead", "remaining_m", "stop_room_m"]
 
 
 class ObstacleStopConfig(BaseModel):
@@ -29,7 +29,10 @@ class ObstacleStopConfig(BaseModel):
     stop_distance_m: float = Field(15.0, gt=0.0, description="stop for an obstacle this near along the path [m]")
     half_width_m: float = Field(1.5, gt=0.0, description="half the swept corridor [m] (the OBSTACLE DETECTOR's)")
     min_points: int = Field(3, ge=1, description="this many obstacle points make an obstacle (noise and mixed points do not)")
-    end_margin_m: float = Field(1.5, ge=0.0, description="looked at past the commanded path's end (the vehicle's front and its stop) [m]")
+    front_m: float = Field(1.1, ge=0.0, description="the body's reach ahead of the vehicle's origin [m] (Terregator 1.1, Navlab 4.6)")
+    clearance_m: float = Field(0.5, ge=0.0, description="the front stops at least this short of an obstacle past the path's end [m]")
+    decel_mps2: float = Field(1.0, gt=0.0, description="the braking assumed for a stop [m/s²]")
+    latency_s: float = Field(0.5, ge=0.0, description="capture to braking [s]: the travel meanwhile counts as braking distance")
     detection: ObstacleConfig = ObstacleConfig()
 
 
@@ -57,17 +60,34 @@ def remaining_m(path_local: np.ndarray, pose_local: tuple[float, float, float]) 
     return float(np.linalg.norm(np.diff(rest, axis=0), axis=1).sum())
 
 
+def stop_room_m(cfg: ObstacleStopConfig, speed: float) -> float:
+    """Return how far ahead [m] an obstacle must be for the vehicle at `speed` [m/s] to stop with its front `clearance_m` short of it."""
+    v = abs(speed)
+    return cfg.front_m + cfg.clearance_m + v * cfg.latency_s + v * v / (2.0 * cfg.decel_mps2)
+
+
 def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig(), *,
-                   path_local: np.ndarray | None = None, pose_local: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> ObstacleReport:
-    """Return whether an obstacle stands on the path within `stop_distance_m`.
+                   path_local: np.ndarray | None = None, pose_local: tuple[float, float, float] = (0.0, 0.0, 0.0),
+                   speed: float = 0.0) -> ObstacleReport:
+    """Return whether to stop now for an obstacle along the path (`blocked`) and how far along it stands.
 
     `path_local` (N, 2) [m] is the path in `local` and `pose_local` the vehicle's pose there at the
-    scan; without a path the corridor runs straight ahead.
+    scan, `speed` [m/s] its speed; without a path the corridor runs straight ahead. An obstacle on
+    the path stops the vehicle once within `stop_distance_m`. The controller stops at its path's end
+    by itself, so an obstacle past the end (a building behind the mission's goal) matters only when
+    the front would come within `clearance_m` of it there, and then only once the vehicle is as near
+    as its stop needs (`stop_room_m`): it drives on to the end or to just short of the obstacle.
+    Stopping such a vehicle early instead would hold it short of its goal for good, the driving
+    module's next path being refused while the stop holds.
     """
     path = path_in_vehicle(np.empty((0, 2)) if path_local is None else path_local, pose_local, cfg.stop_distance_m)
     d = path_clear_distance(scan, path, cfg.half_width_m, cfg.detection, min_points=cfg.min_points)
-    # The controller stops at its path's end: an obstacle past it (a building behind the mission's goal)
-    # is not in the way.
-    reach = cfg.stop_distance_m if path_local is None else min(cfg.stop_distance_m, remaining_m(path_local, pose_local) + cfg.end_margin_m)
-    blocked = math.isfinite(d) and d <= reach
-    return ObstacleReport(blocked=blocked, distance_m=float(d) if math.isfinite(d) else None, stamp=float(scan.stamp))
+    if not math.isfinite(d):
+        return ObstacleReport(blocked=False, distance_m=None, stamp=float(scan.stamp))
+    left = math.inf if path_local is None else remaining_m(path_local, pose_local)
+    if d <= left:
+        blocked = d <= cfg.stop_distance_m
+    else:
+        braking = stop_room_m(cfg, speed) - cfg.front_m - cfg.clearance_m
+        blocked = d <= min(cfg.stop_distance_m, cfg.front_m + cfg.clearance_m + min(left, braking))
+    return ObstacleReport(blocked=blocked, distance_m=float(d), stamp=float(scan.stamp))

@@ -33,6 +33,7 @@ from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
+from modules.helm.tracker import tracker_config_for
 from modules.perception.obstacles import LaserScan, detect_obstacles
 from modules.pilot import pilot_config_for
 from modules.runtime.args import setup_logging
@@ -45,6 +46,8 @@ log = logging.getLogger("eddie.modules.obstacle_stop")
 #: the controller client name and priority of obstacle stop (above every driving module)
 CLIENT, PRIORITY = "obstacle_stop", 10
 
+#: the body's reach ahead of the vehicle's origin [m]: the Navlab's origin is its rear axle, the Terregator's its centre
+BODY_FRONT_M = {"navlab": 4.6, "terregator": 1.1}
 #: "stop at object": stop this far inside the goal's tolerance [m], and never farther than this when the tolerance is small [m]
 STOP_AT_MARGIN_M, STOP_AT_NEAR_M = 0.3, 0.3
 #: the time [s] sim from a believed pose to the controller braking (the watch's period and the message)
@@ -82,7 +85,8 @@ class ObstacleStop:
         pose = self.belief.local_at(frame.stamp)
         if pose is None:
             return "no controller pose at the capture"
-        seen = obstacle_ahead(LaserScan.from_capture(frame), self.cfg, path_local=self.path, pose_local=tuple(pose))
+        seen = obstacle_ahead(LaserScan.from_capture(frame), self.cfg, path_local=self.path, pose_local=tuple(pose),
+                              speed=self.belief.speed)
         self.m.publish("seen", ObstacleSeen(stamp=seen.stamp, blocked=seen.blocked, distance_m=seen.distance_m))
         if seen.blocked and not self.stopped:
             self.stopped = True
@@ -231,7 +235,8 @@ def main(argv: list[str] | None = None) -> int:
     half = corridor_half_width(args.vehicle) if args.half_width is None else args.half_width
     if not half > 0:
         parser.error("--half-width: must be > 0 [m]")
-    cfg = ObstacleStopConfig(stop_distance_m=args.stop_distance, half_width_m=half)
+    cfg = ObstacleStopConfig(stop_distance_m=args.stop_distance, half_width_m=half, front_m=BODY_FRONT_M[args.vehicle],
+                             decel_mps2=tracker_config_for(args.vehicle).max_decel)
     start = parse_pose(parser, args.start_pose)
 
     async def body(m: Module) -> None:

@@ -61,17 +61,28 @@ def test_obstacle_stop_sees_a_tree_on_the_path_and_not_the_open_walk(src: FrameS
 
 
 def test_obstacle_stop_ignores_an_obstacle_past_the_end_of_the_commanded_path(src: FrameSource) -> None:
-    cfg = ObstacleStopConfig(stop_distance_m=8.0)  # end margin 1.5 m
+    cfg = ObstacleStopConfig(stop_distance_m=8.0)  # a Terregator's front 1.1 m, 0.5 m clearance, 1 m/s² braking
     tx, ty = _tree(src).center
-    facing = (tx - 6.0, ty, 0.0)  # 6 m west of the trunk, looking east at it
     local_from_world = inverse(WORLD_FROM_LOCAL)
-    pose_local = tuple(compose(local_from_world, np.asarray(facing)))
-    scan = _scan(src, facing)
-    short = transform_points(local_from_world, np.array([[tx - 6.0, ty], [tx - 4.5, ty]]))  # ends 4.5 m short of the trunk
-    assert not obstacle_ahead(scan, cfg, path_local=short, pose_local=pose_local).blocked
-    long = transform_points(local_from_world, np.array([[tx - 6.0, ty], [tx - 1.0, ty]]))  # ends 1 m short of it
-    hit = obstacle_ahead(scan, cfg, path_local=long, pose_local=pose_local)
+
+    def seen(x_from_trunk: float, path_end_from_trunk: float, speed: float):
+        facing = (tx - x_from_trunk, ty, 0.0)  # west of the trunk, looking east at it
+        path = transform_points(local_from_world, np.array([[tx - x_from_trunk, ty], [tx - path_end_from_trunk, ty]]))
+        return obstacle_ahead(_scan(src, facing), cfg, path_local=path, pose_local=tuple(compose(local_from_world, np.asarray(facing))),
+                              speed=speed)
+
+    # past the trunk: on the path, a stop at once (8 m)
+    hit = seen(6.0, -3.0, 1.0)
     assert hit.blocked and 4.0 < hit.distance_m < 6.0
+    # the path ends 4.5 m short: the front stops far from it, near or not
+    assert not seen(6.0, 4.5, 1.0).blocked and not seen(5.0, 4.5, 0.0).blocked
+    # the path ends 1 m short, so the front (1.1 m) would touch it: drive on while far, stop once near
+    far = seen(6.0, 1.0, 1.0)
+    assert far.distance_m is not None and not far.blocked
+    near = seen(2.6, 1.0, 1.0)  # trunk ≈ 2.3 m ahead: the 0.5 m clearance, 0.5 s latency and 0.5 m braking at 1 m/s
+    assert near.blocked and near.distance_m < 2.6
+    assert not seen(2.6, 1.0, 0.0).blocked  # at rest there: it may creep on to its clearance
+    assert seen(1.5, 1.0, 0.0).blocked
 
 
 def test_road_following_plans_in_local_along_the_route_inside_the_walk(src: FrameSource) -> None:

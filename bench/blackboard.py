@@ -9,7 +9,8 @@ are sampled interleaved so machine noise hits both alike. Figures in microsecond
 Keys: notify_p50_us/p99 vs zenoh_relay_p50_us/p99 (post→monitor event through the node vs a raw
 put relayed by a third process), post_ack_p50_us/p99 vs zenoh_get_p50_us/p99, retrieve_100k_p50_us/p99
 (within-polygon spec returning about 50 of `tokens`), post_throughput_per_s (pipelined,
-acknowledged), transform_10k_points_us p50/p99.
+acknowledged), transform_10k_points_us p50/p99 (vehicle@t → world by a client keeping a frame cache,
+`blackboard.frame_cache`; beside it transform_10k_points_node_us, each lookup asked of the node).
 """
 
 from __future__ import annotations
@@ -267,13 +268,25 @@ async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, sample
         await asyncio.gather(*[bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=0.01 * t, y=0.0, yaw=0.001 * t), stamp=0.01 * t)
                                for t in range(1000)])
         pts = rng.normal(0.0, 10.0, size=(10_000, 2))
-        tt = []
-        for i in range(max(samples // 2, 100)):
-            stamp = 0.5 + 0.01 * (i % 800) + 0.005
-            t0 = pc()
-            res = await bb.transform(pts, src_frame="vehicle", src_stamp=stamp, dst_frame="world")
-            tt.append(pc() - t0)
+
+        async def transforms(client: BlackboardClient) -> tuple[list[float], np.ndarray]:
+            tt = []
+            for i in range(max(samples // 2, 100)):
+                stamp = 0.5 + 0.01 * (i % 800) + 0.005
+                t0 = pc()
+                res = await client.transform(pts, src_frame="vehicle", src_stamp=stamp, dst_frame="world")
+                tt.append(pc() - t0)
+            return tt, res
+
+        tt, res = await transforms(bb)
         assert res.shape == (10_000, 2)
+        out["transform_10k_points_node_us"], out["transform_10k_points_node_p99_us"] = _pct(tt)
+        # the same with the client's frame cache (blackboard.frame_cache): the node's tree kept here, no round trip
+        async with BlackboardClient(net, source="bench-frames", timeout=60, frame_cache=True) as cached:
+            tt, got = await transforms(cached)
+            np.testing.assert_array_equal(got, res)  # the node's answer, to the bit
+            fc = cached.frame_cache.stats
+            out["transform_cache_hits"], out["transform_cache_misses"] = fc.hits, fc.misses
         out["transform_10k_points_us"], out["transform_10k_points_p99_us"] = _pct(tt)
         out["transform_10k_points_p50_us"] = out["transform_10k_points_us"]
 

@@ -40,6 +40,7 @@ from pydantic import BaseModel
 from wire.session import Reply as ZReply, Session as ZSession, open_session
 from blackboard.codec import decode, encode
 from blackboard.errors import BadRequestError, BlackboardError, NodeUnavailableError, error_from_wire
+from blackboard.frame_cache import FrameCache
 from blackboard.frames import apply_se2
 from blackboard.geometry import Point, Polygon, Polyline, Pose2D
 from wire.keys import BlackboardKeys
@@ -199,6 +200,7 @@ class BlackboardClient:
         connect_timeout: float = 10.0,
         lenient: bool = False,
         reconnect: bool = True,
+        frame_cache: bool = False,
     ) -> None:
         self.net = net
         #: hold requests while the node is away and re-send them once it is back (False: fail them at once)
@@ -240,6 +242,10 @@ class BlackboardClient:
         self._resync_change = asyncio.Event()
         #: loop time [s] the node was last seen going away (None: it is up)
         self._lost_at: float | None = None
+        #: a copy of the node's frame tree answering lookups here (`blackboard.frame_cache`; None: ask the node)
+        self.frame_cache: FrameCache | None = FrameCache() if frame_cache else None
+        self._prime_task: asyncio.Task | None = None
+        self._frames_change = asyncio.Event()
 
     # ------------------------------------------------------------------ lifecycle
     @classmethod
@@ -257,6 +263,9 @@ class BlackboardClient:
         on_message = self._on_message
         s.subscribe_payload(self.keys.to_client(self.client_id), lambda _key, payload: loop.call_soon_threadsafe(on_message, payload))
         self._wpub = s.publisher(self.keys.write(self.client_id))
+        if self.frame_cache is not None:  # subscribed before the whole tree is asked for: nothing falls between
+            on_frames = self._on_frames_update
+            s.subscribe_payload(self.keys.frame_updates, lambda _key, payload: loop.call_soon_threadsafe(on_frames, payload))
         s.liveliness_subscribe(self.keys.alive, lambda _key, alive: loop.call_soon_threadsafe(self._on_node, alive), history=True)
         try:
             await self.wait_node(timeout=self.connect_timeout)
@@ -266,6 +275,8 @@ class BlackboardClient:
                 f"no blackboard node in namespace {self.net.namespace!r} within {self.connect_timeout} s "
                 f"(endpoints {list(self.net.connect or self.net.listen)})"
             ) from None
+        if self.frame_cache is not None:
+            await self._prime_frames()
 
     async def close(self) -> None:
         """Cancel monitors, fail outstanding requests and close the session."""
@@ -283,6 +294,8 @@ class BlackboardClient:
             _distribute(batch, None, NodeUnavailableError("client closed"))
         if self._resync_task is not None:
             self._resync_task.cancel()
+        if self._prime_task is not None:
+            self._prime_task.cancel()
         self._fail_inflight(NodeUnavailableError("client closed"))
         if self._session is not None:
             s, self._session = self._session, None
@@ -456,6 +469,51 @@ class BlackboardClient:
             # the node answers a batch it already committed from its acknowledgement cache
             self._put_batch(rid, batch, timeout=self.timeout * 2 ** tries)
 
+    # ------------------------------------------------------------------ frame cache
+    def _on_frames_update(self, payload: bytes) -> None:
+        cache = self.frame_cache
+        assert cache is not None
+        try:
+            msg = _unpackb(payload)
+        except Exception:  # noqa: BLE001 - a malformed update: the cache fetches the whole tree again
+            warn_limited(log, "malformed-frames", "malformed frame update on %s", self.keys.frame_updates)
+            msg = None
+        if not cache.update(msg):
+            self._start_prime()
+
+    def _start_prime(self) -> None:
+        if self._closed or not self._node_alive or (self._prime_task is not None and not self._prime_task.done()):
+            return
+        assert self._loop is not None
+        self._prime_task = self._loop.create_task(self._prime_frames())
+
+    async def _prime_frames(self) -> None:
+        """Fetch the node's whole frame tree into the cache; lookups go to the node until it holds one."""
+        cache = self.frame_cache
+        assert cache is not None
+        for _ in range(5):  # a fetch overtaken by a gap in the updates is fetched again
+            if self._closed or not self._node_alive:
+                return
+            try:
+                history = await self._query(self.keys.frame_history, None)
+                if cache.prime(history):
+                    change, self._frames_change = self._frames_change, asyncio.Event()
+                    change.set()
+                    return
+            except BlackboardError as exc:
+                warn_limited(log, "frame-history", "%s: frame cache not filled, lookups go to the node: %s", self.source, exc)
+                return
+        log.warning("%s: frame cache: updates kept breaking off while fetching the tree; lookups go to the node", self.source)
+
+    async def wait_frame_cache(self, primes: int, *, timeout: float | None = None) -> None:
+        """Return once the frame cache holds a tree fetched `primes` times in all; TimeoutError after `timeout` [s] wall."""
+        cache = self.frame_cache
+        if cache is None:
+            raise BadRequestError("this client keeps no frame cache (frame_cache=False)")
+        async with asyncio.timeout(timeout):
+            while not (cache.ready and cache.stats.primes >= primes):
+                await self._frames_change.wait()
+
     def _on_node(self, alive: bool) -> None:
         if alive == self._node_alive:
             return
@@ -464,6 +522,8 @@ class BlackboardClient:
         assert loop is not None
         if not alive:
             self._lost_at = loop.time()
+            if self.frame_cache is not None:
+                self.frame_cache.invalidate("the node went away")
             self._node_gone()
         elif self._node_seen and not self._closed:
             self._start_resync("the node came back", restart=True)
@@ -499,6 +559,8 @@ class BlackboardClient:
                 self._put_batch(rid, batch)
         else:
             self._held = held + self._held
+        if self.frame_cache is not None and not self.frame_cache.ready:
+            self._start_prime()
         self.resyncs += 1
         change, self._resync_change = self._resync_change, asyncio.Event()
         change.set()
@@ -756,10 +818,21 @@ class BlackboardClient:
         return self._write(StaticOp.trusted({"op": "static", "parent": parent, "child": child, "pose": (pose.x, pose.y, pose.yaw)}))
 
     async def lookup(self, target: str, target_stamp: float | None, source: str, source_stamp: float | None) -> Pose2D:
-        """Return T_{target@target_stamp ← source@source_stamp} (None stamp: newest)."""
+        """Return T_{target@target_stamp ← source@source_stamp} (None stamp: newest).
+
+        With a frame cache (`frame_cache=True`) answered here when the cached tree can, else by the node.
+        """
+        if self.frame_cache is not None:
+            T = self.frame_cache.lookup(target, target_stamp, source, source_stamp)
+            if T is not None:
+                return _trusted(Pose2D, {"x": T[0], "y": T[1], "yaw": T[2]}, _POSE_FIELDS)
+        x, y, yaw = await self._node_lookup(target, target_stamp, source, source_stamp)
+        return _trusted(Pose2D, {"x": x, "y": y, "yaw": yaw}, _POSE_FIELDS)
+
+    async def _node_lookup(self, target: str, target_stamp: float | None, source: str, source_stamp: float | None) -> tuple[float, float, float]:
         x, y, yaw = await self._request(self.keys.lookup, LookupRequest.trusted(
             {"target": target, "target_stamp": target_stamp, "source": source, "source_stamp": source_stamp}).wire())
-        return _trusted(Pose2D, {"x": x, "y": y, "yaw": yaw}, _POSE_FIELDS)
+        return (x, y, yaw)
 
     async def lookup_pose(self, *, parent: str, child: str, stamp: float | None = None) -> Pose2D:
         """Return the pose of `child` in `parent` at `stamp` [s] (None: newest)."""
@@ -777,8 +850,12 @@ class BlackboardClient:
         dst_stamp: float | None = None,
     ) -> np.ndarray:
         """Map (N,2) float64 points [m] from `src_frame@src_stamp` to `dst_frame@dst_stamp` (None: src_stamp)."""
-        T = await self.lookup(dst_frame, src_stamp if dst_stamp is None else dst_stamp, src_frame, src_stamp)
-        return apply_se2((T.x, T.y, T.yaw), points)
+        dst_at = src_stamp if dst_stamp is None else dst_stamp
+        if self.frame_cache is not None:
+            T3 = self.frame_cache.lookup(dst_frame, dst_at, src_frame, src_stamp)
+            if T3 is not None:
+                return apply_se2(T3, points)
+        return apply_se2(await self._node_lookup(dst_frame, dst_at, src_frame, src_stamp), points)
 
     async def frames(self) -> FrameListing:
         """Return the node's frame tree (edges; oldest and newest stamps [s] of moving ones)."""

@@ -90,6 +90,9 @@ class BlackboardCore:
         self.stats = Stats()
         self.monitors: dict[tuple[str, str], Monitor] = {}
         self._pose_count = 0
+        #: the frame changes of the commit being applied, for the node to publish once it is committed:
+        #: ["p", parent, child, x, y, yaw, stamp, hold (None: forever)] or ["s", parent, child, x, y, yaw]
+        self.frame_log: list[list] = []
         for parent, child, x, y, yaw in store.static_frames():
             self.frames.set_static(parent, child, (x, y, yaw))
         for parent, child, stamp, x, y, yaw, hold in store.poses():
@@ -120,6 +123,7 @@ class BlackboardCore:
             self.stats.commits += 1
         except BaseException:
             store.rollback()
+            self.frame_log.clear()
             self._reload_frames_if_needed(changes)
             raise
         return results, changes
@@ -170,6 +174,7 @@ class BlackboardCore:
         assert kind is StaticOp
         self.frames.set_static(op.parent, op.child, op.pose)
         self.store.set_static(op.parent, op.child, op.pose)
+        self.frame_log.append(["s", op.parent, op.child, *op.pose])
         self.stats.statics += 1
         return None
 
@@ -208,6 +213,7 @@ class BlackboardCore:
         hold = math.inf if op.hold is None else op.hold
         self.frames.add_pose(op.parent, op.child, op.pose, op.stamp, hold=hold)
         self.store.add_pose(op.parent, op.child, op.stamp, op.pose, hold)
+        self.frame_log.append(["p", op.parent, op.child, *op.pose, op.stamp, op.hold])
         self._pose_count += 1
         if self._pose_count % 1000 == 0:
             self.store.prune_poses(op.child, op.stamp - self.frames.history)
@@ -240,6 +246,16 @@ class BlackboardCore:
             req = LookupRequest.parse(req)
         self.stats.lookups += 1
         return list(self.frames.lookup(req.target, req.target_stamp, req.source, req.source_stamp))
+
+    def take_frame_log(self) -> list[list]:
+        """Return the frame changes committed since the last call, and forget them."""
+        log, self.frame_log = self.frame_log, []
+        return log
+
+    def frame_history(self) -> dict:
+        """Return the whole frame tree with its bounds, for a client's frame cache (`blackboard.frame_cache`)."""
+        f = self.frames
+        return {"history": f.history, "max_samples": f.max_samples, "inertial": list(f.inertial), "edges": f.history_wire()}
 
     def frame_info(self) -> FrameListing:
         """Return the frame tree: edges (parent, child, static) and oldest/newest stamps of moving frames [s]."""

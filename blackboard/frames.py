@@ -188,6 +188,26 @@ class FrameTree:
         if cut > 0:
             del ts[:cut], edge.xs[:cut], edge.ys[:cut], edge.yaws[:cut]
 
+    def history_wire(self) -> list[list]:
+        """Return every edge with all it keeps: [parent, child, static pose or None, hold [s] (None: forever), ts, xs, ys, yaws]."""
+        return [[e.parent, c, list(e.static) if e.static is not None else None, None if e.hold == math.inf else e.hold,
+                 list(e.ts), list(e.xs), list(e.ys), list(e.yaws)] for c, e in self._edges.items()]
+
+    @classmethod
+    def from_history_wire(cls, edges: list, *, history: float, max_samples: int, inertial: tuple[str, ...]) -> "FrameTree":
+        """Return a tree holding `edges` (as `history_wire` gives them) with the same bounds as the tree that gave them."""
+        tree = cls(history=history, max_samples=max_samples, inertial=inertial)
+        for parent, child, static, hold, ts, xs, ys, yaws in edges:
+            if static is not None:
+                tree.set_static(parent, child, tuple(map(float, static)))
+                continue
+            edge = tree._edge_for(parent, child)
+            edge.hold = math.inf if hold is None else float(hold)
+            edge.ts, edge.xs, edge.ys, edge.yaws = list(map(float, ts)), list(map(float, xs)), list(map(float, ys)), list(map(float, yaws))
+            if not (len(edge.ts) == len(edge.xs) == len(edge.ys) == len(edge.yaws)) or not edge.ts:
+                raise InvalidTokenError(f"{parent}←{child}: a pose history needs as many stamps as poses, at least one")
+        return tree
+
     # ------------------------------------------------------------------ reading
     def _chain(self, frame: str) -> list[str]:
         """Return [frame, parent, ..., root]."""

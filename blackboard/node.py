@@ -135,6 +135,11 @@ class BlackboardNode:
         #: declared publishers on `bb/to/<client>`, kept while the client lives
         self._client_pubs: dict[str, Any] = {}
         self._settle_scheduled = False
+        #: this node life's name and the number of its last commit that changed frames, as published on
+        #: `bb/frames/updates` (a client's frame cache sees a gap or a new life and asks for the whole tree)
+        self._frame_epoch = uuid.uuid4().hex[:12]
+        self._frame_seq = 0
+        self._frame_pub: Any = None
         #: client → its newest acknowledgements (request id → results), oldest first
         self._acked: dict[str, collections.OrderedDict[Any, Any]] = {}
         #: clients whose monitors were dropped when their liveliness token went (told to resync on return)
@@ -168,9 +173,11 @@ class BlackboardNode:
                 k.retrieve: self._on_retrieve,
                 k.lookup: self._on_lookup,
                 k.frames: self._on_frames,
+                k.frame_history: self._on_frame_history,
                 k.monitor: self._on_monitor,
                 k.stats: self._on_stats,
             }
+            self._frame_pub = s.publisher(k.frame_updates)
             for key, h in handlers.items():
                 s.queryable(key, lambda q, h=h, w=h in self._write_handlers: self._submit(self._guard, (h, q), w))
             s.subscribe_payload(f"{k.write_prefix}/*", lambda key, payload: self._submit(self._on_write, (key, payload), True))
@@ -380,6 +387,7 @@ class BlackboardNode:
             return
         if self._hold_path is not None:
             self._hold_after_journal(self._hold_path)
+        self._publish_frames()  # before the acks: a client told of a commit has its frames already
         events: dict[str, dict[str, list[bytes]]] = {}
         if self.core.monitors:
             try:
@@ -410,6 +418,19 @@ class BlackboardNode:
             except Exception:  # noqa: BLE001 - a vanished querier must not stop the others
                 log.debug("reply failed", exc_info=True)
         self._after_commit()
+
+    def _publish_frames(self) -> None:
+        """Publish the frame changes of the commit just made as `[epoch, seq, changes]` (see `BlackboardCore.frame_log`)."""
+        changes = self.core.take_frame_log()
+        if not changes or self._frame_pub is None:
+            return
+        self._frame_seq += 1
+        data = _packb([self._frame_epoch, self._frame_seq, changes])
+        self.core.stats.bytes_out += len(data)
+        try:
+            self._frame_pub.put(data)
+        except Exception:  # noqa: BLE001 - a cache that misses it sees the gap and asks for the whole tree
+            log.warning("could not publish frame changes %d", self._frame_seq, exc_info=True)
 
     def _remember_ack(self, client: str, rid: Any, res: Any) -> None:
         if type(rid) is not int:
@@ -517,6 +538,10 @@ class BlackboardNode:
     def _on_frames(self, q: ZQuery) -> None:
         FramesRequest.parse(self._body(q, empty={}))
         self._reply(q, self.core.frame_info().wire())
+
+    def _on_frame_history(self, q: ZQuery) -> None:
+        FramesRequest.parse(self._body(q, empty={}))
+        self._reply(q, {"epoch": self._frame_epoch, "seq": self._frame_seq, **self.core.frame_history()})
 
     def _on_stats(self, q: ZQuery) -> None:
         StatsRequest.parse(self._body(q, empty={}))

@@ -43,6 +43,10 @@ class BlackboardKeys:
         self.lookup = f"{base}/lookup"
         #: queryable: the frame tree (edges, newest stamps).
         self.frames = f"{base}/frames"
+        #: publication (node → frame caches): msgpack [epoch, seq, changes], one per commit that changed frames.
+        self.frame_updates = f"{base}/frames/updates"
+        #: queryable: the whole frame tree with its bounds, and the [epoch, seq] it is current to.
+        self.frame_history = f"{base}/frames/history"
         #: queryable: register/cancel a monitor.
         self.monitor = f"{base}/monitor"
         #: queryable: node counters.

@@ -97,8 +97,9 @@ class LiveMonitor:
                 await asyncio.sleep(1.0)  # the simulator is not up yet
 
     async def _attach_blackboard(self) -> None:
+        # the live view converts poses several times a second: a frame cache answers them without a round trip
         self.bb = await BlackboardClient.connect(self.rt.net, source="monitor", registry=TypeRegistry(), lenient=True,
-                                                 connect_timeout=30.0)
+                                                 connect_timeout=30.0, frame_cache=True)
         self.rt.bb = self.bb  # the runtime closes it on the way out
         codger = CodgerLive(self.model, self.bb)
         self._spawn(codger.run())

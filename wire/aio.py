@@ -88,10 +88,22 @@ class Link:
 
     # ---- publish / subscribe ---------------------------------------------------------------
 
-    def put(self, key: str, payload: bytes, *, as_json: bool = False) -> None:
-        """Publish `payload` on `key` (non-blocking; msgpack unless `as_json`)."""
+    def put(self, key: str, payload: bytes, *, as_json: bool = False, attachment: bytes | None = None) -> None:
+        """Publish `payload` on `key` (non-blocking; msgpack unless `as_json`), with Zenoh `attachment` bytes when given."""
         if not self._closed:
-            self.session.put(key, payload, as_json=as_json)
+            self.session.put(key, payload, as_json=as_json, attachment=attachment)
+
+    def subscribe_attached(self, key_expr: str, on_sample: Callable[[str, bytes, bytes | None], None]) -> Any:
+        """Call `on_sample(key, payload, attachment or None)` on the loop for every sample matching `key_expr`."""
+        loop = self._loop
+
+        def cb(key: str, data: bytes, att: bytes | None) -> None:
+            try:
+                loop.call_soon_threadsafe(on_sample, key, data, att)
+            except RuntimeError:  # loop closed during shutdown
+                pass
+
+        return self.session.subscribe_attached(key_expr, cb)
 
     def subscribe(self, key_expr: str, on_sample: Callable[[str, bytes], None]) -> Any:
         """Call `on_sample(key, payload)` on the loop for every sample matching `key_expr`."""

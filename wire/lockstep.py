@@ -22,10 +22,13 @@ Two sides, over the process's one Zenoh session:
   (SIGSTOPped, a wedged loop) or stays busy for `busy_limit_s` [s wall] is skipped for the rest of
   that step and counted (`BarrierStats.skips`), so faults never hang a run.
 
-Residual hazard (documented, not closed): counters cannot see a put that is still in flight across
-two whole waves (its sender counted it in both, its receiver in neither). On loopback a put takes
-tens of microseconds and a wave a round trip plus each participant's turn of its loop, so a put
-would have to stall for longer than a wave; gets are exact (counted until their end).
+Counters cannot see a put still in flight across two whole waves (its sender counted it in both, its
+receiver in neither). Between peers linked directly that happened on a loaded machine (a put on one
+peer link, the asks on others), so in lock-step every process that connects to a router is its
+client (`wire.session.lockstep_topology`): a put and every later ask to its receiver then travel
+the router's one link to that process, in order, and the receiver has counted the put before it
+answers. What still links directly (a process others connect to) keeps the hazard; gets are exact
+(counted until their end).
 
 Processes take part when `SIDEWALK_LOCKSTEP=1` is in their environment (`lockstep_enabled()`;
 `sidewalk run --lockstep` sets it for every child, with PYTHONHASHSEED fixed); the same variable

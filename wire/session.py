@@ -27,10 +27,11 @@ import zenoh
 
 from wire.errors import ConnectError, SessionClosedError
 from wire.network import NetworkConfig
+from wire.timemode import lockstep_enabled
 
 __all__ = [
     "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "secure_hint", "session_stats", "traffic", "is_json_payload",
-    "gets_in_flight",
+    "gets_in_flight", "lockstep_topology",
 ]
 
 _JSON = zenoh.Encoding.APPLICATION_JSON
@@ -257,8 +258,24 @@ def _start_zenoh_log() -> None:
         zenoh.init_log_from_env_or(level)
 
 
+def lockstep_topology(net: NetworkConfig) -> NetworkConfig:
+    """Return `net` as lock-step opens it: a peer that connects to a router becomes the router's client.
+
+    The barrier (`wire.lockstep`) counts what each process sent and received and steps on once two
+    waves of asks find the counts still. Peers link to one another directly, so a message on one link
+    and the barrier's next ask on another can pass each other: on a loaded machine a message sat on a
+    peer link through two waves, and the module handled it a tick late. Through the router, a message
+    and every later ask to the same process travel one link in order, so its count is in before the
+    ask is answered.
+    """
+    if lockstep_enabled() and net.mode == "peer" and net.connect and not net.listen:
+        return net.model_copy(update={"mode": "client"})
+    return net
+
+
 def _open_zenoh(net: NetworkConfig) -> "zenoh.Session":
     _start_zenoh_log()
+    net = lockstep_topology(net)
     try:
         return zenoh.open(zenoh.Config.from_json5(json.dumps(net.zenoh_json())))
     except Exception as exc:  # zenoh raises ZError for every failure
@@ -388,6 +405,19 @@ class Session:
         self._keep.append(sub)
         return sub
 
+    def subscribe_attached(self, key: str, on_payload: Callable[[str, bytes, bytes | None], None]) -> Any:
+        """Like `subscribe_payload`, with each sample's attachment (None: none): `on_payload(key, bytes, attachment)` on a Zenoh thread."""
+        self._check()
+        def cb(s: "zenoh.Sample") -> None:
+            data = s.payload.to_bytes()
+            _traffic.into(len(data))
+            att = s.attachment
+            on_payload(str(s.key_expr), data, None if att is None else att.to_bytes())
+
+        sub = self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False))
+        self._keep.append(sub)
+        return sub
+
     def publisher(self, key: str, *, droppable: bool = False, as_json: bool = False) -> Publisher:
         """Declare a reliable express publisher on `key`; `droppable` ones drop under congestion instead of blocking."""
         self._check()
@@ -402,15 +432,16 @@ class Session:
         self._keep.append(w)
         return w
 
-    def put(self, key: str, payload: bytes, *, as_json: bool = False, droppable: bool = False) -> None:
-        """Publish one sample (msgpack unless `as_json`)."""
+    def put(self, key: str, payload: bytes, *, as_json: bool = False, droppable: bool = False,
+            attachment: bytes | None = None) -> None:
+        """Publish one sample (msgpack unless `as_json`), with Zenoh `attachment` bytes beside the payload when given."""
         if self._closed:
             return
         _traffic.out(len(payload))
         self._z.put(
             key, payload, encoding=_JSON if as_json else _MSGPACK,
             congestion_control=zenoh.CongestionControl.DROP if droppable else zenoh.CongestionControl.BLOCK,
-            express=True,
+            express=True, attachment=attachment,
         )
 
     def get(

@@ -59,7 +59,8 @@ class ControllerModule:
             warn_limited(log, "bad-odometry", "controller: bad odometry: %.200s", exc)
             return
         if self._next_state is not None and od.stamp >= self._next_state:
-            self.m.publish("state", self.core.state(od.stamp))
+            # stamped with the odometry's time: it may arrive before the clock tick of the same step
+            self.m.publish("state", self.core.state(od.stamp), stamp=od.stamp)
             self._next_state = od.stamp + 1.0 / self.cfg.control_hz - 1e-6
 
     def _now(self) -> float:

@@ -115,7 +115,8 @@ async def run_switched(m: Module, switch: Switch, cycle: Callable[[], Awaitable[
                 await woken.wait()
                 continue
             try:
-                log.debug("%s: %s", m.name, await cycle())
+                done = await cycle()
+                log.debug("%s: t=%.2f %s", m.name, m.now() or -1.0, done)
             except EddieError as exc:  # a capture that failed, a refused request: log it, go on
                 log.warning("%s: %s", m.name, exc)
             await m.clock.sleep(period_s)

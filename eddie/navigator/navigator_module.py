@@ -90,7 +90,8 @@ class NavigatorModule:
                 except BadMessage as exc:
                     warn_limited(log, "bad-fix", "navigator: %.200s", exc)
                     continue
-                log.info("navigator: fix from %s: world←local (%.2f, %.2f, %.3f)", inc.sender, w.x, w.y, w.yaw)
+                log.info("navigator: t=%.2f fix from %s (stamp %.2f): world←local (%.2f, %.2f, %.3f)",
+                         m.now() or -1.0, inc.sender, inc.message.stamp, w.x, w.y, w.yaw)
                 self._push()
         finally:
             republish.cancel()

@@ -9,16 +9,22 @@ streams it follows, then its inbox, each grouped by sender (senders in name orde
 messages in the order it sent them). The barrier makes every message of a step arrive before the
 next tick, but not in the same order from run to run, nor in the same slices of the module's loop:
 two modules' fixes reaching the navigator in one step, or the map manager cycling once on two state
-updates instead of twice, would otherwise change what happens next. The cost is up to one
-publication period of sim time before a message is handled.
+updates instead of twice, would otherwise change what happens next. A message is released at the
+first tick later than the sim time it was sent at (an inbox message's envelope stamp; a stream
+sample's attachment, which `publish` adds in lock-step): the map manager's trigger sent on tick t
+may reach the controller before tick t itself does, or after, from run to run, and is handled at
+the next tick either way. The cost is up to one publication period of sim time before a message is
+handled.
 """
 
 from __future__ import annotations
 
 import asyncio
+import itertools
 import logging
 import os
 import socket
+import struct
 import sys
 import time
 from dataclasses import dataclass
@@ -43,6 +49,9 @@ from wire.ratelimit import warn_limited
 __all__ = ["Module", "Incoming", "ServiceHandler"]
 
 log = logging.getLogger(__name__)
+
+#: the lock-step stamp a stream sample carries as its attachment: the sender's sim time [s], float64 little endian
+_STAMP = struct.Struct("<d")
 
 T = TypeVar("T", bound=Message)
 
@@ -81,10 +90,12 @@ class Module:
         #: inbox messages dropped because the inbox was full
         self.dropped = 0
         self._participant: Participant | None = None
-        #: lock-step: what arrived since the last clock tick, as (0 stream / 1 inbox, sender, arrival, payload,
-        #: stream callback or None for the inbox), released at the next tick in that order (None: real time)
-        self._held: list[tuple[int, str, int, bytes, Callable[[str, bytes], None] | None]] | None = (
+        #: lock-step: what arrived and is not yet released, as (0 stream / 1 inbox, sender, arrival, payload,
+        #: stream callback or None for the inbox, the sender's sim time at sending [s] or None), released at
+        #: the first tick later than its sending, in that order (None: real time)
+        self._held: list[tuple[int, str, int, bytes, Callable[[str, bytes], None] | None, float | None]] | None = (
             [] if lockstep_enabled() else None)
+        self._arrivals = itertools.count()
 
     # ---- lifecycle -----------------------------------------------------------------------
 
@@ -214,9 +225,20 @@ class Module:
 
     # ---- streams -------------------------------------------------------------------------
 
-    def publish(self, stream: str, msg: Message) -> None:
-        """Push `msg` (bare fields, msgpack) on this module's stream `stream` to every subscriber."""
-        self._link.put(self.keys.topic(self.name, stream), encode_body(msg))
+    def publish(self, stream: str, msg: Message, *, stamp: float | None = None) -> None:
+        """Push `msg` (bare fields, msgpack) on this module's stream `stream` to every subscriber.
+
+        In lock-step the sample carries the sim time it belongs to as its Zenoh attachment (a float64,
+        little endian): this module's clock, or `stamp` [s sim] when later (a message made from an input
+        newer than the clock tick heard, as the controller's state from the simulator's odometry), so a
+        receiver releases it at the tick after that time.
+        """
+        at = None
+        if self._held is not None:
+            now = self.now()
+            at = stamp if now is None else (now if stamp is None else max(now, stamp))
+        self._link.put(self.keys.topic(self.name, stream), encode_body(msg),
+                       attachment=None if at is None else _STAMP.pack(at))
 
     def subscribe(self, module: str, stream: str, model: type[T], on_message: Callable[[T], None]) -> Any:
         """Call `on_message(msg)` on the loop for every message of `module`'s `stream`; bad samples are logged, skipped."""
@@ -232,21 +254,23 @@ class Module:
             return self._link.subscribe(self.keys.topic(module, stream), on_sample)
         where = f"{module}/{stream}"
 
-        def held(key: str, payload: bytes) -> None:
+        def held(key: str, payload: bytes, att: bytes | None) -> None:
             assert self._held is not None
-            self._held.append((0, where, len(self._held), payload, on_sample))
+            stamp = _STAMP.unpack(att)[0] if att is not None and len(att) == _STAMP.size else None
+            self._held.append((0, where, next(self._arrivals), payload, on_sample, stamp))
 
-        return self._link.subscribe(self.keys.topic(module, stream), held)
+        return self._link.subscribe_attached(self.keys.topic(module, stream), held)
 
     # ---- internals -----------------------------------------------------------------------
 
     def _on_inbox(self, _key: str, payload: bytes) -> None:
         if self._held is not None:
             try:
-                sender = open_envelope(payload, where=f"{self.name}'s inbox").sender
+                env = open_envelope(payload, where=f"{self.name}'s inbox")
+                sender, stamp = env.sender, env.stamp
             except BadMessage:
-                sender = ""  # `receive()` reports it, in its turn
-            self._held.append((1, sender, len(self._held), payload, None))
+                sender, stamp = "", None  # `receive()` reports it, in its turn
+            self._held.append((1, sender, next(self._arrivals), payload, None, stamp))
             return
         self._put(payload)
 
@@ -264,8 +288,14 @@ class Module:
             warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
             return
         if self._held:
-            held, self._held = sorted(self._held, key=lambda h: h[:3]), []
-            for _kind, where, _arrival, raw, on_sample in held:
+            # only what was sent before this tick: a message sent in this tick may reach this module before or
+            # after the tick itself does, so it waits for the next one either way
+            t = self.clock.now()
+            due = [h for h in self._held if h[5] is None or h[5] < t]
+            if not due:
+                return
+            self._held = [h for h in self._held if not (h[5] is None or h[5] < t)]
+            for _kind, where, _arrival, raw, on_sample, _stamp in sorted(due, key=lambda h: h[:3]):
                 if on_sample is None:
                     self._put(raw)
                 else:

@@ -7,6 +7,12 @@ grid A is held against grid B's, over every mission together (`summary`, mission
 the finer test): the measure repeats when each median lies within the other grid's range
 (`within_spread`). Fault verdicts (one run per fault, no spread) repeat when the verdict is
 the same; the speed sweep when the highest speed with success on every seed is the same.
+
+Two lock-step grids hold the simulated run still while every module works, so what the run does
+must repeat; what the machine spent doing it (`MACHINE_MEASURES`: wall time, CPU, memory, and the
+messages per sim second, which include each process's heartbeat once a wall second) cannot, by
+construction. Between lock-step grids those are checked and shown apart (`machine`) and left out of
+the verdict; between real-time grids every measure counts.
 """
 
 from __future__ import annotations
@@ -21,7 +27,12 @@ from sidewalk.compare.errors import CompareError
 from sidewalk.compare.summary import ArchSummary, Spread, within_spread
 from sidewalk.compare.tables import fmt_spread
 
-__all__ = ["MeasureRepeat", "VerdictRepeat", "RepeatCheck", "load_summary", "check_repeat", "render_repeat"]
+__all__ = ["MACHINE_MEASURES", "MeasureRepeat", "VerdictRepeat", "RepeatCheck", "load_summary", "check_repeat", "render_repeat"]
+
+
+#: measures of what the machine spent, not of what the simulated run did
+MACHINE_MEASURES = frozenset({"sense_to_act_wall_ms_p50", "cpu_s", "cpu_s_modules", "rss_mb", "wall_time_s",
+                              "messages_per_s", "bytes_per_s"})
 
 
 class MeasureRepeat(BaseModel):
@@ -35,6 +46,8 @@ class MeasureRepeat(BaseModel):
     a: Spread
     b: Spread
     repeats: bool
+    #: a measure of the machine between lock-step grids: shown, not counted in the verdict
+    machine: bool = False
 
 
 class VerdictRepeat(BaseModel):
@@ -64,6 +77,10 @@ class RepeatCheck(BaseModel):
     repeated: int
     total: int
     repeats: bool
+    #: both grids in lock-step: the machine's measures are apart (`MeasureRepeat.machine`)
+    lockstep: bool = False
+    machine_repeated: int = 0
+    machine_total: int = 0
 
 
 def load_summary(path: Path) -> dict:
@@ -117,20 +134,23 @@ def _config(data: dict) -> dict:
 def check_repeat(a: dict, b: dict, *, name_a: str = "a", name_b: str = "b") -> RepeatCheck:
     """Hold grid `a`'s summary (from `load_summary`) against grid `b`'s, measure by measure and verdict by verdict."""
     measures: list[MeasureRepeat] = []
+    lockstep = a.get("time_mode") == b.get("time_mode") == "lockstep"
     pairs = [((arch, "*"), sa, b["summary"].get(arch)) for arch, sa in a["summary"].items()]
     pairs += [(key, sa, b["per_mission"].get(key)) for key, sa in a["per_mission"].items()]
     for (arch, mission), sa, sb in pairs:
         for name, spa in sa.measures.items():
             spb = sb.measures.get(name, Spread()) if sb is not None else Spread()
             measures.append(MeasureRepeat(architecture=arch, mission=mission, measure=name, a=spa, b=spb,
-                                          repeats=within_spread(spa, spb)))
+                                          repeats=within_spread(spa, spb), machine=lockstep and name in MACHINE_MEASURES))
     va, vb = _verdicts(a), _verdicts(b)
     verdicts = [VerdictRepeat(architecture=k[0], what=k[1], a=va.get(k), b=vb.get(k), repeats=va.get(k) == vb.get(k))
                 for k in dict.fromkeys([*va, *vb])]
-    rows = [*measures, *verdicts]
+    rows = [*(m for m in measures if not m.machine), *verdicts]
+    machine = [m for m in measures if m.machine]
     ok = sum(r.repeats for r in rows)
     return RepeatCheck(a=name_a, b=name_b, command_a=_config(a), command_b=_config(b), same_config=_config(a) == _config(b),
-                       measures=measures, verdicts=verdicts, repeated=ok, total=len(rows), repeats=ok == len(rows))
+                       measures=measures, verdicts=verdicts, repeated=ok, total=len(rows), repeats=ok == len(rows),
+                       lockstep=lockstep, machine_repeated=sum(m.repeats for m in machine), machine_total=len(machine))
 
 
 def render_repeat(check: RepeatCheck) -> str:
@@ -140,7 +160,10 @@ def render_repeat(check: RepeatCheck) -> str:
         lines += [f"**Not the same command**: {check.command_a} against {check.command_b}.", ""]
     lines += [f"{check.repeated} of {check.total} measures and verdicts repeat (a measure repeats when each grid's median lies "
               "within the other's range; a verdict when it is the same).", ""]
-    differ = [m for m in check.measures if not m.repeats]
+    if check.lockstep:
+        lines += [f"Both grids ran in lock-step: the {check.machine_total} measures of the machine (wall time, CPU, memory, "
+                  f"messages per sim second) are not counted; {check.machine_repeated} of them repeat.", ""]
+    differ = [m for m in check.measures if not m.repeats and not m.machine]
     vdiffer = [v for v in check.verdicts if not v.repeats]
     if differ or vdiffer:
         lines += ["## Not repeated", "", f"| arch | mission | measure or verdict | {check.a} | {check.b} |", "|---|---|---|---|---|"]
@@ -149,7 +172,8 @@ def render_repeat(check: RepeatCheck) -> str:
         lines.append("")
     lines += ["## Every measure (median [min–max]; mission * = every mission together)", "",
               f"| arch | mission | measure | {check.a} | {check.b} | repeats |", "|---|---|---|---|---|---|"]
-    lines += [f"| {m.architecture} | {m.mission} | {m.measure} | {fmt_spread(m.a)} | {fmt_spread(m.b)} | {'yes' if m.repeats else '**no**'} |"
+    lines += [f"| {m.architecture} | {m.mission} | {m.measure} | {fmt_spread(m.a)} | {fmt_spread(m.b)} | "
+              f"{('yes' if m.repeats else '**no**') + (' (machine, not counted)' if m.machine else '')} |"
               for m in check.measures]
     if check.verdicts:
         lines += ["", "## Faults and speed sweep", "", f"| arch | what | {check.a} | {check.b} | repeats |", "|---|---|---|---|---|"]

@@ -11,17 +11,18 @@ CONFIG = {"missions": ["campus-tour"], "seeds": [0, 1, 2], "rtf": 8.0, "architec
           "speeds": [], "out": "runs/x"}
 
 
-def _grid(path, latency: list[float], verdict: str = "completed", highest: float | None = 2.0) -> None:
+def _grid(path, latency: list[float], verdict: str = "completed", highest: float | None = 2.0, *,
+          byte_rates: tuple[float, ...] = (1e5, 1.1e5, 1.2e5), time_mode: str = "realtime") -> None:
     """Write a compare.json whose codger sense-to-act runs are `latency` [ms] (everything else alike)."""
     summary = {}
     for arch, lat in (("codger", latency), ("eddie", [900.0, 950.0, 1000.0])):
-        measures = {"success": spread([1.0, 1.0, 1.0]), "sense_to_act_ms_p50": spread(lat), "bytes_per_s": spread([1e5, 1.1e5, 1.2e5])}
+        measures = {"success": spread([1.0, 1.0, 1.0]), "sense_to_act_ms_p50": spread(lat), "bytes_per_s": spread(list(byte_rates))}
         summary[arch] = ArchSummary(architecture=arch, mission="*", runs=3, success_rate=1.0, measures=measures).model_dump(mode="json")
     faults = [{"architecture": a, "mission": "campus-tour", "seed": 0, "fault": "wedge", "verdict": verdict if a == "codger" else "completed"}
               for a in ("codger", "eddie")]
     per_mission = [dict(v, mission="campus-tour") for v in summary.values()]  # one mission: the same figures
     path.mkdir()
-    (path / "compare.json").write_text(json.dumps({"config": CONFIG, "summary": summary, "per_mission": per_mission, "faults": faults,
+    (path / "compare.json").write_text(json.dumps({"config": CONFIG, "time_mode": time_mode, "summary": summary, "per_mission": per_mission, "faults": faults,
                                                     "highest_speed": {"codger": highest, "eddie": 3.0}}))
 
 
@@ -58,3 +59,18 @@ def test_the_command_exits_by_the_verdict_and_names_a_bad_file(tmp_path):
     (tmp_path / "bad.json").write_text('{"summary": {"codger": {"runs": "three"}}}')
     r = check(tmp_path / "a", tmp_path / "bad.json")
     assert r.returncode == 2 and "bad.json: summary.codger" in " ".join(r.stderr.split())
+
+
+def test_between_lockstep_grids_the_machines_measures_are_shown_apart_and_not_counted(tmp_path):
+    # the same simulated behaviour; bytes per sim second moved with the wall time the heartbeats took
+    _grid(tmp_path / "a", [1300.0, 1500.0, 1800.0], time_mode="lockstep")
+    _grid(tmp_path / "b", [1300.0, 1500.0, 1800.0], byte_rates=(2e5, 2.1e5, 2.2e5), time_mode="lockstep")
+    _grid(tmp_path / "ra", [1300.0, 1500.0, 1800.0])
+    _grid(tmp_path / "rb", [1300.0, 1500.0, 1800.0], byte_rates=(2e5, 2.1e5, 2.2e5))
+    lock = check_repeat(load_summary(tmp_path / "a"), load_summary(tmp_path / "b"), name_a="a", name_b="b")
+    assert lock.lockstep and lock.repeats and lock.total == 2 * 2 * 2 + 2 + 2 and lock.machine_total == 4
+    assert lock.machine_repeated == 0  # both architectures' byte rates moved, and that is shown
+    md = render_repeat(lock)
+    assert "## Not repeated" not in md and "(machine, not counted)" in md and "4 measures of the machine" in md
+    real = check_repeat(load_summary(tmp_path / "ra"), load_summary(tmp_path / "rb"), name_a="ra", name_b="rb")
+    assert not real.lockstep and not real.repeats and real.machine_total == 0  # in real time every measure counts

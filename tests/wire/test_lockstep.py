@@ -139,3 +139,17 @@ def test_a_stopped_participant_is_skipped_after_the_time_out(net: Net) -> None:
     os.kill(p.pid, signal.SIGCONT)
     res = net.barrier.wait(2, 0.10)
     assert res.skipped == () and pname in res.participants
+
+
+def test_in_lockstep_a_peer_of_the_router_becomes_its_client(monkeypatch: pytest.MonkeyPatch) -> None:
+    from wire.session import lockstep_topology
+    from wire.timemode import LOCKSTEP_ENV
+
+    peer = NetworkConfig(namespace=NS, connect=("tcp/127.0.0.1:7447",))
+    listening = NetworkConfig(namespace=NS, listen=("tcp/127.0.0.1:7448",))
+    monkeypatch.delenv(LOCKSTEP_ENV, raising=False)
+    assert lockstep_topology(peer).mode == "peer"  # real time: peers link to one another directly
+    monkeypatch.setenv(LOCKSTEP_ENV, "1")
+    assert lockstep_topology(peer).mode == "client"  # every message and every barrier ask through the router, in order
+    assert lockstep_topology(peer).zenoh_json()["mode"] == "client" and "listen" not in lockstep_topology(peer).zenoh_json()
+    assert lockstep_topology(listening) == listening  # a process others connect to stays as it is

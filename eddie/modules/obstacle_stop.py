@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from modules.perception.obstacles import LaserScan, ObstacleConfig, path_clear_distance, path_in_vehicle
 
-__all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead", "remaining_m", "stop_room_m"]
+__all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead", "remaining_m", "braking_m"]
 
 
 class ObstacleStopConfig(BaseModel):
@@ -60,10 +60,10 @@ def remaining_m(path_local: np.ndarray, pose_local: tuple[float, float, float]) 
     return float(np.linalg.norm(np.diff(rest, axis=0), axis=1).sum())
 
 
-def stop_room_m(cfg: ObstacleStopConfig, speed: float) -> float:
-    """Return how far ahead [m] an obstacle must be for the vehicle at `speed` [m/s] to stop with its front `clearance_m` short of it."""
+def braking_m(cfg: ObstacleStopConfig, speed: float) -> float:
+    """Return how far [m] the vehicle at `speed` [m/s] travels from a capture to standing still (latency, then braking)."""
     v = abs(speed)
-    return cfg.front_m + cfg.clearance_m + v * cfg.latency_s + v * v / (2.0 * cfg.decel_mps2)
+    return v * cfg.latency_s + v * v / (2.0 * cfg.decel_mps2)
 
 
 def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig(), *,
@@ -76,7 +76,7 @@ def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig
     the path stops the vehicle once within `stop_distance_m`. The controller stops at its path's end
     by itself, so an obstacle past the end (a building behind the mission's goal) matters only when
     the front would come within `clearance_m` of it there, and then only once the vehicle is as near
-    as its stop needs (`stop_room_m`): it drives on to the end or to just short of the obstacle.
+    as its stop needs (front, clearance and `braking_m`): it drives on to the end or to just short of the obstacle.
     Stopping such a vehicle early instead would hold it short of its goal for good, the driving
     module's next path being refused while the stop holds.
     """
@@ -88,6 +88,5 @@ def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig
     if d <= left:
         blocked = d <= cfg.stop_distance_m
     else:
-        braking = stop_room_m(cfg, speed) - cfg.front_m - cfg.clearance_m
-        blocked = d <= min(cfg.stop_distance_m, cfg.front_m + cfg.clearance_m + min(left, braking))
+        blocked = d <= min(cfg.stop_distance_m, cfg.front_m + cfg.clearance_m + min(left, braking_m(cfg, speed)))
     return ObstacleReport(blocked=blocked, distance_m=float(d), stamp=float(scan.stamp))

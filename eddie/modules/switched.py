@@ -116,7 +116,7 @@ async def run_switched(m: Module, switch: Switch, cycle: Callable[[], Awaitable[
                 continue
             try:
                 done = await cycle()
-                log.debug("%s: t=%.2f %s", m.name, m.now() or -1.0, done)
+                log.debug("%s: t=%.2f %s", m.name, m.clock.now_or(-1.0), done)
             except EddieError as exc:  # a capture that failed, a refused request: log it, go on
                 log.warning("%s: %s", m.name, exc)
             await m.clock.sleep(period_s)

@@ -91,7 +91,7 @@ class NavigatorModule:
                     warn_limited(log, "bad-fix", "navigator: %.200s", exc)
                     continue
                 log.info("navigator: t=%.2f fix from %s (stamp %.2f): world←local (%.2f, %.2f, %.3f)",
-                         m.now() or -1.0, inc.sender, inc.message.stamp, w.x, w.y, w.yaw)
+                         m.clock.now_or(-1.0), inc.sender, inc.message.stamp, w.x, w.y, w.yaw)
                 self._push()
         finally:
             republish.cancel()
@@ -107,7 +107,10 @@ class NavigatorModule:
                 pos = await self.m.request(self.controller, "position", PositionQuery(), reply_type=Position)
             except EddieError as exc:  # not up yet, or no odometry yet: ask again
                 warn_limited(log, "first-position", "navigator: waiting for the controller's position: %.200s", exc)
-                await asyncio.sleep(0.1)  # wall time: start-up only, sim time stands still meanwhile
+                try:  # its state stream may say it first; else ask again (wall time: start-up only, sim time held)
+                    await asyncio.wait_for(self._started.wait(), 0.1)
+                except asyncio.TimeoutError:
+                    pass
                 continue
             if not self.nav.started:
                 self._on_state(ControllerState(stamp=pos.stamp, x=pos.x, y=pos.y, yaw=pos.yaw, v=pos.v, curvature=0.0))

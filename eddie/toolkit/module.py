@@ -291,10 +291,12 @@ class Module:
             # only what was sent before this tick: a message sent in this tick may reach this module before or
             # after the tick itself does, so it waits for the next one either way
             t = self.clock.now()
-            due = [h for h in self._held if h[5] is None or h[5] < t]
+            due, wait = [], []
+            for h in self._held:
+                (due if h[5] is None or h[5] < t else wait).append(h)
             if not due:
                 return
-            self._held = [h for h in self._held if not (h[5] is None or h[5] < t)]
+            self._held = wait
             for _kind, where, _arrival, raw, on_sample, _stamp in sorted(due, key=lambda h: h[:3]):
                 if on_sample is None:
                     self._put(raw)

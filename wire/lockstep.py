@@ -19,8 +19,11 @@ Two sides, over the process's one Zenoh session:
   the same counters, the simulator's own included (a message sent but not yet received changes a
   receiver's counter between the waves, so the barrier waits for it). A participant whose token
   went is dropped at once (a killed process); one that does not answer within `timeout_s` [s wall]
-  (SIGSTOPped, a wedged loop) or stays busy for `busy_limit_s` [s wall] is skipped for the rest of
-  that step and counted (`BarrierStats.skips`), so faults never hang a run.
+  (SIGSTOPped, a wedged loop) becomes *silent*: skipped for the rest of that step and not waited for
+  in later steps either, only probed (one ask in flight at a time) until it answers idle again, so a
+  module wedged for 5 s sim stays away 5 s sim, as it would in real time, at lock-step speed rather
+  than one time-out per step. One that stays busy for `busy_limit_s` [s wall] is skipped for the rest
+  of that step. Both are counted (`BarrierStats.skips`, `.silenced`), so faults never hang a run.
 
 Counters cannot see a put still in flight across two whole waves (its sender counted it in both, its
 receiver in neither). Between peers linked directly that happened on a loaded machine (a put on one
@@ -128,17 +131,21 @@ class BarrierResult(BaseModel):
     waves: int
     participants: tuple[str, ...]
     skipped: tuple[str, ...] = ()
+    #: silent since an earlier step (no answer within the time-out): probed, not waited for
+    silent: tuple[str, ...] = ()
     wall_s: float = Field(ge=0.0)
 
 
 class BarrierStats(BaseModel):
-    """What the barrier did so far: steps, waves, skips, participants dropped, barrier wall time [s wall]."""
+    """What the barrier did so far: steps, waves, skips, participants gone silent / heard again, dropped, wall time [s wall]."""
 
     model_config = ConfigDict(extra="forbid")
 
     steps: int = 0
     waves: int = 0
     skips: int = 0
+    silenced: int = 0
+    heard_again: int = 0
     joined: int = 0
     dropped: int = 0
     wall_s: float = 0.0
@@ -364,6 +371,7 @@ class Barrier:
         self.stats = BarrierStats()
         self._gets_out = 0  # the barrier's own traffic, taken off this process's counters
         self._replies_in = 0
+        self._silent: dict[str, bool] = {}  # participant → a probe in flight (under _lock)
         self._closed = False
         self._sub = session.liveliness_subscribe(self._keys.alive_all, self._on_alive, history=True)
 
@@ -391,13 +399,59 @@ class Barrier:
                 self.stats.joined += 1
             elif not alive and name in self._members:
                 self._members.discard(name)
+                self._silent.pop(name, None)
                 self.stats.dropped += 1
                 log.info("lockstep: %s is gone (dropped)", name)
             self._changed.notify_all()
 
+    def silent(self) -> list[str]:
+        """Return the participants not waited for (no answer within the time-out since), sorted."""
+        with self._lock:
+            return sorted(self._silent)
+
+    def wait_heard(self, name: str, timeout: float) -> bool:
+        """Block until `name` is not silent (True) or `timeout` [s wall] passed (False)."""
+        with self._changed:
+            return self._changed.wait_for(lambda: name not in self._silent, timeout)
+
     def _own_counters(self) -> tuple[int, int]:
         msgs_out, _bo, msgs_in, _bi = traffic()
-        return msgs_in - self._replies_in, msgs_out - self._gets_out
+        with self._lock:
+            return msgs_in - self._replies_in, msgs_out - self._gets_out
+
+    def _probe(self, ask: BarrierAsk) -> None:
+        """Ask every silent participant without a probe in flight; an idle answer makes it a waited-for member again."""
+        payload = encode(ask)
+        with self._lock:
+            due = [n for n, in_flight in self._silent.items() if not in_flight]
+            for n in due:
+                self._silent[n] = True
+                self._gets_out += 1
+        for n in due:
+            try:
+                self._session.get(self._keys.ask(n), payload, timeout=self.timeout_s,
+                                  on_reply=lambda r, n=n: self._on_probe_reply(n, r), on_done=lambda n=n: self._on_probe_done(n))
+            except WireError:  # the session closed under us
+                self._on_probe_done(n)
+
+    def _on_probe_reply(self, name: str, r: Reply) -> None:  # Zenoh thread
+        rep = None
+        if r.ok:
+            try:
+                rep = decode(ParticipantReport, r.payload, as_json=r.is_json)
+            except LockstepPayloadError:
+                rep = None
+        with self._lock:
+            self._replies_in += 1
+            if rep is not None and not rep.busy and self._silent.pop(name, None) is not None:
+                self.stats.heard_again += 1
+                log.info("lockstep: %s answers again: waited for from the next step", name)
+                self._changed.notify_all()
+
+    def _on_probe_done(self, name: str) -> None:  # Zenoh thread
+        with self._lock:
+            if name in self._silent:
+                self._silent[name] = False
 
     def _wave(self, names: list[str], ask: BarrierAsk) -> _Wave:
         w = _Wave(len(names))
@@ -411,7 +465,9 @@ class Barrier:
                 w.on_done()
         w.done.wait(self.timeout_s + 1.0)
         with w.lock:
-            self._replies_in += w.replies
+            replies = w.replies
+        with self._lock:
+            self._replies_in += replies
         return w
 
     def wait(self, step: int, sim_time: float, *, stop: threading.Event | None = None) -> BarrierResult:
@@ -427,8 +483,10 @@ class Barrier:
         same = 1
         waves = 0
         answered: tuple[str, ...] = ()
+        self._probe(BarrierAsk(step=step, wave=0, sim_time=sim_time))
         while not self._closed and not (stop is not None and stop.is_set()):
-            names = [n for n in self.members() if n not in skipped]
+            silent = set(self.silent())
+            names = [n for n in self.members() if n not in skipped and n not in silent]
             w = self._wave(names, BarrierAsk(step=step, wave=waves, sim_time=sim_time))
             waves += 1
             now = time.monotonic()
@@ -437,10 +495,15 @@ class Barrier:
             for n in names:
                 rep = w.reports.get(n)
                 if rep is None:
-                    if n in alive:  # silent (stopped, wedged): skipped for this step; gone: dropped by liveliness
+                    if n in alive:  # silent (stopped, wedged): not waited for until it answers; gone: dropped by liveliness
                         skipped.add(n)
                         self.stats.skips += 1
-                        log.warning("lockstep: %s did not answer within %.1f s: skipped at step %d", n, self.timeout_s, step)
+                        with self._lock:
+                            if n in self._members and n not in self._silent:
+                                self._silent[n] = False
+                                self.stats.silenced += 1
+                        log.warning("lockstep: %s did not answer within %.1f s at step %d: not waited for until it answers",
+                                    n, self.timeout_s, step)
                     all_idle = False
                 elif rep.busy:
                     all_idle = False
@@ -464,4 +527,5 @@ class Barrier:
         st.waves += waves
         st.wall_s += wall
         st.max_wall_s = max(st.max_wall_s, wall)
-        return BarrierResult(step=step, waves=waves, participants=answered, skipped=tuple(sorted(skipped)), wall_s=wall)
+        return BarrierResult(step=step, waves=waves, participants=answered, skipped=tuple(sorted(skipped)),
+                             silent=tuple(n for n in self.silent() if n not in skipped), wall_s=wall)

@@ -127,18 +127,30 @@ def test_a_dead_participant_is_dropped(net: Net) -> None:
 
 
 @pytest.mark.timeout(60)
-def test_a_stopped_participant_is_skipped_after_the_time_out(net: Net) -> None:
+def test_a_stopped_participant_is_skipped_then_not_waited_for_until_it_answers_again(net: Net) -> None:
     net.start("a", "--work", "0.1")
     p, pname = net.start("d")
     os.kill(p.pid, signal.SIGSTOP)
     wait_stopped(p.pid)
     res = net.barrier.wait(1, 0.05)
     assert res.skipped == (pname,), res
-    assert net.barrier.stats.skips == 1
+    assert net.barrier.stats.skips == 1 and net.barrier.stats.silenced == 1
     assert res.wall_s < 10 * net.barrier.timeout_s  # skipped for the rest of the step, not asked again each wave
+    # still stopped: the next steps do not wait for it again (a wedge of 5 s sim lasts 5 s sim, not 5 s of time-outs)
+    for step in (2, 3):
+        res = net.barrier.wait(step, 0.05 * step)
+        assert res.skipped == () and res.silent == (pname,) and pname not in res.participants, res
+    assert net.barrier.stats.skips == 1, "a silent participant cost the time-out again"
     os.kill(p.pid, signal.SIGCONT)
-    res = net.barrier.wait(2, 0.10)
-    assert res.skipped == () and pname in res.participants
+    step = 4
+    while pname in net.barrier.silent():  # each step probes it once; its idle answer brings it back
+        net.barrier.wait(step, 0.05 * step)
+        net.barrier.wait_heard(pname, net.barrier.timeout_s + 1.0)
+        step += 1
+        assert step < 40, "the continued participant never answered a probe"
+    res = net.barrier.wait(step, 0.05 * step)
+    assert res.skipped == () and res.silent == () and pname in res.participants, res
+    assert net.barrier.stats.heard_again == 1
 
 
 def test_in_lockstep_a_peer_of_the_router_becomes_its_client(monkeypatch: pytest.MonkeyPatch) -> None:

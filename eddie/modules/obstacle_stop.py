@@ -72,8 +72,12 @@ def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig
     """Return whether to stop now for an obstacle along the path (`blocked`) and how far along it stands.
 
     `path_local` (N, 2) [m] is the path in `local` and `pose_local` the vehicle's pose there at the
-    scan, `speed` [m/s] its speed; without a path the corridor runs straight ahead. An obstacle on
-    the path stops the vehicle once within `stop_distance_m`. The controller stops at its path's end
+    scan, `speed` [m/s] its speed. An obstacle on the path stops the vehicle once within `stop_distance_m`.
+    Without a path the controller is bringing the vehicle to rest where it heads: the corridor runs
+    straight ahead, and only an obstacle the front would come within `clearance_m` of while it stops
+    (front, clearance and `braking_m`) stops it. Stopping for anything within `stop_distance_m` straight
+    ahead instead held a vehicle standing a few degrees askew between two paths for good (the road's edge
+    15 m ahead), since the next path is refused while the stop holds. The controller stops at its path's end
     by itself, so an obstacle past the end (a building behind the mission's goal) matters only when
     the front would come within `clearance_m` of it there, and then only once the vehicle is as near
     as its stop needs (front, clearance and `braking_m`): it drives on to the end or to just short of the obstacle.
@@ -84,7 +88,10 @@ def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig
     d = path_clear_distance(scan, path, cfg.half_width_m, cfg.detection, min_points=cfg.min_points)
     if not math.isfinite(d):
         return ObstacleReport(blocked=False, distance_m=None, stamp=float(scan.stamp))
-    left = math.inf if path_local is None else remaining_m(path_local, pose_local)
+    if path_local is None or len(path_local) < 2:
+        blocked = d <= min(cfg.stop_distance_m, cfg.front_m + cfg.clearance_m + braking_m(cfg, speed))
+        return ObstacleReport(blocked=blocked, distance_m=float(d), stamp=float(scan.stamp))
+    left = remaining_m(path_local, pose_local)
     if d <= left:
         blocked = d <= cfg.stop_distance_m
     else:

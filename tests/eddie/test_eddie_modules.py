@@ -49,10 +49,14 @@ def test_obstacle_stop_sees_a_tree_on_the_path_and_not_the_open_walk(src: FrameS
     assert not clear.blocked, clear
     tx, ty = _tree(src).center
     facing = (tx - 3.5, ty, 0.0)  # 3.5 m west of the trunk, looking east at it
-    hit = obstacle_ahead(_scan(src, facing), cfg)
+    # no path: the vehicle rolls to rest straight ahead; at 2 m/s it needs 1.1 + 0.5 + 1 + 2 m, so the trunk stops it
+    hit = obstacle_ahead(_scan(src, facing), cfg, speed=2.0)
     assert hit.blocked and hit.distance_m is not None
     assert 2.0 < hit.distance_m < 3.6  # the near side of the trunk
-    assert not obstacle_ahead(_scan(src, (tx - 3.5, ty, math.pi)), cfg).blocked  # the same place, looking away
+    assert not obstacle_ahead(_scan(src, (tx - 3.5, ty, math.pi)), cfg, speed=2.0).blocked  # the same place, looking away
+    # no path and at rest (between two paths), the trunk beyond its clearance does not hold it: the next path is judged
+    rest = obstacle_ahead(_scan(src, facing), cfg)
+    assert rest.distance_m is not None and not rest.blocked
     # the same view, but the path (in an arbitrary `local`) swerves left past the trunk: nothing on it
     local_from_world = inverse(WORLD_FROM_LOCAL)
     pose_local = compose(local_from_world, np.asarray(facing))

@@ -13,7 +13,8 @@ the vehicle's turning radius). Out come, in `world` [m]:
 - `start_landmarks` at the start of each step listing the landmarks near its first straight, and
   `start_obstacles` there too (fast obstacle detection sleeps until the route switches it on);
 - a `stop_at_object` gate `STOP_LEAD_M` before each step's destination, naming the object there
-  (for amv-delivery the mailbox) and the step's action (stop / wait / continue).
+  (for amv-delivery the mailbox) and the step's action (stop / wait / continue); the stop point is
+  beside that object (`eddie.missions.destination`), in the step's lane.
 
 The MAP NAVIGATOR's and CAPTAIN's libraries are imported when a mission is compiled, not when this
 file is: their packages' `__init__` also import their blackboard services, and importing `eddie`
@@ -38,6 +39,7 @@ from eddie.annotated_map.annotation import Annotation, Location
 from eddie.messages.map_manager import (LandmarkMatching, ObstacleDetection, RouteSegment, SetSpeed, StopAtObject,
                                         encode_trigger_data)
 from eddie.missions.errors import MissionCompileError
+from eddie.missions.destination import STOP_LEAD_M, destination_object, destination_point
 from eddie.missions.lane import lane_goal
 from eddie.missions.macros import gate, trigger, turn_at_intersection
 
@@ -50,10 +52,6 @@ __all__ = ["CRUISE_SPEED_M_S", "INTERSECTION_SPEED_M_S", "STOP_LEAD_M", "LANDMAR
 #: The seed's AMV profile: up to 3.0 m/s on straights, 0.5 m/s in intersections.
 CRUISE_SPEED_M_S = 3.0
 INTERSECTION_SPEED_M_S = 0.5
-#: How far before a step's destination its stop gate sits [m]: room for the receiver to see the object in
-#: the laser's view (±40° ahead, landmarks trusted to 16 m: a kerbside mailbox leaves the view some 6 m
-#: before it) and to stop at it.
-STOP_LEAD_M = 20.0
 #: Landmarks within this distance [m] of a straight are listed for landmark matching on it.
 LANDMARK_RADIUS_M = 12.0
 #: How far into a step its first gates sit [m] (a gate under the start would fire at the first cycle anyway).
@@ -75,17 +73,6 @@ class CompiledMission(BaseModel):
 def _landmarks(m: "MapData", coords: Any) -> tuple[str, ...]:
     line = shapely.LineString(coords)
     return tuple(o.id for _d, o in m.objects_near(line, LANDMARK_RADIUS_M) if o.role == "landmark")
-
-
-def _stop_object(m: "MapData", place: str | None, xy: tuple[float, float]) -> tuple[str, tuple[float, float] | None]:
-    """Return the landmark of kind `place` nearest the goal `xy` (within `STOP_LEAD_M`): its id and position, or a name and None."""
-    near = [(math.dist(xy, o.footprint.centroid.coords[0]), o.id, tuple(o.footprint.centroid.coords[0])) for o in m.world.objects
-            if o.role == "landmark" and o.kind == (place or "")]
-    near = [n for n in near if n[0] <= STOP_LEAD_M]
-    if near:
-        _, oid, oxy = min(near)
-        return oid, (float(oxy[0]), float(oxy[1]))
-    return (place or f"({xy[0]:.1f}, {xy[1]:.1f})"), None
 
 
 def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = None,
@@ -164,9 +151,10 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
                 speed_now = cruise
             seg_index += 1
         goal = route.goal_xy
-        obj, obj_xy = _stop_object(m, step.destination.place, goal)
+        obj, obj_xy = destination_object(m, step.destination.place, goal)
+        at = destination_point(m, step.destination.place, goal, list(line.coords))  # beside the object, if any
         # a step kept to a side stops in its lane, as it is judged
-        stop_xy = lane_goal(m, list(line.coords), goal, step.constraints.keep) or goal
+        stop_xy = lane_goal(m, list(line.coords), at, step.constraints.keep) or at
         out.append(trigger(f"{sp}.stop", "stop_at_object", gate(line, max(0.0, line.length - STOP_LEAD_M), width),
                            StopAtObject(object_id=obj, x=stop_xy[0], y=stop_xy[1], object_xy=obj_xy, tolerance=step.tolerance,
                                         action=step.trigger.action, wait_s=step.trigger.wait_s),

@@ -20,6 +20,7 @@ import math
 from shapely.geometry import LineString, Point
 from pydantic import BaseModel, ConfigDict, Field
 
+from eddie.missions.destination import destination_point
 from eddie.missions.lane import lane_goal
 from eddie.modules.errors import EddieModuleError
 from modules.captain.sequencer import MissionRun, Next
@@ -68,8 +69,9 @@ def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Missio
         line = route.polyline()
         if len(line) < 2:
             line = (at, route.goal_xy)
-        out.append(StepGoal(step_index=i, route=tuple(line), goal=route.goal_xy, speed_mps=step.constraints.speed_limit,
-                            reach_m=step.tolerance, lane_goal=lane_goal(map_data, line, route.goal_xy, step.constraints.keep)))
+        goal = destination_point(map_data, step.destination.place, route.goal_xy, line)  # beside its object, if any
+        out.append(StepGoal(step_index=i, route=tuple(line), goal=goal, speed_mps=step.constraints.speed_limit,
+                            reach_m=step.tolerance, lane_goal=lane_goal(map_data, line, goal, step.constraints.keep)))
         at = route.goal_xy
     return out
 

@@ -95,3 +95,38 @@ def test_the_stop_at_an_object_comes_as_the_goal_is_reached_across_the_lane() ->
     assert not stop_now(1.5, -0.5, south, 2.0, reach=1.2)  # 1.5 m across: not this lane's goal
     assert stop_now(0.5, 0.4, south, 0.0, reach=1.2)  # standing just past it
     assert not stop_now(0.0, -0.5, south, 0.0, reach=1.2)  # standing 0.5 m short: drive on
+
+
+def test_the_stop_and_the_step_goal_are_beside_the_object_when_the_map_moved_it_from_its_place(tmp_path) -> None:
+    # a map like one `sidewalk mapbuild` writes: the objects where the mapping run saw them, the places of the older
+    # map; here the mailbox stands 3.1 m north of the place "mailbox" (seed 0's built map put it 3.06 m north)
+    import json
+
+    from eddie.messages.map_manager import StopAtObject, open_trigger_data
+    from eddie.missions import compile_mission_files
+    from eddie.missions.destination import destination_point
+    from eddie.modules.mission_progress import step_goals
+    from modules.captain.missionfile import load_mission
+    from modules.map_navigator.mapdata import load_map
+
+    doc = json.loads(open("worlds/north_hills.map.geojson").read())
+    (box,) = [f for f in doc["features"] if f["properties"].get("id") == "mailbox_dest"]
+    x, y = box["geometry"]["coordinates"]
+    box["geometry"]["coordinates"] = [x, y + 3.1]
+    moved = tmp_path / "built.map.geojson"
+    moved.write_text(json.dumps(doc))
+    place = (-240.5868, 128.491)
+
+    amv = compile_mission_files("worlds/amv-delivery.yaml", moved)
+    (stop,) = [open_trigger_data(a.data) for a in amv.annotations if a.type == "stop_at_object"]
+    assert isinstance(stop, StopAtObject) and stop.object_id == "mailbox_dest"
+    assert stop.y == pytest.approx(y + 3.1, abs=0.3), "the stop is not beside the object the laser will see"
+    assert stop.x < place[0] - 1.0  # still in the kept lane, west of Birch's centre
+    m = load_map(moved)
+    (g,) = step_goals(m, (0.3, -40.25), load_mission("worlds/amv-delivery.yaml"), vehicle="navlab")
+    assert g.goal[1] == pytest.approx(y + 3.1, abs=0.3) and g.lane_goal is not None
+    assert math.dist(g.lane_goal, (stop.x, stop.y)) < 0.05  # the mission service judges arrival where the stop is
+    # on the shipped map the place and its mailbox agree: the point is the place, within centimetres along the road
+    shipped = load_map("worlds/north_hills.map.geojson")
+    p = destination_point(shipped, "mailbox", place, [(-240.0, 240.0), (-240.5, 128.491)])
+    assert abs(p[1] - place[1]) < 0.15

@@ -6,9 +6,9 @@ was. What the robot knows of where it is comes from dead reckoning only (the dis
 by odometry, along the known lane of the route: "road-matched" dead reckoning; frames on bends
 are skipped). Odometry's distance drifts (a scale error of ~1 % is 5 m over the AMV route), so the
 distance is re-anchored at each turn of the route: where the odometry heading has turned half of a
-sharp turn the vehicle is at the turn's middle on the map's lane (`turn_anchors`), and between
-anchors the odometry distance is stretched to the map's (past the last one, with the last
-interval's scale). At every `step_m` of travel the laser is read; obstacles small enough to be trees,
+sharp turn the vehicle is at the turn's middle on the map's lane (`turn_anchors`), and at the route's
+end, where the drive stops `END_SHORT_M` before the destination (the seed's driver knew where the
+mailbox was); between anchors the odometry distance is stretched to the map's. At every `step_m` of travel the laser is read; obstacles small enough to be trees,
 posts, mailboxes become vehicle-frame observations; after the drive each frame is placed on the
 lane at its anchored distance, the observations put in the `world` frame there, and the
 `ObjectTracker` folds them in frame by frame (confidence up when seen, down when missed where it should appear,
@@ -31,8 +31,11 @@ from modules.perception.landmarks import LandmarkConfig, landmark_observations
 from modules.perception.object_tracker import ObjectTracker, TrackedObject, TrackerConfig, WorldObservation
 from modules.perception.obstacles import LaserScan, detect_obstacles
 
-__all__ = ["MapBuildReport", "BuiltMap", "DISCRETE_KINDS", "route_polyline", "build_map", "score_map", "write_map",
-           "turn_anchors", "anchored_distance"]
+__all__ = ["MapBuildReport", "BuiltMap", "DISCRETE_KINDS", "END_SHORT_M", "route_polyline", "build_map", "score_map",
+           "write_map", "turn_anchors", "end_anchor", "anchored_distance"]
+
+#: How far [m] before the route's end the mapping drive stops; the end anchors the odometry distance there.
+END_SHORT_M = 1.0
 
 #: Kinds of map objects that are discrete objects the laser maps (the rest is ground and buildings).
 DISCRETE_KINDS = ("tree", "mailbox", "sign", "hydrant", "lamp_post", "bench", "rock")
@@ -135,11 +138,13 @@ def build_map(world, map_world, mission, *, actors=None, vehicle: str = "navlab"
     lane_cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(lane, axis=0), axis=1))])
     heading: list[tuple[float, float]] = []  # (odometry distance [m], odometry heading [rad]) every step
     shots: list[tuple[float, list]] = []  # (odometry distance [m], vehicle-frame landmark observations)
+    arrived = False
     while True:
         st = sim.state
         xy = np.array([st.x, st.y])
         target, s, total = _lookahead_point(lane, xy, max(4.0, 1.2 * st.v + 3.0))
-        if total - s < 1.0:
+        if total - s < END_SHORT_M:
+            arrived = True
             break
         dx, dy = target - xy
         c, si = math.cos(st.yaw), math.sin(st.yaw)
@@ -158,6 +163,10 @@ def build_map(world, map_world, mission, *, actors=None, vehicle: str = "navlab"
         if sim.t > 3600.0:
             break
     anchors = turn_anchors(lane, np.asarray(heading, np.float64).reshape(-1, 2))
+    if arrived:
+        # the stop at the destination anchors the last leg: without it the last turn's scale was extrapolated,
+        # and a 110 m leg put the AMV's mailbox 1.55 m long (seed 0)
+        anchors = end_anchor(anchors, float(sim.odom.distance), float(lane_cum[-1] - END_SHORT_M))
     tr = ObjectTracker(tracker)
     for dist, obs in shots:
         pose_w = _road_matched(lane_cum, lane, anchored_distance(anchors, dist))
@@ -234,6 +243,14 @@ def turn_anchors(lane: np.ndarray, heading: np.ndarray, *, min_turn: float = mat
     if len(odo_turns) == len(lane_turns):
         out += [(a, b) for a, b in zip(odo_turns, lane_turns) if a > out[-1][0] and b > out[-1][1]]
     return np.asarray(out, np.float64)
+
+
+def end_anchor(anchors: np.ndarray, odometry_m: float, lane_m: float) -> np.ndarray:
+    """Return `anchors` with (odometry distance [m], lane arc length [m]) at the drive's end added, if it lies past the last."""
+    a = np.asarray(anchors, np.float64).reshape(-1, 2)
+    if odometry_m > a[-1, 0] and lane_m > a[-1, 1]:
+        return np.vstack([a, [[odometry_m, lane_m]]])
+    return a
 
 
 def anchored_distance(anchors: np.ndarray, d: float) -> float:

@@ -71,3 +71,28 @@ def test_turn_anchors_take_out_the_odometry_scale_error() -> None:
     # no turn in the odometry where the lane has two: the raw distance
     straight = np.array([(scale * k, 0.0) for k in np.arange(0.0, 300.0, 0.1)])
     assert len(turn_anchors(lane, straight)) == 1
+
+
+def test_the_stop_at_the_routes_end_anchors_the_last_leg() -> None:
+    from sidewalk.mapbuild import anchored_distance, end_anchor, turn_anchors
+
+    # the lane of the test above; odometry reads 1 % long, then 3 % long on the last leg (a wet road): past the
+    # last turn the extrapolated distance drifts, the drive's stop 1 m before the route's end pins it
+    lane = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [200.0, 100.0]])
+    r, arc = 7.0, 7.0 * np.pi / 2
+    legs = [("straight", 93.0, 1.01), ("arc", 1.0, 1.01), ("straight", 86.0, 1.01), ("arc", -1.0, 1.01), ("straight", 92.0, 1.03)]
+    rows, odo, yaw = [], 0.0, 0.0
+    for kind, v, sc in legs:
+        for _ in range(int(round((arc if kind == "arc" else v) / 0.1))):
+            rows.append((odo, yaw))
+            odo += 0.1 * sc
+            if kind == "arc":
+                yaw += v * 0.1 / r
+    anchors = turn_anchors(lane, np.array(rows))
+    pinned = end_anchor(anchors, odo, 300.0 - 1.0)
+    assert len(pinned) == len(anchors) + 1
+    at_190 = 1.01 * (93.0 + arc + 86.0 + arc) + 1.03 * (190.0 - 107.0)  # odometry at (190, 100): lane arc 290
+    assert abs(anchored_distance(anchors, at_190) - 290.0) > 2.0
+    assert anchored_distance(pinned, at_190) == pytest.approx(290.0, abs=0.3)
+    # an end that is not past the last anchor (the drive never got there) adds nothing
+    assert len(end_anchor(anchors, anchors[-1, 0] - 1.0, 299.0)) == len(anchors)

@@ -317,6 +317,17 @@ class Participant:
 
 # ---- barrier ------------------------------------------------------------------------------------
 
+def _read_report(name: str, r: Reply) -> ParticipantReport | None:
+    """Return participant `name`'s report in reply `r`, or None (an error reply; a bad payload, logged)."""
+    if not r.ok:
+        return None
+    try:
+        return decode(ParticipantReport, r.payload, as_json=r.is_json)
+    except LockstepPayloadError as exc:
+        log.warning("lockstep: %s answered badly: %s", name, exc)
+        return None
+
+
 class _Wave:
     """The replies of one wave, collected on Zenoh threads."""
 
@@ -330,17 +341,11 @@ class _Wave:
             self.done.set()
 
     def on_reply(self, name: str, r: Reply) -> None:
+        rep = _read_report(name, r)
         with self.lock:
             self.replies += 1
-        if not r.ok:
-            return
-        try:
-            rep = decode(ParticipantReport, r.payload, as_json=r.is_json)
-        except LockstepPayloadError as exc:
-            log.warning("lockstep: %s answered badly: %s", name, exc)
-            return
-        with self.lock:
-            self.reports[name] = rep
+            if rep is not None:
+                self.reports[name] = rep
 
     def on_done(self) -> None:
         with self.lock:
@@ -435,12 +440,7 @@ class Barrier:
                 self._on_probe_done(n)
 
     def _on_probe_reply(self, name: str, r: Reply) -> None:  # Zenoh thread
-        rep = None
-        if r.ok:
-            try:
-                rep = decode(ParticipantReport, r.payload, as_json=r.is_json)
-            except LockstepPayloadError:
-                rep = None
+        rep = _read_report(name, r)
         with self._lock:
             self._replies_in += 1
             if rep is not None and not rep.busy and self._silent.pop(name, None) is not None:

@@ -40,13 +40,12 @@ def destination_object(m: "MapData", place: str | None, xy: tuple[float, float])
     return (place or f"({xy[0]:.1f}, {xy[1]:.1f})"), None
 
 
-def destination_point(m: "MapData", place: str | None, goal_xy: tuple[float, float],
+def destination_point(goal_xy: tuple[float, float], object_xy: tuple[float, float] | None,
                       route: Sequence[Sequence[float]]) -> tuple[float, float]:
-    """Return where the step ends: beside its object on the route's last 2·`STOP_LEAD_M`, else the place `goal_xy`."""
-    _oid, oxy = destination_object(m, place, goal_xy)
-    if oxy is None or len(route) < 2:
+    """Return where the step ends: beside its object (`destination_object`) on the route's last 2·`STOP_LEAD_M`, else the place `goal_xy`."""
+    if object_xy is None or len(route) < 2:
         return (float(goal_xy[0]), float(goal_xy[1]))
     line = shapely.LineString([(float(p[0]), float(p[1])) for p in route])
     tail = substring(line, max(0.0, line.length - 2.0 * STOP_LEAD_M), line.length)
-    p = tail.interpolate(tail.project(shapely.Point(oxy)))
+    p = tail.interpolate(tail.project(shapely.Point(object_xy)))
     return (float(p.x), float(p.y))

@@ -152,7 +152,7 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
             seg_index += 1
         goal = route.goal_xy
         obj, obj_xy = destination_object(m, step.destination.place, goal)
-        at = destination_point(m, step.destination.place, goal, list(line.coords))  # beside the object, if any
+        at = destination_point(goal, obj_xy, list(line.coords))  # beside the object, if any
         # a step kept to a side stops in its lane, as it is judged
         stop_xy = lane_goal(m, list(line.coords), at, step.constraints.keep) or at
         out.append(trigger(f"{sp}.stop", "stop_at_object", gate(line, max(0.0, line.length - STOP_LEAD_M), width),

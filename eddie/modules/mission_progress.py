@@ -20,7 +20,7 @@ import math
 from shapely.geometry import LineString, Point
 from pydantic import BaseModel, ConfigDict, Field
 
-from eddie.missions.destination import destination_point
+from eddie.missions.destination import destination_object, destination_point
 from eddie.missions.lane import lane_goal
 from eddie.modules.errors import EddieModuleError
 from modules.captain.sequencer import MissionRun, Next
@@ -69,7 +69,8 @@ def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Missio
         line = route.polyline()
         if len(line) < 2:
             line = (at, route.goal_xy)
-        goal = destination_point(map_data, step.destination.place, route.goal_xy, line)  # beside its object, if any
+        _obj, obj_xy = destination_object(map_data, step.destination.place, route.goal_xy)
+        goal = destination_point(route.goal_xy, obj_xy, line)  # beside its object, if any
         out.append(StepGoal(step_index=i, route=tuple(line), goal=goal, speed_mps=step.constraints.speed_limit,
                             reach_m=step.tolerance, lane_goal=lane_goal(map_data, line, goal, step.constraints.keep)))
         at = route.goal_xy

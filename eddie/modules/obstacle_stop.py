@@ -88,12 +88,11 @@ def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig
     d = path_clear_distance(scan, path, cfg.half_width_m, cfg.detection, min_points=cfg.min_points)
     if not math.isfinite(d):
         return ObstacleReport(blocked=False, distance_m=None, stamp=float(scan.stamp))
-    if path_local is None or len(path_local) < 2:
-        blocked = d <= min(cfg.stop_distance_m, cfg.front_m + cfg.clearance_m + braking_m(cfg, speed))
-        return ObstacleReport(blocked=blocked, distance_m=float(d), stamp=float(scan.stamp))
-    left = remaining_m(path_local, pose_local)
+    braking = braking_m(cfg, speed)
+    # without a path the vehicle still rolls its braking distance straight ahead: that is its path's end
+    left = braking if path_local is None or len(path_local) < 2 else remaining_m(path_local, pose_local)
     if d <= left:
         blocked = d <= cfg.stop_distance_m
     else:
-        blocked = d <= min(cfg.stop_distance_m, cfg.front_m + cfg.clearance_m + min(left, braking_m(cfg, speed)))
+        blocked = d <= min(cfg.stop_distance_m, cfg.front_m + cfg.clearance_m + min(left, braking))
     return ObstacleReport(blocked=blocked, distance_m=float(d), stamp=float(scan.stamp))

@@ -104,7 +104,7 @@ def test_the_stop_and_the_step_goal_are_beside_the_object_when_the_map_moved_it_
 
     from eddie.messages.map_manager import StopAtObject, open_trigger_data
     from eddie.missions import compile_mission_files
-    from eddie.missions.destination import destination_point
+    from eddie.missions.destination import destination_object, destination_point
     from eddie.modules.mission_progress import step_goals
     from modules.captain.missionfile import load_mission
     from modules.map_navigator.mapdata import load_map
@@ -128,5 +128,6 @@ def test_the_stop_and_the_step_goal_are_beside_the_object_when_the_map_moved_it_
     assert math.dist(g.lane_goal, (stop.x, stop.y)) < 0.05  # the mission service judges arrival where the stop is
     # on the shipped map the place and its mailbox agree: the point is the place, within centimetres along the road
     shipped = load_map("worlds/north_hills.map.geojson")
-    p = destination_point(shipped, "mailbox", place, [(-240.0, 240.0), (-240.5, 128.491)])
+    _oid, oxy = destination_object(shipped, "mailbox", place)
+    p = destination_point(place, oxy, [(-240.0, 240.0), (-240.5, 128.491)])
     assert abs(p[1] - place[1]) < 0.15

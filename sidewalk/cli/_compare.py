@@ -32,6 +32,17 @@ def _speeds(text: str) -> tuple[float, ...]:
     return v
 
 
+def _fault_list(text: str) -> tuple[str, ...]:
+    """`all` (the default: every fault), `none`, or a comma-separated list of fault names."""
+    from sidewalk.compare.faults import FAULTS
+
+    if text.strip() == "all":
+        return FAULTS
+    if text.strip() == "none":
+        return ()
+    return _list(text, "--faults")
+
+
 def compare(
     missions: Annotated[str, typer.Option(help="Missions (comma-separated names or files)")] = "campus-tour,amv-delivery",
     worlds: Annotated[Optional[str], typer.Option(help="Only missions on these worlds (comma-separated; default: each mission's own)")] = None,
@@ -39,11 +50,11 @@ def compare(
     rtf: Annotated[float, typer.Option(help="Real-time factor of every run (with --realtime)")] = 8.0,
     lockstep: Annotated[bool, typer.Option("--lockstep/--realtime", help="Lock-step (default: the simulator waits for every module; the same command gives the same table) or real time at --rtf (latency under load is measured)")] = True,
     arch: Annotated[str, typer.Option("--arch", help="Architectures to compare (those `sidewalk run` offers are run)")] = "codger,eddie",
-    faults: Annotated[Optional[str], typer.Option(help="Faults: kill-perception,position-jump,kill-central,wedge")] = None,
+    faults: Annotated[str, typer.Option(help="Faults, each once per mission × architecture (default: all four; `none` to skip): kill-perception,position-jump,kill-central,wedge")] = "all",
     speed_sweep: Annotated[Optional[str], typer.Option("--speed-sweep", help="Speed caps (m/s) to sweep, e.g. 1.0,2.0,3.0")] = None,
     out: Annotated[Path, typer.Option(help="Output directory (compare.json, compare.md, *.png, runs/)")] = Path("runs/compare"),
     jobs: Annotated[int, typer.Option(help="Runs at a time (1 on a 2-core machine: runs measure time)")] = 1,
-    max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s)")] = 900.0,
+    max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s); a lock-step AMV run takes 10-15 min here")] = 3600.0,
     resume: Annotated[bool, typer.Option("--resume", help="Reuse runs in --out whose report is of the same cell (architecture, mission, seed, fault, speed cap)")] = False,
 ) -> None:
     """Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables and plots."""
@@ -62,7 +73,7 @@ def compare(
     for a in archs:
         if a not in ARCHITECTURES:
             raise typer.BadParameter(f"unknown architecture {a!r}; known: {', '.join(ARCHITECTURES)}", param_hint="--arch")
-    fault_list = _list(faults, "--faults") if faults else ()
+    fault_list = _fault_list(faults)
     for f in fault_list:
         if f not in FAULTS:
             raise typer.BadParameter(f"unknown fault {f!r}; known: {', '.join(FAULTS)}", param_hint="--faults")

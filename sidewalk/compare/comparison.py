@@ -53,7 +53,7 @@ class CompareConfig(BaseModel):
     out: Path = Path("runs/compare")
     jobs: int = Field(default=1, ge=1)
     arch_flag: bool = False
-    max_wall_time_s: float = Field(default=900.0, gt=0.0)
+    max_wall_time_s: float = Field(default=3600.0, gt=0.0)
     resume: bool = False
     #: every run in lock-step (reproducible; `rtf` unused) or, False, in real time at `rtf` (latency under load measured)
     lockstep: bool = True

@@ -54,3 +54,15 @@ def test_resume_reuses_only_a_report_of_the_same_cell(tmp_path):
     (tmp_path / "report.json").write_text("{not json")
     assert _finished(cell) is None
     assert json.loads(json.dumps(cell.argv(arch_flag=True)))[-2:] == ["--arch", "codger"]
+
+
+def test_every_fault_runs_unless_told_otherwise():
+    from sidewalk.cli._compare import _fault_list
+    from sidewalk.compare.faults import FAULTS
+
+    assert _fault_list("all") == FAULTS == ("kill-perception", "position-jump", "kill-central", "wedge")
+    assert _fault_list("none") == ()
+    assert _fault_list("wedge, kill-central") == ("wedge", "kill-central")
+    help_text = subprocess.run([sys.executable, "-m", "sidewalk", "compare", "--help"], capture_output=True, text=True,
+                               timeout=60, env={**__import__("os").environ, "COLUMNS": "300"}).stdout
+    assert "default: all four; `none` to skip" in help_text

@@ -52,6 +52,8 @@ BODY_FRONT_M = {"navlab": 4.6, "terregator": 1.1}
 STOP_AT_MARGIN_M, STOP_AT_NEAR_M = 0.3, 0.3
 #: the time [s] sim from a believed pose to the controller braking (the watch's period and the message)
 STOP_LATENCY_S = 0.3
+#: the laser's frame period [s] sim (the ERIM's 2 frames/s): the check and the look for a stop's object each take one a period
+FRAME_PERIOD_S = 0.5
 
 
 class ObstacleStop:
@@ -153,18 +155,23 @@ class ObstacleStop:
             await self._release()
 
     async def _sight(self, object_xy: tuple[float, float], corr: ObjectCorrection) -> None:
-        """Look for the map's object at `object_xy` (`world` [m]) in each range image until cancelled."""
+        """Look for the map's object at `object_xy` (`world` [m]) in a range image every `FRAME_PERIOD_S` [s] sim until cancelled.
+
+        Paced by the sim clock, not by the capture's round trip: in lock-step a capture is served at the
+        same sim time, and a loop asking for the next frame at once never let the step end.
+        """
         while True:
+            due = self.m.clock.now() + FRAME_PERIOD_S
             try:
                 frame = await capture_frame(self.m)
             except CaptureError as exc:
                 log.warning("obstacle_stop: no frame to look for the object in: %s", exc)
-                await self.m.clock.sleep(0.5)
-                continue
-            pose = self.belief.world_at(frame.stamp)
-            if pose is not None:
-                obstacles = await asyncio.to_thread(detect_obstacles, LaserScan.from_capture(frame))
-                corr.add(sight_object(obstacles, object_xy, (float(pose[0]), float(pose[1]), float(pose[2])), frame.stamp))
+            else:
+                pose = self.belief.world_at(frame.stamp)
+                if pose is not None:
+                    obstacles = await asyncio.to_thread(detect_obstacles, LaserScan.from_capture(frame))
+                    corr.add(sight_object(obstacles, object_xy, (float(pose[0]), float(pose[1]), float(pose[2])), frame.stamp))
+            await self.m.clock.wait_until(due)
 
     async def on_trigger(self, data: Message) -> None:
         """Act on a trigger's data: watch for a "stop at object"; lift a stop held when detection is switched off."""
@@ -180,7 +187,7 @@ class ObstacleStop:
 
     async def run(self) -> None:
         """Sleep until woken, then check every 0.5 s sim while awake."""
-        await run_switched(self.m, self.switch, self.cycle, period_s=0.5, on_data=self.on_trigger)
+        await run_switched(self.m, self.switch, self.cycle, period_s=FRAME_PERIOD_S, on_data=self.on_trigger)
 
 
 def stop_now(dx: float, dy: float, yaw: float, speed: float, reach: float, latency_s: float = STOP_LATENCY_S) -> bool:

@@ -269,8 +269,12 @@ class Scene:
             f = gaussian_filter(rng.standard_normal((_TILE, _TILE)).astype(np.float32), length / self.res, mode="wrap")
             fields.append((f / f.std()).ravel())
         self._wet_field, self._leaf_field = fields
+        # both fields interleaved per cell and read as one 8-byte item: one gather fetches both
+        self._fields_pair = np.ascontiguousarray(np.stack(fields, axis=-1)).view(np.int64).reshape(-1)
         # each object reads the fields at its own offset, so neighbouring objects do not repeat each other
         self._field_offset = rng.integers(0, _TILE, size=(len(self.mat_mean), 2)).astype(np.int32)
+        self._field_off_x = np.ascontiguousarray(self._field_offset[:, 0])
+        self._field_off_y = np.ascontiguousarray(self._field_offset[:, 1])
         self._phases = rng.uniform(0.0, 2.0 * math.pi, size=2)
 
     def covers_at(self, stamp: float) -> tuple[float, float]:
@@ -292,23 +296,29 @@ class Scene:
         sel = np.flatnonzero(np.take(self._mat_cover, np.maximum(mat, 0)) & (mat >= 0))
         if sel.size == 0:
             return
-        m = mat[sel]
-        off = self._field_offset[m]
-        tex = hits.tex.reshape(-1, 2)[sel]
-        idx = (((tex[:, 1] + off[:, 1]) & (_TILE - 1)) * _TILE + ((tex[:, 0] + off[:, 0]) & (_TILE - 1)))
+        m = np.take(mat, sel)
+        tex = _take_pairs(hits.tex, sel)
+        idx = (((tex[:, 1] + np.take(self._field_off_y, m)) & (_TILE - 1)) * _TILE
+               + ((tex[:, 0] + np.take(self._field_off_x, m)) & (_TILE - 1)))
+        fields = np.take(self._fields_pair, idx).view(np.float32).reshape(-1, 2)  # (n, 2) wet, leaf
         flat = col.reshape(-1, 3)
-        # only the pixels a patch or a leaf actually touches are changed (a few per cent of the covers)
+        # only the pixels a patch or a leaf actually touches are changed (a few per cent of the covers):
+        # f > thr exactly where the clipped ramp (f − thr)·gain is above 0
         if wet > 0.0:
-            a = np.clip((np.take(self._wet_field, idx) - np.float32(ndtri(1.0 - wet))) * np.float32(4.0), 0.0, 1.0)
-            k = np.flatnonzero(a > 0.0)
-            flat[sel[k]] *= (1.0 - a[k] * np.float32(1.0 - w.wet_brightness))[:, None]
+            f = fields[:, 0]
+            thr = np.float32(ndtri(1.0 - wet))
+            k = np.flatnonzero(f > thr)
+            a = np.clip((np.take(f, k) - thr) * np.float32(4.0), 0.0, 1.0)
+            flat[sel[k]] *= (1.0 - a * np.float32(1.0 - w.wet_brightness))[:, None]
         if leaf > 0.0:
-            b = np.clip((np.take(self._leaf_field, idx) - np.float32(ndtri(1.0 - leaf))) * np.float32(6.0), 0.0, 1.0)
-            k = np.flatnonzero(b > 0.0)
+            f = fields[:, 1]
+            thr = np.float32(ndtri(1.0 - leaf))
+            k = np.flatnonzero(f > thr)
+            b = np.clip((np.take(f, k) - thr) * np.float32(6.0), 0.0, 1.0)
             at = sel[k]
-            lc = np.asarray(w.leaves.mean, np.float32) + np.asarray(w.leaves.std, np.float32) * noise.reshape(-1, 3)[at]
-            c = flat[at]
-            c += b[k][:, None] * (lc - c)
+            lc = np.asarray(w.leaves.mean, np.float32) + np.asarray(w.leaves.std, np.float32) * np.take(noise.reshape(-1, 3), at, axis=0)
+            c = np.take(flat, at, axis=0)
+            c += b[:, None] * (lc - c)
             flat[at] = c
 
     # ---------------------------------------------------------------- actors (objects not on the map)
@@ -802,7 +812,7 @@ class Scene:
             self.paint.paint(col, hits.xyz, np.take(self._mat_painted, m) & (hits.material != MATERIAL_SKY), noise)
         if self.weather is not None:
             self._apply_weather(col, hits, noise, stamp)
-        col[hits.material == MATERIAL_SKY] = 0.0
+        np.copyto(col, np.float32(0.0), where=(hits.material == MATERIAL_SKY)[..., None])
         return col
 
     def sun_factor(self, hits: Hits) -> np.ndarray:
@@ -814,11 +824,12 @@ class Scene:
         sun = self.sun.astype(np.float32)
         lam = hits.normal @ (sun / np.float32(max(float(sun[2]), 1e-3)))
         np.clip(lam, 0.0, 1.3, out=lam)
-        takes = np.take(self._mat_ground_shadow, np.maximum(hits.material, 0)) & (hits.material != MATERIAL_SKY)
-        sel = np.nonzero(takes)
-        x = hits.xyz[..., 0][sel]
-        y = hits.xyz[..., 1][sel]
-        lam[sel] *= np.take(self._sunlit_flat, self._flat_index(x, y)).astype(np.float32) * np.float32(1.0 / 255.0)
+        mat = hits.material.reshape(-1)
+        sel = np.flatnonzero(np.take(self._mat_ground_shadow, np.maximum(mat, 0)) & (mat != MATERIAL_SKY))
+        xyz = np.take(hits.xyz.reshape(-1, 3), sel, axis=0)
+        flat = lam.reshape(-1)
+        flat[sel] = np.take(flat, sel) * (np.take(self._sunlit_flat, self._flat_index(xyz[:, 0], xyz[:, 1])).astype(np.float32)
+                                          * np.float32(1.0 / 255.0))
         return lam
 
 
@@ -826,6 +837,11 @@ class Scene:
 # the same values for the finite-or-NaN float arrays they get here
 _nanmin = np.fmin.reduce
 _nanmax = np.fmax.reduce
+
+
+def _take_pairs(a: np.ndarray, flat_idx: np.ndarray) -> np.ndarray:
+    """Return the (n, 2) int32 pairs of an (..., 2) int32 array at flat cell indices (one 8-byte gather)."""
+    return np.take(np.ascontiguousarray(a).view(np.int64).reshape(-1), flat_idx).view(np.int32).reshape(-1, 2)
 
 
 def _nan_to(a: np.ndarray, value: float) -> np.ndarray:

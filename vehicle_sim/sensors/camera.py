@@ -144,10 +144,10 @@ def expose(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: Ca
     alb = scene.albedo(hits, stamp)
     sun = scene.sun_factor(hits)
     amb = cfg.ambient * _SKY_TINT
-    light = amb[None, None, :] + (1.0 - cfg.ambient) * sun[..., None]
-    col = alb * light
+    light = amb[None, None, :] + ((1.0 - cfg.ambient) * sun)[..., None]
+    col = np.multiply(alb, light, out=alb)
     sky = np.broadcast_to(_sky(model.grid_el)[:, None, :], col.shape)
-    col = np.where(hits.hit[..., None], col, sky)
+    np.copyto(col, sky, where=~hits.hit[..., None])
     gain = illumination_gain(stamp, cfg)
     col *= np.float32(gain)
     img = cv2.remap(col, model.map_x, model.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)

@@ -219,6 +219,7 @@ class Scene:
         self.cylinders = np.asarray(cyl, np.float64).reshape(-1, 6)
         self.ellipsoids = np.asarray(ell, np.float64).reshape(-1, 6)
         self.prisms = prisms
+        self._prism_edges = [_edges(p[0]) for p in prisms]
         self._prism_centre = np.array([p[0].mean(axis=0) for p in prisms]).reshape(-1, 2)
         self._prism_radius = np.array([np.linalg.norm(p[0] - p[0].mean(axis=0), axis=1).max() for p in prisms]).reshape(-1)
 
@@ -324,6 +325,7 @@ class Scene:
     # ---------------------------------------------------------------- actors (objects not on the map)
 
     _actor_solids: tuple = ()
+    _actor_edges: tuple = ()
     _actor_mat: dict = {}
 
     def add_actors(self, actors: "ActorSet") -> None:
@@ -359,6 +361,7 @@ class Scene:
             zb = float(self.elevation(c[None])[0])
             solids.append((corners.astype(np.float64), zb, zb + a.box[2], self._actor_mat[a.id]))
         out._actor_solids = tuple(solids)
+        out._actor_edges = tuple(_edges(v[0]) for v in solids)
         return out
 
     # ---------------------------------------------------------------- ground queries
@@ -487,23 +490,26 @@ class Scene:
         alpha = (Hg - np.float32(oz)) / S[None, :]
         np.clip(alpha, -120.0, 120.0, out=alpha)
         A = np.maximum.accumulate(alpha, axis=1)
-        offs = (np.arange(W, dtype=np.float64) * 256.0)[:, None]  # float64: keeps tan resolution
-        flat = (A + offs).ravel()
-        q = (tan_el[None, :] + offs).ravel()  # (W*H) queries in column-major blocks
-        k = (np.searchsorted(flat, q, side="left").reshape(W, H) - np.arange(W)[:, None] * nS).T  # (H, W)
+        offs = np.arange(W, dtype=np.float64) * 256.0  # float64: keeps tan resolution
+        flat = A.astype(np.float64)
+        flat += offs[:, None]
+        flat = flat.ravel()
+        q = (tan_el.astype(np.float64)[:, None] + offs[None, :]).ravel()  # (H*W) queries in image order: every array below is (H, W) C-ordered
+        k = np.searchsorted(flat, q, side="left").reshape(H, W)
+        k -= (np.arange(W) * nS)[None, :]
         ground_hit = k < nS
-        kc = np.clip(k, 1, nS - 1)
-        f1 = kc + (np.arange(W) * nS)[None, :]  # flat index into the (W, S) profiles
-        f0 = f1 - 1
+        k0 = np.clip(k, 1, nS - 1)
+        k0 -= 1  # the sample before the crossing; the one after is read through views shifted by one
+        f0 = k0 + (np.arange(W) * nS)[None, :]  # flat index into the (W, S) profiles
         Hf, Gf = Hg.ravel(), gmat.ravel()
-        h1 = Hf.take(f1)
         h0 = Hf.take(f0)
-        s1 = S.take(kc)
-        s0 = S.take(kc - 1)
+        h1 = Hf[1:].take(f0)
+        s0 = S.take(k0)
+        s1 = S[1:].take(k0)
         t = tan_el[:, None]
         d0 = oz + s0 * t - h0
         d1 = oz + s1 * t - h1
-        g1 = Gf.take(f1)
+        g1 = Gf[1:].take(f0)
         g0 = Gf.take(f0)
         riser = ((h1 - h0) > 0.03) & ~((g1 == g0) & (self._g_steps[g1] == 0))
         frac = np.clip(d0 / np.maximum(d0 - d1, 1e-6), 0.0, 1.0)
@@ -546,6 +552,38 @@ class Scene:
                 mat[rr, cc] = self.ground_material(fx, fy)
                 tex[rr, cc, 0] = (fx * np.float32(1.0 / self.res)).astype(np.int32)
                 tex[rr, cc, 1] = (fy * np.float32(1.0 / self.res)).astype(np.int32)
+        # solids: rays that miss a solid carry NaN and inf through its arithmetic (no warnings wanted)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            self._cast_solids(ctx, ox, oy, az_mid, az_half, rmax)
+
+        riser &= ctx.mat == np.where(ground_hit, g1, -2)  # the ground step still won its cell
+        s_buf, mat = ctx.s, ctx.mat
+        too_far = s_buf > rmax
+        np.copyto(mat, MATERIAL_SKY, where=too_far)
+        np.copyto(s_buf, np.float32(np.inf), where=too_far)
+        hit = mat != MATERIAL_SKY
+        miss = ~hit
+        cos_el = np.cos(el).astype(np.float32)[:, None]
+        rng3 = s_buf / cos_el
+        s_fin = np.where(hit, s_buf, np.float32(0.0))
+        xyz = np.empty((H, W, 3), np.float32)
+        np.add(ox, s_fin * ca[None, :], out=xyz[..., 0])
+        np.add(oy, s_fin * sa[None, :], out=xyz[..., 1])
+        np.add(oz, s_fin * t, out=xyz[..., 2])
+        np.copyto(xyz, np.float32(np.nan), where=miss[..., None])
+        label = np.take(self.mat_label, np.maximum(mat, 0))
+        np.copyto(label, np.uint8(LABEL_SKY), where=miss)
+        riser &= hit
+        return Hits(s=s_buf, rng=rng3, xyz=xyz, label=label,
+                    material=mat, normal=ctx.normal, tex=ctx.tex, riser=riser)
+
+    # solids -----------------------------------------------------------------------------
+
+    def _cast_solids(self, ctx: "_Ctx", ox: float, oy: float, az_mid: float, az_half: float, rmax: float) -> None:
+        """Intersect every solid in view [m, rad] into the depth buffer of `ctx` (in order: posts and trunks, crowns, prisms, actors).
+
+        Called under `cast`'s errstate: the solid routines below let misses carry NaN and inf without warnings.
+        """
         # thin solids matter less far away: posts and trunks to 60 m, crowns to 100 m, buildings to `reach`
         vis = self._visible(self.cylinders, self.cylinders[:, 2], ox, oy, az_mid, az_half, min(rmax, max(60.0, self.max_range)))
         rays = self._circle_rays(ctx, self.cylinders[vis, 0], self.cylinders[vis, 1])
@@ -560,26 +598,10 @@ class Scene:
         if len(self.prisms):
             for j in self._visible(self._prism_centre, self._prism_radius, ox, oy, az_mid, az_half, rmax):
                 verts, zb, zt, m = self.prisms[j]
-                self._prism(ctx, verts, zb, zt, m)
-        for verts, zb, zt, m in self._actor_solids:  # objects not on the map (vehicle_sim.actors)
-            self._prism(ctx, verts, zb, zt, m)
+                self._prism(ctx, verts, zb, zt, m, self._prism_edges[j])
+        for (verts, zb, zt, m), edges in zip(self._actor_solids, self._actor_edges):  # objects not on the map (vehicle_sim.actors)
+            self._prism(ctx, verts, zb, zt, m, edges)
 
-        s_buf = ctx.s
-        too_far = s_buf > rmax
-        mat = np.where(too_far, MATERIAL_SKY, ctx.mat)
-        s_buf = np.where(too_far, np.inf, s_buf).astype(np.float32)
-        hit = mat != MATERIAL_SKY
-        cos_el = np.cos(el).astype(np.float32)[:, None]
-        rng3 = s_buf / cos_el
-        s_fin = np.where(hit, s_buf, np.float32(0.0))
-        xyz = np.stack([ox + s_fin * ca[None, :], oy + s_fin * sa[None, :], oz + s_fin * t], axis=-1)
-        xyz[~hit] = np.nan
-        label = np.where(hit, self.mat_label[np.maximum(mat, 0)], LABEL_SKY).astype(np.uint8)
-        riser = riser & (ctx.mat == np.where(ground_hit, g1, -2)) & hit
-        return Hits(s=s_buf, rng=rng3.astype(np.float32), xyz=xyz.astype(np.float32), label=label,
-                    material=mat, normal=ctx.normal, tex=ctx.tex, riser=riser)
-
-    # solids -----------------------------------------------------------------------------
 
     def _visible(self, centres: np.ndarray, radii: np.ndarray, ox: float, oy: float,
                  az_mid: float, az_half: float, reach: float) -> np.ndarray:
@@ -639,19 +661,17 @@ class Scene:
         c0, c1, p, half = found
         s_in = np.maximum(p - half, 0.05)  # NaN where the column misses
         s_out = p + half
-        with np.errstate(invalid="ignore"):
-            lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
-            hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
+        lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
+        hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
         r0, r1 = self._rows(ctx, lo, hi)
         if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_in)).any():
             return
         t = ctx.tan[r0:r1, None]
         s_in = s_in[None, :]
         z_in = ctx.oz + s_in * t
-        with np.errstate(invalid="ignore", divide="ignore"):
-            side = (z_in >= zb) & (z_in <= zt)
-            s_cap = np.where(t < 0, (zt - ctx.oz) / t, np.inf)
-            cap = (~side) & (z_in > zt) & (s_cap <= s_out[None, :])
+        side = (z_in >= zb) & (z_in <= zt)
+        s_cap = np.where(t < 0, (zt - ctx.oz) / t, np.inf)
+        cap = (~side) & (z_in > zt) & (s_cap <= s_out[None, :])
         s_new = np.where(side, s_in, np.where(cap, s_cap, np.inf))
         wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
         if len(wr) == 0:
@@ -659,9 +679,11 @@ class Scene:
         ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
         hx = _nan_to(ctx.ox + s_in * ca - cx, 0.0)
         hy = _nan_to(ctx.oy + s_in * sa - cy, 0.0)
-        n_side = np.stack([hx / r, hy / r, np.zeros_like(hx)], -1)
         # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
-        nrm = np.where(side[wr, wc][:, None], n_side[0, wc], np.array([0, 0, 1], np.float32))
+        n_side = np.zeros((len(wc), 3))
+        n_side[:, 0] = (hx / r)[0, wc]
+        n_side[:, 1] = (hy / r)[0, wc]
+        nrm = np.where(side[wr, wc][:, None], n_side, np.array([0, 0, 1], np.float32))
         tu = (np.arctan2(hy, hx) * (r / _TEX_RES))[0, wc]
         sw = s_new[wr, wc]
         tv = (ctx.oz + sw * t[wr, 0]) * (1.0 / _TEX_RES)
@@ -675,9 +697,8 @@ class Scene:
         c0, c1, p, half = found
         s_near = np.maximum(p - half, 0.05)
         s_far = p + half
-        with np.errstate(invalid="ignore"):
-            lo = float(_nanmin(np.minimum((zc - b - ctx.oz) / s_near, (zc - b - ctx.oz) / s_far)))
-            hi = float(_nanmax(np.maximum((zc + b - ctx.oz) / s_near, (zc + b - ctx.oz) / s_far)))
+        lo = float(_nanmin(np.minimum((zc - b - ctx.oz) / s_near, (zc - b - ctx.oz) / s_far)))
+        hi = float(_nanmax(np.maximum((zc + b - ctx.oz) / s_near, (zc + b - ctx.oz) / s_far)))
         r0, r1 = self._rows(ctx, lo, hi)
         if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_near)).any():
             return
@@ -707,15 +728,19 @@ class Scene:
         hx = ctx.ox + sf * ca - cx
         hy = ctx.oy + sf * sa - cy
         hz = ctx.oz + sf * t[wr, 0] - zc
-        nrm = np.stack([hx * (1.0 / (R * R)), hy * (1.0 / (R * R)), hz * (1.0 / (b * b))], -1)
+        nrm = np.empty((len(sf), 3))
+        np.multiply(hx, 1.0 / (R * R), out=nrm[:, 0])
+        np.multiply(hy, 1.0 / (R * R), out=nrm[:, 1])
+        np.multiply(hz, 1.0 / (b * b), out=nrm[:, 2])
         nrm /= np.maximum(np.linalg.norm(nrm, axis=-1, keepdims=True), 1e-9)
         tu = (hx - hy) * (1.0 / _TEX_RES)
         tv = (hz + 0.7 * hx) * (1.0 / _TEX_RES)
         self._commit(ctx, wr + r0, wc + c0, sf, m, nrm, tu, tv)
 
-    def _prism(self, ctx: "_Ctx", verts: np.ndarray, zb: float, zt: float, m: int) -> None:
+    def _prism(self, ctx: "_Ctx", verts: np.ndarray, zb: float, zt: float, m: int,
+               edges: tuple[np.ndarray, np.ndarray]) -> None:
         v0 = verts
-        e = np.roll(verts, -1, axis=0) - v0  # (M, 2)
+        e, e_unit = edges  # (M, 2) each, see `_edges`
         w0 = v0 - np.array([ctx.ox, ctx.oy])  # (M, 2)
         # columns within the footprint's angular span (all columns when the sensor is close or inside)
         b0, b1 = 0, len(ctx.ca)
@@ -730,9 +755,8 @@ class Scene:
                     return
         ux, uy = ctx.ca64[b0:b1, None], ctx.sa64[b0:b1, None]  # (W', 1)
         den = ux * e[None, :, 1] - uy * e[None, :, 0]  # u × e
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s = (w0[None, :, 0] * e[None, :, 1] - w0[None, :, 1] * e[None, :, 0]) / den
-            tau = (w0[None, :, 0] * uy - w0[None, :, 1] * ux) / den
+        s = (w0[None, :, 0] * e[None, :, 1] - w0[None, :, 1] * e[None, :, 0]) / den
+        tau = (w0[None, :, 0] * uy - w0[None, :, 1] * ux) / den
         valid = (np.abs(den) > 1e-12) & (tau >= 0) & (tau <= 1) & (s > 0)
         any_col = valid.any(axis=1)
         cols = np.flatnonzero(any_col)
@@ -748,26 +772,24 @@ class Scene:
         s_out = np.where(valid, s, -np.inf).max(axis=1)
         miss = ~np.isfinite(s_in)
         s_in_c = np.where(miss, np.nan, np.maximum(s_in, 0.05))
-        with np.errstate(invalid="ignore"):
-            s_out_c = np.where(miss, np.nan, s_out)
-            lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
-            hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
+        s_out_c = np.where(miss, np.nan, s_out)
+        lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
+        hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
         r0, r1 = self._rows(ctx, lo, hi)
         if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_in_c)).any():
             return
         t = ctx.tan[r0:r1, None]
         s_in2 = s_in[None, :]
-        with np.errstate(invalid="ignore"):
-            z_in = ctx.oz + s_in2 * t
-            side = (z_in >= zb) & (z_in <= zt)
-            s_roof = np.where(t < 0, (zt - ctx.oz) / np.where(t < 0, t, -1.0), np.inf)
-            roof = (~side) & (z_in > zt) & (s_roof <= s_out[None, :])
+        z_in = ctx.oz + s_in2 * t
+        side = (z_in >= zb) & (z_in <= zt)
+        s_roof = np.where(t < 0, (zt - ctx.oz) / np.where(t < 0, t, -1.0), np.inf)
+        roof = (~side) & (z_in > zt) & (s_roof <= s_out[None, :])
         s_new = np.where(side, s_in2, np.where(roof, s_roof, np.inf))
         wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
         if len(wr) == 0:
             return
         jj = j_in
-        en = e[jj] / np.linalg.norm(e[jj], axis=1, keepdims=True)
+        en = e_unit[jj]
         nx, ny = en[:, 1], -en[:, 0]
         ca, sa = ctx.ca64[c0:c1], ctx.sa64[c0:c1]
         flip = (nx * ca + ny * sa) > 0  # the wall faces the sensor
@@ -792,9 +814,10 @@ class Scene:
         ctx.s.reshape(-1)[at] = s_new
         ctx.mat.reshape(-1)[at] = m
         ctx.normal.reshape(-1, 3)[at] = nrm
-        tex = ctx.tex.reshape(-1, 2)
-        tex[at, 0] = tu
-        tex[at, 1] = tv
+        uv = np.empty((len(at), 2), np.int32)  # both texture coordinates of a cell written as one 8-byte item
+        uv[:, 0] = tu
+        uv[:, 1] = tv
+        ctx.tex.reshape(-1).view(np.int64)[at] = uv.view(np.int64).reshape(-1)
 
     # ---------------------------------------------------------------- appearance
 
@@ -837,6 +860,12 @@ class Scene:
 # the same values for the finite-or-NaN float arrays they get here
 _nanmin = np.fmin.reduce
 _nanmax = np.fmax.reduce
+
+
+def _edges(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Return a footprint's edge vectors (M, 2) [m] (vertex k to k+1) and the same as unit vectors."""
+    e = np.roll(verts, -1, axis=0) - verts
+    return e, e / np.linalg.norm(e, axis=1, keepdims=True)
 
 
 def _take_pairs(a: np.ndarray, flat_idx: np.ndarray) -> np.ndarray:

@@ -104,32 +104,78 @@ def _edges(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return a, b, out_n
 
 
-def _nearest_edge(q: np.ndarray, a: np.ndarray, d: np.ndarray, l2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Return (distance (N, M) [m], position along the edge (N, M) [0–1]) of points q to edges a → a + d (|d|² = l2)."""
-    t = np.clip(((q[:, None, :] - a[None]) * d[None]).sum(-1) / l2[None], 0.0, 1.0)
-    proj = a[None] + t[..., None] * d[None]
-    off = q[:, None, :] - proj
-    dist = np.sqrt((off * off).sum(-1))  # what np.linalg.norm(off, axis=-1) computes, without its checks
-    return dist, t
+def _nearest_edge(qx: np.ndarray, qy: np.ndarray, e: "_EdgeTerms") -> np.ndarray:
+    """Return the distance (N, M) [m] of points (qx, qy) (N, 1) to the edges a → a + d of `e`.
+
+    Component by component, the same operations as on (N, M, 2) arrays: t = clip((q - a)·d / |d|², 0, 1),
+    distance |q - (a + t d)|.
+    """
+    ex = qx - e.ax
+    ey = qy - e.ay
+    t = ex * e.dx
+    ey *= e.dy
+    t += ey
+    t /= e.l2
+    np.maximum(t, 0.0, out=t)
+    np.minimum(t, 1.0, out=t)
+    ox = t * e.dx
+    ox += e.ax
+    np.subtract(qx, ox, out=ox)
+    oy = np.multiply(t, e.dy, out=t)
+    oy += e.ay
+    np.subtract(qy, oy, out=oy)
+    ox *= ox
+    oy *= oy
+    ox += oy
+    return np.sqrt(ox, out=ox)
 
 
 @dataclass(frozen=True)
 class _EdgeTerms:
-    """One edge observation's arrays, fixed over the iterations: points, predicted edges, normals."""
+    """The edge observations' arrays, fixed over the iterations, stacked into one set.
+
+    Points (N, 2) vehicle frame [m] and predicted edges (M, 2) world frame [m] of all observations;
+    `rows` / `cols` the slice each observation owns; `apart` (N, M) bool marks a point and an edge
+    of different observations (they never pair). The per-observation arrays stay as given, so the
+    small matrix products run on the very shapes they always had.
+    """
 
     p: np.ndarray
+    parts: tuple[tuple[slice, slice, np.ndarray, np.ndarray, np.ndarray | None], ...]  # rows, cols, points, normals of edges, point normals
     a: np.ndarray
-    d: np.ndarray
-    l2: np.ndarray
     on: np.ndarray
-    normals: np.ndarray | None
+    ax: np.ndarray  # (1, M) edge starts x [m]
+    ay: np.ndarray
+    dx: np.ndarray  # (1, M) edge vectors x [m]
+    dy: np.ndarray
+    l2: np.ndarray  # (1, M) squared edge lengths [m²]
+    apart: np.ndarray
 
     @classmethod
-    def of(cls, e: EdgeObservation) -> "_EdgeTerms":
-        a, b, on = e.edges()
-        d = b - a
-        return cls(np.asarray(e.points, dtype=np.float64), a, d, np.maximum((d * d).sum(1), 1e-12), on,
-                   None if e.normals is None else np.asarray(e.normals))
+    def of(cls, edges: list[EdgeObservation]) -> "_EdgeTerms | None":
+        """Stack the observations that have points; None when none has."""
+        parts, ps, As, ds, ons = [], [], [], [], []
+        n = m = 0
+        for e in edges:
+            if len(e.points) == 0:
+                continue
+            a, b, on = e.edges()
+            p = np.asarray(e.points, dtype=np.float64)
+            parts.append((slice(n, n + len(p)), slice(m, m + len(a)), p, on, None if e.normals is None else np.asarray(e.normals)))
+            ps.append(p)
+            As.append(a)
+            ds.append(b - a)
+            ons.append(on)
+            n, m = n + len(p), m + len(a)
+        if not parts:
+            return None
+        a, d = np.concatenate(As), np.concatenate(ds)
+        apart = np.ones((n, m), dtype=bool)
+        for rows, cols, *_ in parts:
+            apart[rows, cols] = False
+        l2 = np.maximum((d * d).sum(1), 1e-12)
+        return cls(np.concatenate(ps), tuple(parts), a, np.concatenate(ons), a[None, :, 0].copy(), a[None, :, 1].copy(),
+                   d[None, :, 0].copy(), d[None, :, 1].copy(), l2[None, :], apart)
 
 
 def calibrate(
@@ -156,7 +202,11 @@ def calibrate(
     """
     x = np.array(prior, dtype=np.float64)
     prior_info = np.diag(1.0 / np.square(prior_sigma))
-    terms = [_EdgeTerms.of(e) for e in edges if len(e.points) != 0]
+    terms = _EdgeTerms.of(edges)
+    prior_arr = np.array(prior)
+    if terms is not None:
+        rows = np.arange(len(terms.p))
+        qv = np.empty_like(terms.p)  # detected points in the world frame [m]
     H = np.zeros((3, 3))
     rms = 0.0
     n_used = 0
@@ -166,26 +216,27 @@ def calibrate(
         dR = np.array([[-math.sin(x[2]), -math.cos(x[2])], [math.cos(x[2]), -math.sin(x[2])]])
         rows_j: list[np.ndarray] = []
         rows_r: list[np.ndarray] = []
-        for e in terms:
-            p, a, on = e.p, e.a, e.on
-            q = p @ R.T + x[:2]
-            dist, t = _nearest_edge(q, a, e.d, e.l2)
-            if e.normals is not None:
-                nw = e.normals @ R.T
-                agree = (nw @ on.T) >= normal_cos
-                dist = np.where(agree, dist, np.inf)
+        if terms is not None:
+            for rs, _, p, _, _ in terms.parts:
+                qv[rs] = p @ R.T + x[:2]
+            dist = _nearest_edge(qv[:, 0:1], qv[:, 1:2], terms)
+            bad = terms.apart.copy()
+            for rs, cs, _, on, normals in terms.parts:
+                if normals is not None:
+                    nw = normals @ R.T
+                    np.logical_not((nw @ on.T) >= normal_cos, out=bad[rs, cs])
+            np.copyto(dist, np.inf, where=bad)
             k = np.argmin(dist, axis=1)
-            dk = dist[np.arange(len(k)), k]
-            ok = dk <= g
-            if not ok.any():
-                continue
-            k, p, q = k[ok], p[ok], q[ok]
-            n = on[k]
-            r = ((q - a[k]) * n).sum(1)
-            # points beyond a segment's ends keep the perpendicular (infinite-line) residual
-            J = np.column_stack([n[:, 0], n[:, 1], ((p @ dR.T) * n).sum(1)])
-            rows_j.append(J)
-            rows_r.append(r)
+            ok = dist[rows, k] <= g
+            if ok.any():
+                k = k[ok]
+                n = terms.on[k]
+                r = ((qv[ok] - terms.a[k]) * n).sum(1)
+                # points beyond a segment's ends keep the perpendicular (infinite-line) residual
+                pdr = [p[ok[rs]] @ dR.T for rs, _, p, _, _ in terms.parts if ok[rs].any()]
+                pdr = pdr[0] if len(pdr) == 1 else np.concatenate(pdr)
+                rows_j.append(np.column_stack([n[:, 0], n[:, 1], (pdr * n).sum(1)]))
+                rows_r.append(r)
         for po in points:
             p = np.asarray(po.point, dtype=np.float64)
             q = R @ p + x[:2]
@@ -204,9 +255,10 @@ def calibrate(
             w = np.where(np.abs(r) <= huber, 1.0, huber / np.maximum(np.abs(r), 1e-12))
         else:
             w = 1.0 / (1.0 + np.square(r / huber))
-        H = (J * w[:, None]).T @ J
-        gvec = (J * w[:, None]).T @ r
-        prior_res = x - np.array(prior)
+        Jw = J * w[:, None]
+        H = Jw.T @ J
+        gvec = Jw.T @ r
+        prior_res = x - prior_arr
         prior_res[2] = (prior_res[2] + math.pi) % (2 * math.pi) - math.pi
         step = np.linalg.solve(H + prior_info, -(gvec + prior_info @ prior_res))
         x = x + step

@@ -66,23 +66,33 @@ class PatchSet:
         raise KeyError(pid)
 
 
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """Return the sorted distinct values of an integer array (what np.unique returns; by counting when they are few and non-negative)."""
+    if values.size and values.min() >= 0 and values.max() <= 4 * values.size + 1024:
+        return np.flatnonzero(np.bincount(values.reshape(-1)))
+    return np.unique(values)
+
+
 def _neighbour_pairs(ids: np.ndarray, reach: int = 2) -> set[tuple[int, int]]:
     h, w = ids.shape
-    pairs: set[tuple[int, int]] = set()
+    some = ids > 0
+    codes = []
     for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
         for k in range(1, reach + 1):
             sy, sx = dy * k, dx * k
             if sx >= 0:
-                a, b = ids[: h - sy, : w - sx], ids[sy:, sx:]
+                ab = np.s_[: h - sy, : w - sx], np.s_[sy:, sx:]
             else:
-                a, b = ids[: h - sy, -sx:], ids[sy:, : w + sx]
-            m = (a != b) & (a > 0) & (b > 0)
+                ab = np.s_[: h - sy, -sx:], np.s_[sy:, : w + sx]
+            a, b = ids[ab[0]], ids[ab[1]]
+            m = (a != b) & some[ab[0]] & some[ab[1]]
             if m.any():
                 lo = np.minimum(a[m], b[m]).astype(np.int64)
                 hi = np.maximum(a[m], b[m]).astype(np.int64)
-                for code in np.unique(lo * (1 << 31) + hi):
-                    pairs.add((int(code >> 31), int(code & ((1 << 31) - 1))))
-    return pairs
+                codes.append(lo * (1 << 31) + hi)
+    if not codes:
+        return set()
+    return {(code >> 31, code & ((1 << 31) - 1)) for code in np.unique(np.concatenate(codes)).tolist()}
 
 
 def _absorb_specks(ids: np.ndarray, usable: np.ndarray, max_pixels: int, share: float = 0.6) -> set[int]:
@@ -96,15 +106,20 @@ def _absorb_specks(ids: np.ndarray, usable: np.ndarray, max_pixels: int, share: 
         return set()
     speck = np.where(small[cc], cc, 0)
     h, w = ids.shape
-    pad = np.pad(ids, 1)
+    pad = np.zeros((h + 2, w + 2), ids.dtype)
+    pad[1:-1, 1:-1] = ids
+    pad = pad.reshape(-1)
+    at = np.flatnonzero(speck)  # the speck pixels, raster order
+    of = speck.reshape(-1)[at]
+    at = at + 2 * (at // w) + w + 3  # the same pixels in the padded image
     owners, around = [], []
     for dy in (-1, 0, 1):
         for dx in (-1, 0, 1):
             if dy == 0 and dx == 0:
                 continue
-            nb = pad[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
-            sel = (speck > 0) & (nb > 0)
-            owners.append(speck[sel])
+            nb = pad[at + dy * (w + 2) + dx]
+            sel = nb > 0
+            owners.append(of[sel])
             around.append(nb[sel])
     sp = np.concatenate(owners).astype(np.int64)
     if sp.size == 0:
@@ -148,8 +163,8 @@ def make_patches(
     ids = np.zeros((h, w), dtype=np.int32)
     found: list[dict] = []
     next_id = 1
-    good_xy = np.all(np.isfinite(xy), axis=-1) & valid
-    for lab in np.unique(labels[good_xy]):
+    good_xy = np.isfinite(xy[..., 0]) & np.isfinite(xy[..., 1]) & valid
+    for lab in _distinct(labels[good_xy]):
         if lab <= 0:
             continue
         mask = ((labels == lab) & good_xy).astype(np.uint8)
@@ -157,8 +172,13 @@ def make_patches(
         for c in range(1, n):
             if stats[c, cv2.CC_STAT_AREA] < min_pixels:
                 continue
-            m = cc == c
-            contours, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+            # the component's bounding box and a pixel around it: all that the outline and the pixel statistics read
+            x0, y0 = stats[c, cv2.CC_STAT_LEFT], stats[c, cv2.CC_STAT_TOP]
+            box = (slice(max(y0 - 1, 0), min(y0 + stats[c, cv2.CC_STAT_HEIGHT] + 1, h)),
+                   slice(max(x0 - 1, 0), min(x0 + stats[c, cv2.CC_STAT_WIDTH] + 1, w)))
+            m = cc[box] == c
+            contours, _ = cv2.findContours(m.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE,
+                                           offset=(box[1].start, box[0].start))
             if not contours:
                 continue
             cont = max(contours, key=len)
@@ -173,14 +193,15 @@ def make_patches(
                     poly = max(poly.geoms, key=lambda g: g.area)
             if poly.is_empty or poly.area < min_area_m2:
                 continue
-            found.append(dict(label=int(lab), mask=m, approx=approx, poly=poly, pts=pts, contour=cont.reshape(-1, 2)[::2]))
+            found.append(dict(label=int(lab), box=box, mask=m, approx=approx, poly=poly, pts=pts, contour=cont.reshape(-1, 2)[::2]))
     for f in found:
-        ids[f["mask"]] = next_id
+        ids[f["box"]][f["mask"]] = next_id
         f["id"] = next_id
         next_id += 1
     if speck_pixels > 0 and found:
         for pid in _absorb_specks(ids, good_xy, speck_pixels):
             f = found[pid - 1]
+            f["box"] = np.s_[:, :]
             f["mask"] = ids == pid
     pairs = _neighbour_pairs(ids)
     nb: dict[int, set[int]] = {f["id"]: set() for f in found}
@@ -189,15 +210,24 @@ def make_patches(
         nb[b].add(a)
     # a real object edge is sharp where the colour type changes (colour boundaries are pixel-exact;
     # boundaries that only the surface label draws are smeared by the plane-fit window)
+    present = _distinct(labels)
     if colour_of:
-        key = {lab: colour_of.get(lab) for lab in np.unique(labels)}
+        key = {lab: colour_of.get(lab) for lab in present.tolist()}
     else:
-        key = {lab: (surface_of or {}).get(lab, lab) for lab in np.unique(labels)}
+        key = {lab: (surface_of or {}).get(lab, lab) for lab in present.tolist()}
     keys = sorted({str(v) for v in key.values()})
-    key_img = np.full(labels.shape, -1, np.int32)  # pixels no class claimed (rejected colours, shadows) tell nothing
-    for lab, v in key.items():
-        if lab > 0:
-            key_img[labels == lab] = keys.index(str(v))
+    # pixels no class claimed (rejected colours, shadows) tell nothing: -1
+    if present.size and present[0] >= 0:
+        lut = np.full(int(present[-1]) + 1, -1, np.int32)
+        for lab, v in key.items():
+            if lab > 0:
+                lut[lab] = keys.index(str(v))
+        key_img = lut[labels]
+    else:
+        key_img = np.full(labels.shape, -1, np.int32)
+        for lab, v in key.items():
+            if lab > 0:
+                key_img[labels == lab] = keys.index(str(v))
     key_img[~valid] = -1
     # per pixel: every 5x5 neighbour has data, and some neighbour has another colour type (or surface)
     ker = np.ones((5, 5), np.uint8)
@@ -208,11 +238,11 @@ def make_patches(
     patches = []
     for f in found:
         approx = f["approx"]
-        flags = [bool(edge_px[cy, cx]) for cx, cy in approx]
-        m = f["mask"]
+        flags = edge_px[approx[:, 1], approx[:, 0]].tolist()
+        box, m = f["box"], f["mask"]  # the patch's pixels: m inside box
         nrm = None
         if normals is not None:
-            v = normals[m].mean(axis=0)
+            v = normals[box][m].mean(axis=0)
             nv = float(np.linalg.norm(v))
             nrm = tuple(float(a) for a in (v / nv if nv > 1e-9 else v))
         poly = f["poly"]
@@ -220,7 +250,7 @@ def make_patches(
             coords = tuple((float(a), float(b)) for a, b in list(poly.exterior.coords)[:-1])
             flags = [False] * len(coords)
         else:
-            coords = tuple((float(a), float(b)) for a, b in f["pts"])
+            coords = tuple(map(tuple, f["pts"].tolist()))
         c = poly.centroid
         lab = f["label"]
         patches.append(
@@ -235,7 +265,7 @@ def make_patches(
                 area_m2=float(poly.area),
                 pixels=int(m.sum()),
                 centroid=(float(c.x), float(c.y)),
-                height=float(z[m].mean()) if z is not None else 0.0,
+                height=float(z[box][m].mean()) if z is not None else 0.0,
                 neighbours=tuple(sorted(nb[f["id"]])),
                 boundary=np.ascontiguousarray(xy[f["contour"][:, 1], f["contour"][:, 0]], dtype=np.float64),
                 boundary_flags=edge_px[f["contour"][:, 1], f["contour"][:, 0]].copy(),

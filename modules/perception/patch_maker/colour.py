@@ -27,6 +27,45 @@ class ColourModelError(PerceptionError, ValueError):
     """A colour class with a bad mean or covariance, or a colour without a type."""
 
 
+def _monomials(x: np.ndarray) -> np.ndarray:
+    """Return the quadratic monomials (N, 6) x0², x1², x2², x0·x1, x0·x2, x1·x2 of (N, 3) float64 pixels.
+
+    Filled column by column: stacking six columns into a tall, narrow array is far slower.
+    """
+    q = np.empty((len(x), 6))
+    a, b, c = x[:, 0], x[:, 1], x[:, 2]
+    for k, (u, v) in enumerate(((a, a), (b, b), (c, c), (a, b), (a, c), (b, c))):
+        np.multiply(u, v, out=q[:, k])
+    return q
+
+
+def _best_class(g: np.ndarray, m2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return for each pixel of (K, N) discriminants `g` the best class (N,) (the first on ties, as np.argmax),
+    its discriminant (N,) and its squared Mahalanobis distance (N,) from (K, N) `m2`."""
+    if np.isnan(g).any():
+        best = np.argmax(g, axis=0)
+        at = np.arange(g.shape[1])
+        return best, g[best, at], m2[best, at]
+    best = np.zeros(g.shape[1], dtype=np.intp)
+    top, top_m2 = g[0].copy(), m2[0].copy()
+    for j in range(1, len(g)):
+        up = g[j] > top
+        best[up] = j
+        np.copyto(top, g[j], where=up)
+        np.copyto(top_m2, m2[j], where=up)
+    return best, top, top_m2
+
+
+def _row_sum(a: np.ndarray) -> np.ndarray:
+    """Return the sum of each row of (N, K) `a`, the columns added left to right (what a.sum(axis=1) does for K < 8)."""
+    if a.shape[1] >= 8:
+        return a.sum(axis=1)
+    out = a[:, 0].copy()
+    for j in range(1, a.shape[1]):
+        out += a[:, j]
+    return out
+
+
 @dataclass(frozen=True)
 class ColourPrior:
     """How little the map's nominal colour is trusted: spreads of the starting classes.
@@ -150,16 +189,30 @@ class ColourModel:
 
         `classes` limits the columns to those class indices (default: every class).
         """
-        x = rgb.reshape(-1, 3).astype(np.float64)
+        x = rgb.reshape(-1, 3).astype(np.float64, copy=False)
         sel = np.arange(len(self._means)) if classes is None else np.asarray(list(classes), dtype=np.int64)
+        return self._scores(x, sel, by_class=False)
+
+    def _scores(self, x: np.ndarray, sel: np.ndarray, by_class: bool) -> tuple[np.ndarray, np.ndarray]:
+        """Return (g, m2) of (N, 3) float64 pixels for the classes `sel`: (N, K), or (K, N) `by_class`.
+
+        The same arithmetic either way; by class, each class's constants are one number per
+        contiguous row (adding a (K,) row to each of N short rows is far slower).
+        """
         # (x - μ)ᵀ P (x - μ) = [quadratic monomials of x] · A + x · B + c, for all classes at once
         P, mu = self._prec[sel], self._means[sel]
-        quad = np.stack([x[:, 0] ** 2, x[:, 1] ** 2, x[:, 2] ** 2, x[:, 0] * x[:, 1], x[:, 0] * x[:, 2], x[:, 1] * x[:, 2]], axis=1)
+        quad = _monomials(x)
         A = np.stack([P[:, 0, 0], P[:, 1, 1], P[:, 2, 2], 2 * P[:, 0, 1], 2 * P[:, 0, 2], 2 * P[:, 1, 2]], axis=0)
         Pmu = np.einsum("kij,kj->ki", P, mu)
-        m2 = quad @ A - 2.0 * (x @ Pmu.T) + np.einsum("ki,ki->k", mu, Pmu)[None, :]
+        qa, xb = quad @ A, x @ Pmu.T
+        c = np.einsum("ki,ki->k", mu, Pmu)
+        half_logdet, log_prior = 0.5 * self._logdet[sel], np.log(self._priors[sel])
+        if by_class:
+            qa, xb = np.ascontiguousarray(qa.T), np.ascontiguousarray(xb.T)
+            c, half_logdet, log_prior = c[:, None], half_logdet[:, None], log_prior[:, None]
+        m2 = qa - 2.0 * xb + c
         np.maximum(m2, 0.0, out=m2)
-        g = -0.5 * m2 - 0.5 * self._logdet[sel][None, :] + np.log(self._priors[sel])[None, :]
+        g = -0.5 * m2 - half_logdet + log_prior
         return g, m2
 
     def classify(self, rgb: np.ndarray, mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -170,14 +223,13 @@ class ColourModel:
         h, w = rgb.shape[:2]
         flat = rgb.reshape(-1, 3)
         sel = np.flatnonzero(mask.reshape(-1)) if mask is not None else np.arange(flat.shape[0])
-        g, m2 = self.discriminants(flat[sel])
-        best = np.argmax(g, axis=1)
-        gmax = g[np.arange(g.shape[0]), best]
-        e = np.exp(g - gmax[:, None])
+        g, m2 = self._scores(flat[sel].astype(np.float64), np.arange(len(self._means)), by_class=True)
+        best, gmax, m2_best = _best_class(g, m2)
+        e = np.exp(g - gmax)
         onehot = (self._type_of[:, None] == np.arange(1, len(self.types) + 1)[None, :]).astype(np.float64)
-        per_type = e @ onehot
-        p = per_type[np.arange(len(best)), self._type_of[best] - 1] / per_type.sum(axis=1)
-        ok = m2[np.arange(m2.shape[0]), best] <= self.reject_mahal2
+        per_type = np.ascontiguousarray(e.T) @ onehot
+        p = per_type[np.arange(len(best)), self._type_of[best] - 1] / _row_sum(per_type)
+        ok = m2_best <= self.reject_mahal2
         cls_idx = np.full(flat.shape[0], -1, np.int16)
         labels = np.zeros(flat.shape[0], np.int16)
         post = np.zeros(flat.shape[0], np.float32)
@@ -220,7 +272,7 @@ class ColourModel:
         only from pixels clearly darker than its lit class, the lit one only from pixels clearly
         brighter than its shade (`shade_ratio`). `rounds` repeats assignment and update.
         """
-        x = rgb.reshape(-1, 3).astype(np.float64)
+        x = rgb.reshape(-1, 3)
         lab = np.asarray(types).reshape(-1)
         used = 0
         for t in range(1, len(self.types) + 1):
@@ -229,7 +281,7 @@ class ColourModel:
                 continue
             if idx.size > max_pixels:
                 idx = idx[:: idx.size // max_pixels]  # an even subsample is plenty for 3x3 statistics
-            xs = x[idx]
+            xs = x[idx].astype(np.float64)
             members = [i for i in range(len(self.classes)) if self._type_of[i] == t]
             for _ in range(rounds):
                 d2 = ((xs[:, None, :] - self._means[members][None, :, :]) ** 2).sum(axis=2)

@@ -69,6 +69,33 @@ def decode_sensor_frame(payload: bytes) -> SensorFrame:
         raise SensorFrameError(str(exc)) from None
 
 
+#: The last few ray geometries (ray angles and laser mount): a vehicle's scanner keeps one for every frame.
+_RAYS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _rays(frame: SensorFrame) -> tuple[np.ndarray, np.ndarray]:
+    """Return the laser rays of a frame: unit directions (3, H, W) float64 in the vehicle frame, one row per
+    axis, and where each meets the flat ground z = 0, (H, W, 2) float32 [m] vehicle frame (NaN above the horizon)."""
+    az, el, T = frame.laser_az, frame.laser_el, np.asarray(frame.T_vehicle_laser)
+    key = tuple((a.dtype.str, a.shape, a.tobytes()) for a in (az, el, T))
+    if key in _RAYS:
+        return _RAYS[key]
+    az = az.astype(np.float64)
+    el = el.astype(np.float64)
+    ce = np.cos(el)[:, None]
+    dirs = np.stack([ce * np.cos(az)[None, :], ce * np.sin(az)[None, :], np.broadcast_to(np.sin(el)[:, None], (len(el), len(az)))], axis=-1)
+    R = T[:3, :3]
+    t = T[:3, 3]
+    dv = dirs @ R.T  # ray directions, vehicle frame
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = np.where(dv[..., 2] < -1e-3, -t[2] / dv[..., 2], np.nan)
+    ground_xy = (t[:2] + s[..., None] * dv[..., :2]).astype(np.float32)
+    if len(_RAYS) >= 4:
+        _RAYS.pop(next(iter(_RAYS)))
+    _RAYS[key] = (np.ascontiguousarray(np.moveaxis(dv, -1, 0)), ground_xy)
+    return _RAYS[key]
+
+
 def colored_range_image(frame: SensorFrame, max_horizontal: float | None = None) -> ColoredRangeImage:
     """Unwrap the range, put the points in the vehicle frame and colour them from the camera (§3.4.1).
 
@@ -76,33 +103,27 @@ def colored_range_image(frame: SensorFrame, max_horizontal: float | None = None)
     horizontal range is within `max_horizontal` [m] (default: one ambiguity interval).
     """
     limit = frame.ambiguity if max_horizontal is None else max_horizontal
-    az = frame.laser_az.astype(np.float64)
-    el = frame.laser_el.astype(np.float64)
-    ce = np.cos(el)[:, None]
-    dirs = np.stack([ce * np.cos(az)[None, :], ce * np.sin(az)[None, :], np.broadcast_to(np.sin(el)[:, None], (len(el), len(az)))], axis=-1)
-    R = frame.T_vehicle_laser[:3, :3]
+    dv, ground_xy = _rays(frame)
     t = frame.T_vehicle_laser[:3, 3]
-    dv = dirs @ R.T  # ray directions, vehicle frame
     valid = frame.laser_valid.astype(bool)
     r = unwrap_range(frame.laser_range, valid, frame.ambiguity)
-    xyz = (dv * r[..., None] + t).astype(np.float32)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = np.where(dv[..., 2] < -1e-3, -t[2] / dv[..., 2], np.nan)
-    ground_xy = (t[:2] + s[..., None] * dv[..., :2]).astype(np.float32)
+    xyz = np.empty(r.shape + (3,), dtype=np.float32)
+    for k in range(3):
+        xyz[..., k] = dv[k] * r + t[k]
     Tcv = np.linalg.inv(frame.T_vehicle_camera)
-    pc = xyz.astype(np.float64) @ Tcv[:3, :3].T + Tcv[:3, 3]
-    z = pc[..., 2]
+    pc = xyz.astype(np.float64) @ Tcv[:3, :3].T
+    z = pc[..., 2] + Tcv[2, 3]
     K = frame.camera_K
     with np.errstate(divide="ignore", invalid="ignore"):
-        u = K[0, 0] * pc[..., 0] / z + K[0, 2]
-        v = K[1, 1] * pc[..., 1] / z + K[1, 2]
+        u = K[0, 0] * (pc[..., 0] + Tcv[0, 3]) / z + K[0, 2]
+        v = K[1, 1] * (pc[..., 1] + Tcv[1, 3]) / z + K[1, 2]
     h, w = frame.camera_image.shape[:2]
     horiz = np.hypot(xyz[..., 0] - t[0], xyz[..., 1] - t[1])
     ok = valid & (z > 0.1) & (u >= 0) & (u <= w - 1) & (v >= 0) & (v <= h - 1) & (horiz <= limit)
     mx = np.where(ok, u, -1).astype(np.float32)
     my = np.where(ok, v, -1).astype(np.float32)
     rgb = cv2.remap(frame.camera_image.astype(np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
-    return ColoredRangeImage(xyz=xyz, ground_xy=ground_xy, range_m=r.astype(np.float32), valid=ok, rgb=rgb, stamp=frame.stamp)
+    return ColoredRangeImage(xyz=xyz, ground_xy=ground_xy.copy(), range_m=r.astype(np.float32), valid=ok, rgb=rgb, stamp=frame.stamp)
 
 
 def sensor_geometry(frame: SensorFrame) -> "SensorGeometry":

@@ -223,12 +223,13 @@ def colour_training(
     At most about `max_pixels` evenly spread pixels are labelled (plenty for 3×3 colour statistics).
     """
     out = np.zeros(usable.shape, np.int16)
-    pick = np.flatnonzero(usable.reshape(-1) & np.all(np.isfinite(xy.reshape(-1, 2)), axis=1))
+    pick = np.flatnonzero(usable & np.isfinite(xy[..., 0]) & np.isfinite(xy[..., 1]))
     if pick.size > max_pixels:
         pick = pick[:: pick.size // max_pixels]
     if pick.size == 0:
         return out
-    world = vehicle_to_world(xy.reshape(-1, 2)[pick].astype(np.float64), prior_pose)
+    rows, cols = np.divmod(pick, usable.shape[1])
+    world = vehicle_to_world(xy[rows, cols].astype(np.float64), prior_pose)
     flat = out.reshape(-1)
     for (ctype, _), region in visible_regions(predicted, Segmentation.COLOUR).items():
         if ctype not in types or region.is_empty:

@@ -18,6 +18,7 @@ from typing import Sequence
 
 import numpy as np
 
+from modules.perception.column_mean import column_mean
 from modules.perception.errors import PerceptionError
 
 __all__ = ["ColourClass", "ColourModel", "ColourModelError", "ColourPrior"]
@@ -54,6 +55,19 @@ def _best_class(g: np.ndarray, m2: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
         np.copyto(top, g[j], where=up)
         np.copyto(top_m2, m2[j], where=up)
     return best, top, top_m2
+
+
+def _nearest(d2: list[np.ndarray]) -> np.ndarray:
+    """Return for each pixel the index of the smallest of the (N,) distances `d2` (the first on ties, as np.argmin)."""
+    if any(np.isnan(d).any() for d in d2):
+        return np.argmin(np.stack(d2, axis=1), axis=1)
+    best = np.zeros(len(d2[0]), dtype=np.intp)
+    low = d2[0].copy()
+    for j in range(1, len(d2)):
+        down = d2[j] < low
+        best[down] = j
+        np.copyto(low, d2[j], where=down)
+    return best
 
 
 def _row_sum(a: np.ndarray) -> np.ndarray:
@@ -240,8 +254,13 @@ class ColourModel:
 
     # ---------------------------------------------------------------- re-estimation
     def _reestimate(self, i: int, xs: np.ndarray, rate: float) -> None:
-        mu = xs.mean(axis=0)
-        cov = np.cov(xs, rowvar=False)
+        mu = column_mean(xs)
+        if len(xs) > 1:  # np.cov(xs, rowvar=False), its very operations
+            xc = xs - mu
+            cov = np.dot(xc.T, xc)
+            cov *= np.true_divide(1, len(xs) - 1)
+        else:
+            cov = np.cov(xs, rowvar=False)
         self._means[i] = (1 - rate) * self._means[i] + rate * mu
         self._covs[i] = (1 - rate) * self._covs[i] + rate * cov
         m = self._means[i]
@@ -282,17 +301,21 @@ class ColourModel:
             if idx.size > max_pixels:
                 idx = idx[:: idx.size // max_pixels]  # an even subsample is plenty for 3x3 statistics
             xs = x[idx].astype(np.float64)
+            xt = np.ascontiguousarray(xs.T)  # one row per channel
             members = [i for i in range(len(self.classes)) if self._type_of[i] == t]
             for _ in range(rounds):
-                d2 = ((xs[:, None, :] - self._means[members][None, :, :]) ** 2).sum(axis=2)
-                best = np.argmin(d2, axis=1)
-                _, m2 = self.discriminants(xs, members)
-                near = m2[np.arange(len(xs)), best] <= trim_mahal2
+                # squared distance to each member's mean, channels added in order
+                d2 = [(xt[0] - m[0]) ** 2 + (xt[1] - m[1]) ** 2 + (xt[2] - m[2]) ** 2 for m in self._means[members]]
+                best = _nearest(d2)
+                _, m2 = self._scores(xs, np.asarray(members, dtype=np.int64), by_class=True)
+                near = m2[best, np.arange(len(xs))] <= trim_mahal2
                 level = {i: self._means[i].mean() for i in members}
                 for j, i in enumerate(members):
                     sel = near & (best == j)
-                    if sel.sum() >= min_pixels and self._own(i, float(xs[sel].mean()), level):
-                        self._reestimate(i, xs[sel], rate)
+                    if sel.sum() >= min_pixels:
+                        xsel = xs[sel]
+                        if self._own(i, float(xsel.mean()), level):
+                            self._reestimate(i, xsel, rate)
                 self._regularise()
             used += int(near.sum())
         return used

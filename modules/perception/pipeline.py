@@ -16,6 +16,7 @@ from shapely.geometry import Polygon as ShapelyPolygon
 from shapely.ops import unary_union
 
 from modules.perception.calibrator import CalibrationError, CalibrationResult, EdgeObservation, PointObservation, calibrate
+from modules.perception.column_mean import column_mean
 from modules.perception.patch_maker import ColourModel, Segmentation, SegmentationParams, Segmented, make_segmentation
 from modules.perception.image import ColoredRangeImage
 from modules.perception.monitor import (
@@ -137,7 +138,7 @@ def edge_observations(
             if ids is not None and xyz is not None:
                 m = (ids == best.id) & (xyz[..., 2] < trunk_height)
                 if m.sum() >= 3:
-                    c = xyz[m][:, :2].astype(np.float64).mean(axis=0)
+                    c = column_mean(xyz[m][:, :2].astype(np.float64))
             r = float(np.sqrt(f.predicted.footprint.area / np.pi))
             c = c + (math.pi / 4) * r * c / max(float(np.linalg.norm(c)), 1e-6)
             points.append(PointObservation(point=(float(c[0]), float(c[1])), target=(float(obj.center[0]), float(obj.center[1]))))

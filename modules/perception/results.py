@@ -13,6 +13,7 @@ import shapely
 from shapely.geometry import Polygon as ShapelyPolygon
 
 from modules.perception.calibrator import CalibrationResult
+from modules.perception.column_mean import column_mean
 from modules.perception.image import ColoredRangeImage
 from modules.perception.patch_maker import Segmentation, SurfaceType as ST
 from modules.perception.pipeline import PipelineOutput
@@ -53,7 +54,7 @@ def best_pose(cal: CalibrationResult | None, prior: tuple[float, float, float]) 
 def _ring(poly: ShapelyPolygon, pose: tuple[float, float, float]) -> tuple[tuple[float, float], ...]:
     pts = np.asarray(poly.exterior.coords)[:-1]
     w = vehicle_to_world(pts, pose)
-    return tuple((round(float(x), 4), round(float(y), 4)) for x, y in w)
+    return tuple((round(x, 4), round(y, 4)) for x, y in w.tolist())
 
 
 def _simple_ring(ring: tuple[tuple[float, float], ...], min_area: float) -> bool:
@@ -90,7 +91,7 @@ def world_ring(poly, pose: tuple[float, float, float], min_area: float = MIN_REG
     fixed = _largest_part(shapely.make_valid(ShapelyPolygon(ring)).buffer(0))
     if fixed is None:
         return None
-    ring = tuple((round(float(x), 4), round(float(y), 4)) for x, y in np.asarray(fixed.exterior.coords)[:-1])
+    ring = tuple((round(x, 4), round(y, 4)) for x, y in np.asarray(fixed.exterior.coords)[:-1].tolist())
     return ring if _simple_ring(ring, min_area) else None
 
 
@@ -125,12 +126,16 @@ def build_result(
     detected = []
     ids = out.segmented.patches.ids
     work_rgb = img.subsample(out.plan.step).rgb if img is not None else None
+    of_found = np.zeros(int(ids.max()) + 1 if ids.size else 1, dtype=bool)  # patch id → one of this object's patches
     for f in out.found:
         colour = None
         if work_rgb is not None:
-            m = np.isin(ids, [p.id for p in f.patches])
+            pids = [p.id for p in f.patches]
+            of_found[pids] = True
+            m = of_found[ids]
+            of_found[pids] = False
             if m.any():
-                colour = tuple(float(np.clip(v, 0, 255)) for v in work_rgb[m].mean(axis=0))
+                colour = tuple(float(np.clip(v, 0, 255)) for v in column_mean(work_rgb[m]))
         surfaces = [p.surface for p in f.patches if p.surface is not None]
         surface = "unknown"
         if surfaces:

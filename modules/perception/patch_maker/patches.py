@@ -13,6 +13,8 @@ import cv2
 import numpy as np
 from shapely.geometry import Polygon as ShapelyPolygon
 
+from modules.perception.column_mean import column_mean
+
 __all__ = ["Patch", "PatchSet", "make_patches"]
 
 
@@ -242,7 +244,7 @@ def make_patches(
         box, m = f["box"], f["mask"]  # the patch's pixels: m inside box
         nrm = None
         if normals is not None:
-            v = normals[box][m].mean(axis=0)
+            v = column_mean(normals[box][m])
             nv = float(np.linalg.norm(v))
             nrm = tuple(float(a) for a in (v / nv if nv > 1e-9 else v))
         poly = f["poly"]

@@ -134,14 +134,15 @@ def _nearest_edge(qx: np.ndarray, qy: np.ndarray, e: "_EdgeTerms") -> np.ndarray
 class _EdgeTerms:
     """The edge observations' arrays, fixed over the iterations, stacked into one set.
 
-    Points (N, 2) vehicle frame [m] and predicted edges (M, 2) world frame [m] of all observations;
-    `rows` / `cols` the slice each observation owns; `apart` (N, M) bool marks a point and an edge
-    of different observations (they never pair). The per-observation arrays stay as given, so the
-    small matrix products run on the very shapes they always had.
+    Points `p` (N, 2) vehicle frame [m] and predicted edges `a` → `a` + d (M, 2) world frame [m] of all
+    observations; `parts` per observation: its rows and columns (slices), its points, its edges'
+    outward normals and its points' normals (or None), as given, so the small matrix products run
+    on the very shapes they always had; `apart` (N, M) bool marks a point and an edge of different
+    observations (they never pair).
     """
 
     p: np.ndarray
-    parts: tuple[tuple[slice, slice, np.ndarray, np.ndarray, np.ndarray | None], ...]  # rows, cols, points, normals of edges, point normals
+    parts: tuple[tuple[slice, slice, np.ndarray, np.ndarray, np.ndarray | None], ...]
     a: np.ndarray
     on: np.ndarray
     ax: np.ndarray  # (1, M) edge starts x [m]

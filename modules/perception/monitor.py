@@ -205,6 +205,23 @@ def colour_model_for(objects: tuple[MapObject, ...] | list[MapObject]) -> Colour
     return ColourModel.from_map(cols)
 
 
+#: Regions shrunk by a margin, prepared, per (region id, margin [m]); the region is held with its entry
+#: (visible regions are kept per set of objects, so the same region comes back frame after frame).
+_INNER: dict[tuple[int, float], tuple[object, object]] = {}
+
+
+def _inner(region, margin: float):
+    """Return `region` shrunk by `margin` [m], prepared for point tests."""
+    key = (id(region), margin)
+    if key not in _INNER:
+        inner = region.buffer(-margin)
+        shapely.prepare(inner)
+        if len(_INNER) >= 64:
+            _INNER.pop(next(iter(_INNER)))
+        _INNER[key] = (region, inner)
+    return _INNER[key][1]
+
+
 def colour_training(
     predicted: list[PredictedObject] | tuple[PredictedObject, ...],
     xy: np.ndarray,
@@ -234,10 +251,9 @@ def colour_training(
     for (ctype, _), region in visible_regions(predicted, Segmentation.COLOUR).items():
         if ctype not in types or region.is_empty:
             continue
-        inner = region.buffer(-margin)
+        inner = _inner(region, margin)
         if inner.is_empty:
             continue
-        shapely.prepare(inner)
         inside = shapely.contains_xy(inner, world[:, 0], world[:, 1])
         flat[pick[inside]] = types.index(ctype) + 1
     return out

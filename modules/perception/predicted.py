@@ -5,6 +5,7 @@ Seed: Sidewalk 1986 §3.2.2 — predicted object shape and features (colour, sur
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -74,7 +75,9 @@ class PredictedObject:
         return is_ground_kind(self.obj)
 
 
+@functools.lru_cache(maxsize=1024)
 def _footprint_world(obj: MapObject) -> ShapelyPolygon:
+    """Return the object's footprint in the world frame [m] (kept per object: one and the same geometry every frame)."""
     if obj.polygon is not None:
         poly = ShapelyPolygon(obj.polygon)
         return poly if poly.is_valid else poly.buffer(0)
@@ -107,16 +110,25 @@ def class_key(obj: PredictedObject, method: Segmentation = Segmentation.COLORED_
     return (colour, surfaces)
 
 
+#: Regions already worked out, per (method, (class, footprint) of each ground object); the footprints are
+#: held with them, so the ids in a key stay those of the very geometries.
+_REGIONS: dict[tuple, tuple[list, dict[tuple, object]]] = {}
+
+
 def visible_regions(predicted: list[PredictedObject] | tuple[PredictedObject, ...],
                     method: Segmentation = Segmentation.COLORED_RANGE) -> dict[tuple, object]:
     """Return, per class the segmentation can tell apart, the world-frame region where that class shows.
 
     A large ground object (a lawn) is painted under the smaller ones that overlap it (the sidewalks
     crossing it), so each object shows only outside the smaller overlapping objects of another class.
+    The regions depend on the world footprints alone, so each set of objects is worked out once.
     """
     ground = [p for p in predicted if p.ground]
     keys = [class_key(p, method) for p in ground]
     fps = [p.world_footprint for p in ground]
+    memo = (method, tuple(zip(keys, map(id, fps))))
+    if memo in _REGIONS:
+        return dict(_REGIONS[memo][1])
     areas = [f.area for f in fps]
     regions: dict[tuple, list] = {}
     for i, (o, fp) in enumerate(zip(ground, fps)):
@@ -124,4 +136,8 @@ def visible_regions(predicted: list[PredictedObject] | tuple[PredictedObject, ..
                   and areas[j] < areas[i] and fps[j].intersects(fp)]
         vis = fp.difference(unary_union(covers)) if covers else fp
         regions.setdefault(keys[i], []).append(vis)
-    return {k: unary_union(v) for k, v in regions.items()}
+    out = {k: unary_union(v) for k, v in regions.items()}
+    if len(_REGIONS) >= 64:
+        _REGIONS.pop(next(iter(_REGIONS)))
+    _REGIONS[memo] = (fps, out)
+    return dict(out)

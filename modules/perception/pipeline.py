@@ -184,20 +184,33 @@ class PerceptionPipeline:
         self.speed = speed
         self.base = base
         self._models: dict[tuple[str, ...], ColourModel] = {}
+        # per set of predicted objects: segmentation parameters, names of the colour classes
+        self._params: dict[tuple, SegmentationParams] = {}
+        self._model_keys: dict[tuple[MapObject, ...], tuple[str, ...]] = {}
 
     def params_for(self, objects: tuple[MapObject, ...]) -> SegmentationParams:
-        """Return the segmentation parameters for these predicted objects (§3.3.4)."""
-        return segmentation_params(objects, self.base)
+        """Return the segmentation parameters for these predicted objects (§3.3.4), worked out once per set of objects."""
+        key = (tuple(objects), self.base)
+        if key not in self._params:
+            if len(self._params) >= 256:
+                self._params.pop(next(iter(self._params)))
+            self._params[key] = segmentation_params(objects, self.base)
+        return self._params[key]
 
     def colour_model_for(self, objects: tuple[MapObject, ...]) -> ColourModel:
         """Return fresh colour classes for these predicted objects (the map's colour types and nominal colours)."""
         return colour_model_for(objects)
 
     def _adapted_model(self, objects: tuple[MapObject, ...]) -> ColourModel:
-        fresh = self.colour_model_for(objects)
-        key = tuple(sorted(c.name for c in fresh.classes))
-        if key not in self._models:
-            self._models[key] = fresh
+        key = self._model_keys.get(tuple(objects))
+        if key is None or key not in self._models:
+            fresh = self.colour_model_for(objects)
+            key = tuple(sorted(c.name for c in fresh.classes))
+            if len(self._model_keys) >= 256:
+                self._model_keys.pop(next(iter(self._model_keys)))
+            self._model_keys[tuple(objects)] = key
+            if key not in self._models:
+                self._models[key] = fresh
         return self._models[key]
 
     def segment(

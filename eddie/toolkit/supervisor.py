@@ -219,6 +219,18 @@ class Supervisor:
             with contextlib.suppress(asyncio.TimeoutError):
                 await asyncio.wait_for(self._changed.wait(), min(left, 0.5))
 
+    async def wait_heartbeat(self, name: str, timeout: float = 10.0) -> ModuleStatus:
+        """Wait until a heartbeat of module `name` has been heard (its ready line may come first); return its status."""
+        deadline = time.monotonic() + timeout
+        while (st := self.status(name)).heartbeat_age_s is None:
+            left = deadline - time.monotonic()
+            if left <= 0:
+                raise SupervisorError(f"no heartbeat from module {name!r} within {timeout:g} s (it is {st.health})")
+            self._changed.clear()
+            with contextlib.suppress(asyncio.TimeoutError):
+                await asyncio.wait_for(self._changed.wait(), min(left, 0.5))
+        return st
+
     # ---- internals -----------------------------------------------------------------------
 
     def _child(self, name: str) -> _Child:

@@ -52,7 +52,8 @@ def test_the_state_file_names_what_is_wrong_and_refuses_another_maps_state(tmp_p
     save_annotations(tmp_path / "gates.geojson", ANNS)
     r = subprocess.run([sys.executable, "-m", "eddie.map_manager", "--annotated-map", str(tmp_path / "gates.geojson"),
                         "--state", str(f), "--connect", f"tcp/127.0.0.1:{free_port()}"], capture_output=True, text=True, timeout=60)
-    assert r.returncode == 2 and "--state:" in r.stderr and "not JSON" in r.stderr and "Traceback" not in r.stderr
+    err = " ".join(r.stderr.split())
+    assert r.returncode == 2 and "--state:" in err and "not JSON" in err and "Traceback" not in r.stderr
 
 
 async def test_a_restarted_manager_fires_the_triggers_crossed_while_it_was_down_once(tmp_path) -> None:

@@ -30,7 +30,8 @@ async def test_supervisor_starts_watches_and_reports_a_killed_module(tmp_path):
     cfg = parse_system_config(SYSTEM.replace("\ndelivery:\n  - {publisher: one, stream: echoes, subscriber: two, mode: request}", ""))
     async with Supervisor(cfg, listen, tmp_path, connect=(ep,), wedged_after=3.0) as sup:
         await sup.start_all(timeout=180.0)
-        assert (await sup.wait_for("one", "ready", 20.0)).heartbeat_age_s is not None
+        await sup.wait_for("one", "ready", 20.0)
+        assert (await sup.wait_heartbeat("one", 20.0)).heartbeat_age_s is not None  # its ready line may come before its first beat
         await sup.wait_for("two", "ready", 20.0)
         async with Module("tester", connect) as me:
             await me.wait_connected(10.0)

@@ -16,7 +16,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Callable, Literal
 
 from modules.runtime.lifecycle import READY_PREFIX
 from wire.aio import Link
@@ -207,25 +207,21 @@ class Supervisor:
 
     async def wait_for(self, name: str, health: ModuleHealth, timeout: float = 10.0) -> ModuleStatus:
         """Wait until module `name` reports `health` (re-checked on every heartbeat, token change or exit)."""
-        deadline = time.monotonic() + timeout
-        while True:
-            st = self.status(name)
-            if st.health == health:
-                return st
-            left = deadline - time.monotonic()
-            if left <= 0:
-                raise SupervisorError(f"module {name!r} is {st.health}, not {health}, after {timeout:g} s")
-            self._changed.clear()
-            with contextlib.suppress(asyncio.TimeoutError):
-                await asyncio.wait_for(self._changed.wait(), min(left, 0.5))
+        return await self._wait(name, lambda st: st.health == health, timeout,
+                                lambda st: f"module {name!r} is {st.health}, not {health}, after {timeout:g} s")
 
     async def wait_heartbeat(self, name: str, timeout: float = 10.0) -> ModuleStatus:
         """Wait until a heartbeat of module `name` has been heard (its ready line may come first); return its status."""
+        return await self._wait(name, lambda st: st.heartbeat_age_s is not None, timeout,
+                                lambda st: f"no heartbeat from module {name!r} within {timeout:g} s (it is {st.health})")
+
+    async def _wait(self, name: str, done: Callable[[ModuleStatus], bool], timeout: float,
+                    why: Callable[[ModuleStatus], str]) -> ModuleStatus:
         deadline = time.monotonic() + timeout
-        while (st := self.status(name)).heartbeat_age_s is None:
+        while not done(st := self.status(name)):
             left = deadline - time.monotonic()
             if left <= 0:
-                raise SupervisorError(f"no heartbeat from module {name!r} within {timeout:g} s (it is {st.health})")
+                raise SupervisorError(why(st))
             self._changed.clear()
             with contextlib.suppress(asyncio.TimeoutError):
                 await asyncio.wait_for(self._changed.wait(), min(left, 0.5))

@@ -43,7 +43,8 @@ def plot_comparison(c: Comparison, out: Path) -> list[Path]:
         ax.set_xlim(-0.6, len(archs) - 0.4)
         ax.set_title(label, fontsize=9)
     axes.flat[0].legend(fontsize=7)
-    fig.suptitle(f"per run, by architecture (seeds {', '.join(map(str, c.config.seeds))}, RTF {c.config.rtf:g})")
+    mode = "lock-step" if c.config.lockstep else f"real time, RTF {c.config.rtf:g}"
+    fig.suptitle(f"per run, by architecture (seeds {', '.join(map(str, c.config.seeds))}, {mode})")
     fig.tight_layout()
     files = [out / "measures.png"]
     fig.savefig(files[0])

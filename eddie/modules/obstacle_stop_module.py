@@ -52,7 +52,7 @@ BODY_FRONT_M = {"navlab": 4.6, "terregator": 1.1}
 STOP_AT_MARGIN_M, STOP_AT_NEAR_M = 0.3, 0.3
 #: the time [s] sim from a believed pose to the controller braking (the watch's period and the message)
 STOP_LATENCY_S = 0.3
-#: the laser's frame period [s] sim (the ERIM's 2 frames/s): the check and the look for a stop's object each take one a period
+#: the laser's frame period [s] sim (the ERIM's 2 frames/s): the check and the look for a stop's object each take one frame a period
 FRAME_PERIOD_S = 0.5
 
 

@@ -54,7 +54,7 @@ def compare(
     speed_sweep: Annotated[Optional[str], typer.Option("--speed-sweep", help="Speed caps (m/s) to sweep, e.g. 1.0,2.0,3.0")] = None,
     out: Annotated[Path, typer.Option(help="Output directory (compare.json, compare.md, *.png, runs/)")] = Path("runs/compare"),
     jobs: Annotated[int, typer.Option(help="Runs at a time (1 on a 2-core machine: runs measure time)")] = 1,
-    max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s); a lock-step AMV run takes 10-15 min here")] = 3600.0,
+    max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s); a lock-step EDDIE run takes 5-10 min here")] = 3600.0,
     resume: Annotated[bool, typer.Option("--resume", help="Reuse runs in --out whose report is of the same cell (architecture, mission, seed, fault, speed cap)")] = False,
 ) -> None:
     """Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables and plots."""

@@ -31,6 +31,14 @@ class _Endpoint:
 async def test_the_look_for_the_object_takes_one_frame_per_frame_period(monkeypatch) -> None:
     asked: list[float] = []
     m = _Endpoint()
+    parked = asyncio.Event()  # set when the look waits on the sim clock
+    wait_until = m.clock.wait_until
+
+    async def parking(t: float) -> float:
+        parked.set()
+        return await wait_until(t)
+
+    m.clock.wait_until = parking  # type: ignore[method-assign]
 
     class _Frame:
         stamp = 0.0  # no controller pose is known at it: the look has nothing to do with the frame
@@ -45,14 +53,12 @@ async def test_the_look_for_the_object_takes_one_frame_per_frame_period(monkeypa
     stop = osm.ObstacleStop(m)  # type: ignore[arg-type]
     m.clock.advance(10.0)
     look = asyncio.ensure_future(stop._sight((0.0, 0.0), ObjectCorrection()))
-    for _ in range(50):  # the loop gets every chance to spin at one sim time
-        await asyncio.sleep(0)
-        if len(asked) > 3:
-            break
+    await asyncio.wait_for(parked.wait(), 5.0)  # the old loop asked again at once instead of waiting
     assert asked == [10.0]
-    for k in range(1, 21):  # 2 s sim in 0.1 s ticks
+    for k in range(1, 21):  # 2 s sim in 0.1 s ticks; a frame is due every fifth
+        parked.clear()
         m.clock.advance(10.0 + 0.1 * k)
-        for _ in range(20):
-            await asyncio.sleep(0)
+        if k % 5 == 0:
+            await asyncio.wait_for(parked.wait(), 5.0)
     look.cancel()
     assert asked == pytest.approx([10.0, 10.5, 11.0, 11.5, 12.0])

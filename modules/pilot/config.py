@@ -66,7 +66,10 @@ def pilot_config_for(vehicle: VehicleName, **overrides) -> PilotConfig:
         base = dict(
             vehicle="navlab",
             # The Navlab's frame is its rear axle; the body reaches 4.6 m ahead: check points along it.
-            planner=PlannerConfig(kind="dubins", turning_radius=7.0, footprint_x=(0.0, 1.5, 3.0), fallback_kind="reeds_shepp"),
+            # A goal it need not stop at, out of reach forward (a fix moved the estimate sideways close
+            # to it), is moved towards the vehicle's line before the planner may reverse.
+            planner=PlannerConfig(kind="dubins", turning_radius=7.0, footprint_x=(0.0, 1.5, 3.0), fallback_kind="reeds_shepp",
+                                  relax_fractions=(0.25, 0.5, 0.75, 1.0)),
             navigator=NavigatorConfig(margin=1.2, keep_offset=1.5, body_half_width=1.15, obstacle_clearance=1.4,
                                       footprint_x=(0.0, 1.5, 3.0), max_goal_backoff=5.0),
             units=DrivingUnitConfig(unit_length=8.0, corridor_half_width=8.0, view_offset=6.0),

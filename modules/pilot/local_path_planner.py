@@ -10,6 +10,7 @@ edge of the newest, inside the DRIVING UNIT NAVIGATOR's region (the OMPL search 
 from __future__ import annotations
 
 import asyncio
+import functools
 import math
 
 import numpy as np
@@ -35,9 +36,13 @@ class LocalPathPlanning:
         self.seq = 0
         self.last_plan_t = -math.inf
 
-    async def plan(self, start: np.ndarray, goals, region) -> PlannedPath:
-        """Return a path from `start` (3,) through `goals` inside `region` (world); raise PlanningError."""
-        return await asyncio.to_thread(self.search.plan, start, goals, region)
+    async def plan(self, start: np.ndarray, goals, region, *, relax_goal: bool = False) -> PlannedPath:
+        """Return a path from `start` (3,) through `goals` inside `region` (world); raise PlanningError.
+
+        `relax_goal`: the last goal need not be met exactly (the vehicle does not stop there), so a
+        forward path to it moved sideways is preferred to reversing.
+        """
+        return await asyncio.to_thread(functools.partial(self.search.plan, relax_goal=relax_goal), start, goals, region)
 
     async def post(self, seg: RouteSegmentDescription, path: PlannedPath, world_local: np.ndarray, unit_ids: tuple[str, ...],
                    speed_limit: float, stop_at_end: bool, now: float, *, sensed_at: float | None = None) -> LocalPathPlan:

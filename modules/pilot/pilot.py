@@ -152,6 +152,13 @@ class Pilot:
                     drv.planned_through = -1
             finder.time_out(drv, now)
             finder.skip(drv, await monitor.post_units(seg, drv, now))
+            await estimator.post(source="perception" if drv.perceived_count else "dead-reckoning")
+            mode = f"{drv.perceived_count}/{len(drv.units)} units perceived" + (", dead reckoning" if finder.dead_reckoning else "")
+            if drv.exited(estimator.pose[:2]):
+                # Before planning: a fix that moved the estimate into the exit would otherwise have
+                # the vehicle manoeuvre to a goal the segment no longer needs.
+                await monitor.report(seg, True, f"exit reached ({mode})", start_distance)
+                return None
             if drv.needs_plan():
                 t_plan = clock.now()
                 try:
@@ -169,11 +176,6 @@ class Pilot:
                     # The sim time the PILOT spent planning (its wall-clock work × RTF) is not time the
                     # vehicle stood still with a plan to drive: the stuck timer does not count it.
                     last_progress = (last_progress[0] + max(0.0, clock.now() - t_plan), last_progress[1])
-            await estimator.post(source="perception" if drv.perceived_count else "dead-reckoning")
-            mode = f"{drv.perceived_count}/{len(drv.units)} units perceived" + (", dead reckoning" if finder.dead_reckoning else "")
-            if drv.exited(estimator.pose[:2]):
-                await monitor.report(seg, True, f"exit reached ({mode})", start_distance)
-                return None
             if drv.s_vehicle > last_progress[1] + 0.2:
                 last_progress = (now, drv.s_vehicle)
             elif now - last_progress[0] > cfg.final_goal_settle_s and drv.at_final_goal():
@@ -231,7 +233,8 @@ class Pilot:
             final = k == len(alternatives) - 1
             try:
                 uc = self.navigator.constrain(seg, drv, regions, perceived, sigma=sigma, must_reach_exit=not final)
-                path = await self.planner.plan(start, list(uc.goals), uc.constraints.region)
+                stops = drv.units[uc.indices[-1]].span.last and seg.constraints.stop_at_exit
+                path = await self.planner.plan(start, list(uc.goals), uc.constraints.region, relax_goal=not stops)
                 break
             except (ConstraintError, PlanningError) as exc:
                 if final:

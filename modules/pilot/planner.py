@@ -73,6 +73,10 @@ class PlannerConfig(BaseModel):
     footprint_x: tuple[float, ...] = Field(
         (0.0,), min_length=1, description="points along the vehicle's x axis [m] that must all lie in the region"
     )
+    relax_fractions: tuple[float, ...] = Field(
+        (), description="before reversing: the goal moved sideways by these fractions of the start's offset from its line [-]"
+    )
+    relax_max_m: float = Field(1.5, ge=0.0, description="the farthest a goal is moved sideways when relaxed [m]")
 
 
 @dataclass(frozen=True)
@@ -114,19 +118,52 @@ class LocalPathPlanner:
         seed_ompl(seed)
 
     # -- state space ---------------------------------------------------------------------------
-    def plan(self, start, waypoints, region: BaseGeometry) -> PlannedPath:
+    def plan(self, start, waypoints, region: BaseGeometry, *, relax_goal: bool = False) -> PlannedPath:
         """Plan from `start` (3,) through `waypoints` [(3,)…] (the last is the goal) inside `region`.
 
-        With a `fallback_kind`, a failed forward-only search is retried allowing reverse.
+        When the search fails and `relax_goal` allows it, a forward path to the goal moved sideways
+        towards the start's line (`relax_fractions`) is tried: a vehicle that must not stop exactly
+        there merges over the next plan rather than shuffling. With a `fallback_kind`, a search that
+        still fails is retried allowing reverse.
         """
         try:
             return self._plan(start, waypoints, region)
         except PlanningError as exc:
-            if self.cfg.fallback_kind is None or "outside" in str(exc):
+            if "outside" in str(exc):
+                raise
+            if relax_goal and self.cfg.relax_fractions:
+                relaxed = self._plan_relaxed(start, waypoints[-1], region)
+                if relaxed is not None:
+                    return relaxed
+            if self.cfg.fallback_kind is None:
                 raise
             alt = LocalPathPlanner.__new__(LocalPathPlanner)
             alt.cfg = self.cfg.model_copy(update={"kind": self.cfg.fallback_kind, "fallback_kind": None})
             return alt._plan(start, waypoints, region)
+
+    def relaxed_goals(self, start, goal) -> list[np.ndarray]:
+        """Return `goal` (3,) moved sideways towards `start`'s line by each of `relax_fractions` (capped at `relax_max_m`)."""
+        start = np.asarray(start, dtype=np.float64).reshape(3)
+        goal = np.asarray(goal, dtype=np.float64).reshape(3)
+        n = np.array([-math.sin(goal[2]), math.cos(goal[2])])
+        lateral = float(np.dot(start[:2] - goal[:2], n))
+        out = []
+        for f in self.cfg.relax_fractions:
+            shift = float(np.clip(f * lateral, -self.cfg.relax_max_m, self.cfg.relax_max_m))
+            if abs(shift) > 1e-3:
+                out.append(np.array([goal[0] + shift * n[0], goal[1] + shift * n[1], goal[2]]))
+        return out
+
+    def _plan_relaxed(self, start, goal, region: BaseGeometry) -> PlannedPath | None:
+        """Return one analytic curve to the first relaxed goal it reaches inside the region, or None."""
+        for g in self.relaxed_goals(start, goal):
+            try:
+                space, si, s0, (target,) = self._problem(start, [g], region)
+            except PlanningError:
+                continue
+            if si.checkMotion(s0, target):
+                return self._sample(space, og.PathGeometric(si, s0, target))
+        return None
 
     def _space(self) -> ob.StateSpace:
         if self.cfg.kind == "dubins":
@@ -143,7 +180,8 @@ class LocalPathPlanner:
         # the state can never be reached, so every yaw is wrapped into that interval first.
         state.setYaw(wrap_angle(float(pose[2])))
 
-    def _plan(self, start, waypoints, region: BaseGeometry) -> PlannedPath:
+    def _problem(self, start, waypoints, region: BaseGeometry):
+        """Return the state space, space information (validity: footprint in the region), start and goal states."""
         start = np.asarray(start, dtype=np.float64).reshape(3)
         wps = [np.asarray(w, dtype=np.float64).reshape(3) for w in waypoints]
         if not wps:
@@ -202,7 +240,10 @@ class LocalPathPlanner:
             g = space.allocState()
             self._set(g, w)
             goals.append(g)
+        return space, si, s0, goals
 
+    def _plan(self, start, waypoints, region: BaseGeometry) -> PlannedPath:
+        space, si, s0, goals = self._problem(start, waypoints, region)
         # 1) one analytic curve from the start to the goal; 2) analytic curves through every
         # waypoint; 3) a sampling search (RRT) from the start to the goal, then shortcut it.
         path = og.PathGeometric(si, s0, goals[-1])

@@ -30,6 +30,13 @@ pytestmark = pytest.mark.e2e
 
 
 
+def _spawn_sim_and_helm(procs: list[subprocess.Popen], conn: list[str], seed: int) -> None:
+    """Start the simulator (campus, Terregator, RTF 4), then the HELM, each appended to `procs` once up."""
+    procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
+                        "--rtf", "4", "--seed", str(seed), *conn], "ready sim"))
+    procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+
+
 def _dorm_segment() -> RouteSegmentDescription:
     fc = json.loads((ROOT / "worlds" / "campus.map.geojson").read_text())
     feats = {f["properties"]["id"]: f for f in fc["features"]}
@@ -54,9 +61,7 @@ async def test_pilot_and_helm_drive_a_segment_by_dead_reckoning():
     link = None
     try:
         conn = ["--ns", ns, "--connect", node.endpoint]
-        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
-                             "--rtf", "4", "--seed", "3", *conn], "ready sim"))
-        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+        _spawn_sim_and_helm(procs, conn, 3)
         procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
                              "--start-pose", f"0,-28,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
@@ -122,9 +127,7 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
     link = None
     try:
         conn = ["--ns", ns, "--connect", node.endpoint]
-        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
-                             "--rtf", "4", "--seed", "5", *conn], "ready sim"))
-        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+        _spawn_sim_and_helm(procs, conn, 5)
         # The PILOT is told a start pose 0.6 m off the truth (0, -28): only perception can correct it.
         procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
                              "--start-pose", f"0.6,-28.3,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
@@ -210,9 +213,7 @@ async def test_pilot_killed_mid_segment_resumes_when_restarted():
         conn = ["--ns", ns, "--connect", node.endpoint]
         pilot_args = [sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
                       "--start-pose", f"0,-28,{math.pi / 2}", *conn]
-        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
-                             "--rtf", "4", "--seed", "7", *conn], "ready sim"))
-        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+        _spawn_sim_and_helm(procs, conn, 7)
         pilot = spawn(pilot_args, "SIDEWALK-READY pilot")
         async with BlackboardClient(node.client_net(), source="test-map-navigator") as bb:
             await bb.post(_dorm_segment(), frame="world", stamp=0.0)
@@ -230,6 +231,37 @@ async def test_pilot_killed_mid_segment_resumes_when_restarted():
             assert res.attrs.success, res.attrs.reason
             results = await bb.retrieve(Spec(type="segment_result"))
             assert len(results) == 1  # resumed, not reported twice
+    finally:
+        codes = [stop(p) for p in reversed(procs)]
+        node.stop()
+    assert all(c == 0 for c in codes), codes
+
+
+async def test_a_segment_whose_exit_the_vehicle_already_stands_in_ends_without_a_plan():
+    # The exit is judged before planning: a vehicle already within the exit radius (a fix moved its
+    # estimate there) must not be sent on a manoeuvre to a goal the segment no longer needs.
+    ns = f"px{os.getpid()}"
+    node = start_node(namespace=ns, types=("modules.vocabulary",))
+    procs: list[subprocess.Popen] = []
+    try:
+        conn = ["--ns", ns, "--connect", node.endpoint]
+        _spawn_sim_and_helm(procs, conn, 11)
+        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
+                             "--start-pose", f"0,-28,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
+        seg = _dorm_segment()
+        a, b = (0.3, -28.25), (0.25, -22.0)  # 6.3 m long; its exit (radius 6.5 m) takes in the start
+        seg = seg.model_copy(update={
+            "centreline": (a, b), "length_m": math.dist(a, b),
+            "exit": ExitCondition(point=b, gate=((-1.0, -22.0), (1.5, -22.0)), heading=math.pi / 2, radius_m=6.5)})
+        async with BlackboardClient(node.client_net(), source="test-map-navigator") as bb:
+            await bb.post(seg, frame="world", stamp=0.0)
+            res = await bb.wait(
+                Spec(type="segment_result", where=(AttrPredicate(path="segment_id", op="==", value="test-seg-0"),)),
+                timeout=60.0,
+            )
+            assert res.attrs.success and "exit reached" in res.attrs.reason, res.attrs.reason
+            assert await bb.retrieve(Spec(type="local_path_plan")) == []
+            assert await bb.retrieve(Spec(type="driving_unit"))  # the pipeline ran: it posted units before ending
     finally:
         codes = [stop(p) for p in reversed(procs)]
         node.stop()

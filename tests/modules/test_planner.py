@@ -149,3 +149,27 @@ def test_a_goal_heading_due_west_is_reachable(kind):
     end = plan.poses[-1]
     assert math.hypot(end[0] + 22, end[1] - 20) < 0.5
     assert abs(math.remainder(end[2] - math.pi, 2 * math.pi)) < 0.5
+
+
+def test_a_goal_out_of_forward_reach_is_moved_sideways_before_reversing():
+    # The Navlab 0.6 m right of the centre, heading 8° to the left, 7 m before a lane point 1.5 m
+    # right of the centre (a landmark fix moved the estimate sideways near the end of a unit): no
+    # forward curve of 7 m radius reaches it inside the shrunk road.
+    from shapely.geometry import box
+
+    region = box(-20, -3, 40, 3).buffer(-1.2)
+    fx = (0.0, 1.5, 3.0)
+    cfg = PlannerConfig(kind="dubins", turning_radius=7.0, footprint_x=fx, fallback_kind="reeds_shepp",
+                        relax_fractions=(0.25, 0.5, 0.75, 1.0), max_iterations=3000)
+    start, goal = [0.0, -0.63, math.radians(8.0)], [7.1, -1.48, 0.0]
+    exact = LocalPathPlanner(cfg, seed=2).plan(start, [goal], region)
+    assert np.any(exact.direction < 0)  # a goal it must meet exactly (a stop): it shuffles, reversing
+    assert np.allclose(exact.poses[-1][:2], goal[:2], atol=0.3)
+    relaxed = LocalPathPlanner(cfg, seed=2).plan(start, [goal], region, relax_goal=True)
+    assert np.all(relaxed.direction > 0)  # a goal it drives through: forward only, to a point beside it
+    end = relaxed.poses[-1]
+    assert abs(end[0] - 7.1) < 0.3 and -1.48 < end[1] < -0.63 and abs(math.remainder(end[2], 2 * math.pi)) < 0.05
+    assert relaxed.length < exact.length
+    for x, y, yaw in relaxed.poses:
+        assert all(shapely.contains_xy(region, x + d * math.cos(yaw), y + d * math.sin(yaw)) for d in fx)
+    assert np.max(np.abs(relaxed.curvature)) <= 1 / 7.0 + 1e-4

@@ -36,13 +36,18 @@ class LocalPathPlanning:
         self.seq = 0
         self.last_plan_t = -math.inf
 
-    async def plan(self, start: np.ndarray, goals, region, *, relax_goal: bool = False) -> PlannedPath:
+    async def plan(self, start: np.ndarray, goals, region, *, relax_goal: bool = False, reverse: bool = True) -> PlannedPath:
         """Return a path from `start` (3,) through `goals` inside `region` (world); raise PlanningError.
 
         `relax_goal`: the last goal need not be met exactly (the vehicle does not stop there), so a
-        forward path to it moved sideways is preferred to reversing.
+        forward path to it moved sideways is preferred to reversing; `reverse`: fall back on a
+        reversing path when no forward one is found.
         """
-        return await asyncio.to_thread(functools.partial(self.search.plan, relax_goal=relax_goal), start, goals, region)
+        return await asyncio.to_thread(functools.partial(self.search.plan, relax_goal=relax_goal, reverse=reverse), start, goals, region)
+
+    async def plan_reversing(self, start: np.ndarray, goals, region) -> PlannedPath:
+        """Return a path from `start` through `goals` inside `region` (world) that may reverse; raise PlanningError."""
+        return await asyncio.to_thread(self.search.plan_reversing, start, goals, region)
 
     async def post(self, seg: RouteSegmentDescription, path: PlannedPath, world_local: np.ndarray, unit_ids: tuple[str, ...],
                    speed_limit: float, stop_at_end: bool, now: float, *, sensed_at: float | None = None) -> LocalPathPlan:

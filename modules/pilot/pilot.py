@@ -222,6 +222,11 @@ class Pilot:
                         else "the blackboard node and the HELM are back: planning again from here")
         return stalled
 
+    @staticmethod
+    def _stops_at(seg: RouteSegmentDescription, drv: SegmentDriver, uc: UnitConstraints) -> bool:
+        """Return whether the plan over `uc` ends in a stop (its newest unit is the last of a segment that stops at its exit)."""
+        return drv.units[uc.indices[-1]].span.last and seg.constraints.stop_at_exit
+
     async def _plan(self, seg: RouteSegmentDescription, drv: SegmentDriver) -> None:
         """DRIVING UNIT NAVIGATOR, then LOCAL PATH PLANNER: constraints and a plan through the newest resolved unit."""
         start = self.estimator.pose
@@ -229,20 +234,34 @@ class Pilot:
         alternatives = self.navigator.alternatives(drv)
         uc: UnitConstraints | None = None
         path: PlannedPath | None = None
+        usable: list[UnitConstraints] = []  # constraints a forward path was searched in, in order
         for k, (regions, perceived) in enumerate(alternatives):
             final = k == len(alternatives) - 1
             try:
                 uc = self.navigator.constrain(seg, drv, regions, perceived, sigma=sigma, must_reach_exit=not final)
-                stops = drv.units[uc.indices[-1]].span.last and seg.constraints.stop_at_exit
-                path = await self.planner.plan(start, list(uc.goals), uc.constraints.region, relax_goal=not stops)
+                usable.append(uc)
+                path = await self.planner.plan(start, list(uc.goals), uc.constraints.region,
+                                               relax_goal=not self._stops_at(seg, drv, uc), reverse=False)
                 break
             except (ConstraintError, PlanningError) as exc:
-                if final:
+                if final and not usable:
                     raise
-                log.warning("pilot: perceived regions unusable (%s); planning on the map's", exc)
+                if not final:
+                    log.warning("pilot: perceived regions unusable (%s); planning on the map's", exc)
+        if path is None:
+            # No forward path in any region: only now may the vehicle reverse (a manoeuvre it tracks
+            # less well than a forward path, so never preferred to one in the map's region).
+            for k, uc in enumerate(usable):
+                try:
+                    path = await self.planner.plan_reversing(start, list(uc.goals), uc.constraints.region)
+                    log.warning("pilot: no forward path to the goal; reversing")
+                    break
+                except PlanningError:
+                    if k == len(usable) - 1:
+                        raise
         assert uc is not None and path is not None
         newest = uc.indices[-1]
-        stop_here = drv.units[newest].span.last and seg.constraints.stop_at_exit
+        stop_here = self._stops_at(seg, drv, uc)
         speed_limit = self.navigator.speed_limit(seg)
         unit_ids = self.monitor.unit_ids
         now = self.rt.clock.now()

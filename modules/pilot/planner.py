@@ -118,13 +118,13 @@ class LocalPathPlanner:
         seed_ompl(seed)
 
     # -- state space ---------------------------------------------------------------------------
-    def plan(self, start, waypoints, region: BaseGeometry, *, relax_goal: bool = False) -> PlannedPath:
+    def plan(self, start, waypoints, region: BaseGeometry, *, relax_goal: bool = False, reverse: bool = True) -> PlannedPath:
         """Plan from `start` (3,) through `waypoints` [(3,)…] (the last is the goal) inside `region`.
 
         When the search fails and `relax_goal` allows it, a forward path to the goal moved sideways
-        towards the start's line (`relax_fractions`) is tried: a vehicle that must not stop exactly
-        there merges over the next plan rather than shuffling. With a `fallback_kind`, a search that
-        still fails is retried allowing reverse.
+        towards the start's line (`relax_fractions`) is tried: a vehicle that need not stop exactly
+        there merges over the next plan rather than shuffling. With `reverse` and a `fallback_kind`,
+        a search that still fails is retried allowing reverse (`plan_reversing`).
         """
         try:
             return self._plan(start, waypoints, region)
@@ -135,11 +135,17 @@ class LocalPathPlanner:
                 relaxed = self._plan_relaxed(start, waypoints[-1], region)
                 if relaxed is not None:
                     return relaxed
-            if self.cfg.fallback_kind is None:
+            if not reverse or self.cfg.fallback_kind is None:
                 raise
-            alt = LocalPathPlanner.__new__(LocalPathPlanner)
-            alt.cfg = self.cfg.model_copy(update={"kind": self.cfg.fallback_kind, "fallback_kind": None})
-            return alt._plan(start, waypoints, region)
+            return self.plan_reversing(start, waypoints, region)
+
+    def plan_reversing(self, start, waypoints, region: BaseGeometry) -> PlannedPath:
+        """Plan as `plan` does, allowing reverse (the `fallback_kind` model, e.g. boxed in by an obstacle)."""
+        if self.cfg.fallback_kind is None:
+            raise PlanningError(f"a {self.cfg.kind} vehicle has no reversing model to fall back on")
+        alt = LocalPathPlanner.__new__(LocalPathPlanner)
+        alt.cfg = self.cfg.model_copy(update={"kind": self.cfg.fallback_kind, "fallback_kind": None})
+        return alt._plan(start, waypoints, region)
 
     def relaxed_goals(self, start, goal) -> list[np.ndarray]:
         """Return `goal` (3,) moved sideways towards `start`'s line by each of `relax_fractions` (capped at `relax_max_m`)."""

@@ -251,14 +251,16 @@ class Pilot:
         if path is None:
             # No forward path in any region: only now may the vehicle reverse (a manoeuvre it tracks
             # less well than a forward path, so never preferred to one in the map's region).
-            for k, uc in enumerate(usable):
+            for k, cand in enumerate(usable):
                 try:
-                    path = await self.planner.plan_reversing(start, list(uc.goals), uc.constraints.region)
-                    log.warning("pilot: no forward path to the goal; reversing")
-                    break
+                    path = await self.planner.plan_reversing(start, list(cand.goals), cand.constraints.region)
                 except PlanningError:
                     if k == len(usable) - 1:
                         raise
+                    continue
+                uc = cand
+                log.warning("pilot: no forward path to the goal; reversing")
+                break
         assert uc is not None and path is not None
         newest = uc.indices[-1]
         stop_here = self._stops_at(seg, drv, uc)

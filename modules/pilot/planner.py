@@ -147,7 +147,7 @@ class LocalPathPlanner:
         alt.cfg = self.cfg.model_copy(update={"kind": self.cfg.fallback_kind, "fallback_kind": None})
         return alt._plan(start, waypoints, region)
 
-    def relaxed_goals(self, start, goal) -> list[np.ndarray]:
+    def _relaxed_goals(self, start, goal) -> list[np.ndarray]:
         """Return `goal` (3,) moved sideways towards `start`'s line by each of `relax_fractions` (capped at `relax_max_m`)."""
         start = np.asarray(start, dtype=np.float64).reshape(3)
         goal = np.asarray(goal, dtype=np.float64).reshape(3)
@@ -162,7 +162,7 @@ class LocalPathPlanner:
 
     def _plan_relaxed(self, start, goal, region: BaseGeometry) -> PlannedPath | None:
         """Return one analytic curve to the first relaxed goal it reaches inside the region, or None."""
-        for g in self.relaxed_goals(start, goal):
+        for g in self._relaxed_goals(start, goal):
             try:
                 space, si, s0, (target,) = self._problem(start, [g], region)
             except PlanningError:

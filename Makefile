@@ -13,6 +13,8 @@ $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[dev]'
+	@# compile the simulator's ray caster once into numba's on-disk cache (else the first capture of each new build pays seconds)
+	$(PY) -c "from vehicle_sim.scene import Scene; from vehicle_sim.worldfile import load_world; from vehicle_sim.sensors.capture import warm_up; warm_up(Scene(load_world('campus')))"
 	touch $(STAMP)
 
 ## The main job: the default mission with every module on loopback Zenoh.

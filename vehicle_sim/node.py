@@ -134,10 +134,12 @@ class SimNode:
     def start(self) -> None:
         """Open the session, declare everything, start the loop; return once serving (the node is ready)."""
         from vehicle_sim.scene import Scene
+        from vehicle_sim.sensors.capture import warm_up
 
         self._scene = Scene(self.world, seed=self.config.seed)
         if len(self.actors):
             self._scene.add_actors(self.actors)
+        warm_up(self._scene, vehicle=self.config.vehicle)  # the first capture a module asks for must not compile the ray caster
         self._map_json = json.dumps(map_for(self.world, self.config.map_error, self.config.seed).to_geojson()).encode()
         self._world_json = json.dumps(self.world.to_geojson()).encode()
         self._session = z = open_session(self.net)

@@ -31,6 +31,8 @@ from scipy.ndimage import gaussian_filter
 from scipy.special import ndtri
 
 from vehicle_sim.markings import PaintRaster
+from vehicle_sim.solid_cast import cast_cylinders, cast_ellipsoids, cast_prisms
+from vehicle_sim.voxel_march import march_ground
 
 from typing import TYPE_CHECKING
 
@@ -65,7 +67,6 @@ LABEL_SKY: int = KINDS.index("sky")
 MATERIAL_SKY: int = -1
 
 _TILE = 512  # texture noise tile size [cells]
-_TEX_RES = 0.06  # texture sampling pitch on solids [m]
 _NONE_COLOUR = ((118.0, 104.0, 84.0), (10.0, 10.0, 9.0))  # bare earth where the world has nothing
 _CROWN_COLOUR = ((46.0, 92.0, 38.0), (16.0, 20.0, 14.0))  # foliage when a tree's appearance gives no crown
 _PLAIN_STD = (8.0, 8.0, 8.0)  # texture of an object drawn in its map colour (no appearance) [DN]
@@ -219,7 +220,7 @@ class Scene:
         self.cylinders = np.asarray(cyl, np.float64).reshape(-1, 6)
         self.ellipsoids = np.asarray(ell, np.float64).reshape(-1, 6)
         self.prisms = prisms
-        self._prism_edges = [_edges(p[0]) for p in prisms]
+        self._prism_table = _PrismTable.pack(prisms)
         self._prism_centre = np.array([p[0].mean(axis=0) for p in prisms]).reshape(-1, 2)
         self._prism_radius = np.array([np.linalg.norm(p[0] - p[0].mean(axis=0), axis=1).max() for p in prisms]).reshape(-1)
 
@@ -325,7 +326,7 @@ class Scene:
     # ---------------------------------------------------------------- actors (objects not on the map)
 
     _actor_solids: tuple = ()
-    _actor_edges: tuple = ()
+    _actor_table: "_PrismTable | None" = None
     _actor_mat: dict = {}
 
     def add_actors(self, actors: "ActorSet") -> None:
@@ -361,7 +362,7 @@ class Scene:
             zb = float(self.elevation(c[None])[0])
             solids.append((corners.astype(np.float64), zb, zb + a.box[2], self._actor_mat[a.id]))
         out._actor_solids = tuple(solids)
-        out._actor_edges = tuple(_edges(v[0]) for v in solids)
+        out._actor_table = _PrismTable.pack(solids)
         return out
 
     # ---------------------------------------------------------------- ground queries
@@ -480,64 +481,25 @@ class Scene:
         ca, sa = np.cos(az).astype(np.float32), np.sin(az).astype(np.float32)
         tan_el = np.tan(el).astype(np.float32)
         S = self._samples
-        nS = len(S)
 
-        # ---- ground: march every column's height profile once
-        X = np.float32(ox) + ca[:, None] * S[None, :]
-        Y = np.float32(oy) + sa[:, None] * S[None, :]
-        gmat = self.ground_material(X, Y)
-        Hg = self.ground_height(X, Y, gmat)
-        alpha = (Hg - np.float32(oz)) / S[None, :]
-        np.clip(alpha, -120.0, 120.0, out=alpha)
-        A = np.maximum.accumulate(alpha, axis=1)
-        offs = np.arange(W, dtype=np.float64) * 256.0  # float64: keeps tan resolution
-        flat = A.astype(np.float64)
-        flat += offs[:, None]
-        flat = flat.ravel()
-        q = (tan_el.astype(np.float64)[:, None] + offs[None, :]).ravel()  # (H*W) queries in image order: every array below is (H, W) C-ordered
-        k = np.searchsorted(flat, q, side="left").reshape(H, W)
-        k -= (np.arange(W) * nS)[None, :]
-        ground_hit = k < nS
-        k0 = np.clip(k, 1, nS - 1)
-        k0 -= 1  # the sample before the crossing; the one after is read through views shifted by one
-        f0 = k0 + (np.arange(W) * nS)[None, :]  # flat index into the (W, S) profiles
-        Hf, Gf = Hg.ravel(), gmat.ravel()
-        h0 = Hf.take(f0)
-        h1 = Hf[1:].take(f0)
-        s0 = S.take(k0)
-        s1 = S[1:].take(k0)
-        t = tan_el[:, None]
-        d0 = oz + s0 * t - h0
-        d1 = oz + s1 * t - h1
-        g1 = Gf[1:].take(f0)
-        g0 = Gf.take(f0)
-        riser = ((h1 - h0) > 0.03) & ~((g1 == g0) & (self._g_steps[g1] == 0))
-        frac = np.clip(d0 / np.maximum(d0 - d1, 1e-6), 0.0, 1.0)
-        s_ground = np.where(riser, s1, s0 + (s1 - s0) * frac)
-        s_ground = np.where(k == 0, S[0], s_ground)
-        riser &= k > 0
-        s_buf = np.where(ground_hit, s_ground, np.inf).astype(np.float32)
-        mat = np.where(ground_hit, g1, MATERIAL_SKY).astype(np.int32)
-        # ground normals: per material (flat/tread up, slope gradient), risers face down the stairs
-        gm = np.where(ground_hit, mat, 0)
-        normal = np.take(self._g_normal, gm, axis=0)
-        if riser.any():  # steps inside stairs face down the stairs; other vertical ground faces face the ray
-            rr, cc = np.nonzero(riser)
-            same = (g1[rr, cc] == g0[rr, cc])[:, None]
-            back = np.stack([-ca[cc], -sa[cc], np.zeros(len(cc), np.float32)], -1)
-            normal[rr, cc] = np.where(same, self._g_riser_normal[gm[rr, cc]], back)
-        s_fin = np.where(ground_hit, s_buf, np.float32(0.0))
-        gx = np.float32(ox) + s_fin * ca[None, :]
-        gy = np.float32(oy) + s_fin * sa[None, :]
+        # ---- ground: march every column's height profile once (compiled, without the GIL)
+        s_buf = np.empty((H, W), np.float32)
+        mat = np.empty((H, W), np.int32)
+        normal = np.empty((H, W, 3), np.float32)
         tex = np.empty((H, W, 2), np.int32)
-        tex[..., 0] = gx * np.float32(1.0 / self.res)
-        tex[..., 1] = gy * np.float32(1.0 / self.res)
+        riser = np.empty((H, W), np.bool_)
+        h, w = self.shape
+        march_ground(ox, oy, oz, ca, sa, tan_el, S, self._grid_flat, w, h, float(self.origin[0]), float(self.origin[1]),
+                     1.0 / self.res, self._any_tilted, self._g_z0, self._g_tilted, self._g_a0, self._g_a1, self._g_b,
+                     self._g_steps, self._g_rise, self._g_normal, self._g_riser_normal, s_buf, mat, normal, tex, riser)
+        ground_mat = mat.copy()
+        t = tan_el[:, None]
 
         # ---- solids, analytically per column
         rmax = reach
         az_mid = 0.5 * (float(az.max()) + float(az.min()))
         az_half = 0.5 * (float(az.max()) - float(az.min())) + 0.01
-        ctx = _Ctx(ox, oy, oz, ca, sa, ca.astype(np.float64), sa.astype(np.float64), tan_el, -tan_el,
+        ctx = _Ctx(ox, oy, oz, ca, sa, tan_el, -tan_el,
                    -az if W < 2 or bool(np.all(np.diff(az) < 0)) else None, az_mid,
                    s_buf, mat, normal, tex)
         if reach > self.max_range:  # far ground: the plane z = 0 beyond the march
@@ -556,7 +518,7 @@ class Scene:
         with np.errstate(invalid="ignore", divide="ignore"):
             self._cast_solids(ctx, ox, oy, az_mid, az_half, rmax)
 
-        riser &= ctx.mat == np.where(ground_hit, g1, -2)  # the ground step still won its cell
+        riser &= ctx.mat == ground_mat  # the ground step still won its cell
         s_buf, mat = ctx.s, ctx.mat
         too_far = s_buf > rmax
         np.copyto(mat, MATERIAL_SKY, where=too_far)
@@ -580,28 +542,20 @@ class Scene:
     # solids -----------------------------------------------------------------------------
 
     def _cast_solids(self, ctx: "_Ctx", ox: float, oy: float, az_mid: float, az_half: float, rmax: float) -> None:
-        """Intersect every solid in view [m, rad] into the depth buffer of `ctx` (in order: posts and trunks, crowns, prisms, actors).
-
-        Called under `cast`'s errstate: the solid routines below let misses carry NaN and inf without warnings.
-        """
+        """Intersect every solid in view [m, rad] into the depth buffer of `ctx` (in order: posts and trunks, crowns, prisms, actors)."""
         # thin solids matter less far away: posts and trunks to 60 m, crowns to 100 m, buildings to `reach`
+        rays = (ctx.ox, ctx.oy, ctx.oz, ctx.ca, ctx.sa, ctx.tan, ctx.neg_tan)
+        buffers = (ctx.s, ctx.mat, ctx.normal, ctx.tex)
         vis = self._visible(self.cylinders, self.cylinders[:, 2], ox, oy, az_mid, az_half, min(rmax, max(60.0, self.max_range)))
-        rays = self._circle_rays(ctx, self.cylinders[vis, 0], self.cylinders[vis, 1])
-        for k, j in enumerate(vis):
-            cx, cy, r, zb, zt, m = self.cylinders[j]
-            self._cylinder(ctx, cx, cy, r, zb, zt, int(m), (rays[0][k], rays[1][k]))
+        cast_cylinders(*rays, np.ascontiguousarray(self.cylinders[vis]), *buffers)
         vis = self._visible(self.ellipsoids, self.ellipsoids[:, 3], ox, oy, az_mid, az_half, min(rmax, max(100.0, self.max_range)))
-        rays = self._circle_rays(ctx, self.ellipsoids[vis, 0], self.ellipsoids[vis, 1])
-        for k, j in enumerate(vis):
-            cx, cy, zc, R, b, m = self.ellipsoids[j]
-            self._ellipsoid(ctx, cx, cy, zc, R, b, int(m), (rays[0][k], rays[1][k]))
+        cast_ellipsoids(*rays, np.ascontiguousarray(self.ellipsoids[vis]), *buffers)
+        neg_az = ctx.neg_az if ctx.neg_az is not None else _NO_AZ
         if len(self.prisms):
-            for j in self._visible(self._prism_centre, self._prism_radius, ox, oy, az_mid, az_half, rmax):
-                verts, zb, zt, m = self.prisms[j]
-                self._prism(ctx, verts, zb, zt, m, self._prism_edges[j])
-        for (verts, zb, zt, m), edges in zip(self._actor_solids, self._actor_edges):  # objects not on the map (vehicle_sim.actors)
-            self._prism(ctx, verts, zb, zt, m, edges)
-
+            vis = self._visible(self._prism_centre, self._prism_radius, ox, oy, az_mid, az_half, rmax)
+            self._prism_table.cast(rays, neg_az, ctx.az_mid, vis, buffers)
+        if self._actor_table is not None:  # objects not on the map (vehicle_sim.actors)
+            self._actor_table.cast(rays, neg_az, ctx.az_mid, np.arange(len(self._actor_solids)), buffers)
 
     def _visible(self, centres: np.ndarray, radii: np.ndarray, ox: float, oy: float,
                  az_mid: float, az_half: float, reach: float) -> np.ndarray:
@@ -616,208 +570,6 @@ class Scene:
         spread = np.arcsin(np.clip(radii / np.maximum(d, 1e-9), 0.0, 1.0))
         keep = (d - radii < reach) & ((d <= radii) | (off <= az_half + spread))
         return np.flatnonzero(keep)
-
-    @staticmethod
-    def _rows(ctx: "_Ctx", lo: float, hi: float) -> tuple[int, int]:
-        """Return the row slice whose ray tangents lie in [lo, hi] (tangents descend with the row)."""
-        r0 = int(np.searchsorted(ctx.neg_tan, -hi, side="left"))
-        r1 = int(np.searchsorted(ctx.neg_tan, -lo, side="right"))
-        return r0, r1
-
-    @staticmethod
-    def _circle_rays(ctx: "_Ctx", cx: np.ndarray, cy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Return (p, perp2) (n, W) [m, m²]: along-ray distance to each of n centres and squared distance off each column's ray."""
-        qx, qy = (cx - ctx.ox)[:, None], (cy - ctx.oy)[:, None]
-        p = qx * ctx.ca[None, :] + qy * ctx.sa[None, :]
-        return p, (qx * qx + qy * qy) - p * p
-
-    @staticmethod
-    def _circle_columns(ctx: "_Ctx", cx: float, cy: float, r: float,
-                        rays: tuple[np.ndarray, np.ndarray] | None = None):
-        """Return (c0, c1, p, half) for the contiguous columns whose 2-D ray meets a circle, or None.
-
-        `rays` is the circle's row of `_circle_rays` when computed for many circles at once.
-        """
-        if rays is None:
-            qx, qy = cx - ctx.ox, cy - ctx.oy
-            p = qx * ctx.ca + qy * ctx.sa
-            perp2 = (qx * qx + qy * qy) - p * p
-        else:
-            p, perp2 = rays
-        hit = (perp2 < r * r) & (p > 0)
-        cols = np.flatnonzero(hit)
-        if len(cols) == 0:
-            return None
-        c0, c1 = int(cols[0]), int(cols[-1]) + 1
-        half = np.sqrt(np.maximum(r * r - perp2[c0:c1], 0.0))
-        half = np.where(hit[c0:c1], half, np.nan)
-        return c0, c1, p[c0:c1], half
-
-    def _cylinder(self, ctx: "_Ctx", cx: float, cy: float, r: float, zb: float, zt: float, m: int,
-                  rays: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        found = self._circle_columns(ctx, cx, cy, r, rays)
-        if found is None:
-            return
-        c0, c1, p, half = found
-        s_in = np.maximum(p - half, 0.05)  # NaN where the column misses
-        s_out = p + half
-        lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
-        hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in, (zt - ctx.oz) / s_out)))
-        r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_in)).any():
-            return
-        t = ctx.tan[r0:r1, None]
-        s_in = s_in[None, :]
-        z_in = ctx.oz + s_in * t
-        side = (z_in >= zb) & (z_in <= zt)
-        s_cap = np.where(t < 0, (zt - ctx.oz) / t, np.inf)
-        cap = (~side) & (z_in > zt) & (s_cap <= s_out[None, :])
-        s_new = np.where(side, s_in, np.where(cap, s_cap, np.inf))
-        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
-        if len(wr) == 0:
-            return
-        ca, sa = ctx.ca[c0:c1][None, :], ctx.sa[c0:c1][None, :]
-        hx = _nan_to(ctx.ox + s_in * ca - cx, 0.0)
-        hy = _nan_to(ctx.oy + s_in * sa - cy, 0.0)
-        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
-        n_side = np.zeros((len(wc), 3))
-        n_side[:, 0] = (hx / r)[0, wc]
-        n_side[:, 1] = (hy / r)[0, wc]
-        nrm = np.where(side[wr, wc][:, None], n_side, np.array([0, 0, 1], np.float32))
-        tu = (np.arctan2(hy, hx) * (r / _TEX_RES))[0, wc]
-        sw = s_new[wr, wc]
-        tv = (ctx.oz + sw * t[wr, 0]) * (1.0 / _TEX_RES)
-        self._commit(ctx, wr + r0, wc + c0, sw, m, nrm, tu, tv)
-
-    def _ellipsoid(self, ctx: "_Ctx", cx: float, cy: float, zc: float, R: float, b: float, m: int,
-                   rays: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        found = self._circle_columns(ctx, cx, cy, R, rays)
-        if found is None:
-            return
-        c0, c1, p, half = found
-        s_near = np.maximum(p - half, 0.05)
-        s_far = p + half
-        lo = float(_nanmin(np.minimum((zc - b - ctx.oz) / s_near, (zc - b - ctx.oz) / s_far)))
-        hi = float(_nanmax(np.maximum((zc + b - ctx.oz) / s_near, (zc + b - ctx.oz) / s_far)))
-        r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_near)).any():
-            return
-        a = _nan_to(half.copy(), 1e-6)[None, :]
-        a = np.maximum(a, 1e-6)
-        bb = b * a / R
-        pp = p[None, :]
-        t = ctx.tan[r0:r1, None]
-        dz0 = ctx.oz - zc
-        ia2, ib2 = 1.0 / (a * a), 1.0 / (bb * bb)
-        A = ia2 + (t * t) * ib2
-        B = -2.0 * pp * ia2 + 2.0 * dz0 * t * ib2
-        C = pp * pp * ia2 + dz0 * dz0 * ib2 - 1.0
-        disc = B * B - 4 * A * C
-        ok = (disc >= 0) & ~np.isnan(half)[None, :]
-        sq = np.sqrt(np.where(ok, disc, 0.0))
-        s1 = (-B - sq) / (2 * A)
-        s2 = (-B + sq) / (2 * A)
-        s_new = np.where(s1 > 0, s1, s2)
-        s_new = np.where(ok & (s_new > 0), s_new, np.inf)
-        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
-        if len(wr) == 0:
-            return
-        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
-        ca, sa = ctx.ca[c0:c1][wc], ctx.sa[c0:c1][wc]
-        sf = s_new[wr, wc]
-        hx = ctx.ox + sf * ca - cx
-        hy = ctx.oy + sf * sa - cy
-        hz = ctx.oz + sf * t[wr, 0] - zc
-        nrm = np.empty((len(sf), 3))
-        np.multiply(hx, 1.0 / (R * R), out=nrm[:, 0])
-        np.multiply(hy, 1.0 / (R * R), out=nrm[:, 1])
-        np.multiply(hz, 1.0 / (b * b), out=nrm[:, 2])
-        nrm /= np.maximum(np.linalg.norm(nrm, axis=-1, keepdims=True), 1e-9)
-        tu = (hx - hy) * (1.0 / _TEX_RES)
-        tv = (hz + 0.7 * hx) * (1.0 / _TEX_RES)
-        self._commit(ctx, wr + r0, wc + c0, sf, m, nrm, tu, tv)
-
-    def _prism(self, ctx: "_Ctx", verts: np.ndarray, zb: float, zt: float, m: int,
-               edges: tuple[np.ndarray, np.ndarray]) -> None:
-        v0 = verts
-        e, e_unit = edges  # (M, 2) each, see `_edges`
-        w0 = v0 - np.array([ctx.ox, ctx.oy])  # (M, 2)
-        # columns within the footprint's angular span (all columns when the sensor is close or inside)
-        b0, b1 = 0, len(ctx.ca)
-        d = np.hypot(w0[:, 0], w0[:, 1])
-        if d.min() > 1.0 and ctx.neg_az is not None:
-            rel = (np.arctan2(w0[:, 1], w0[:, 0]) - ctx.az_mid + np.pi) % (2 * np.pi) - np.pi
-            if rel.max() - rel.min() < np.pi:
-                lo, hi = rel.min() + ctx.az_mid, rel.max() + ctx.az_mid
-                b0 = max(0, int(np.searchsorted(ctx.neg_az, -hi, side="left")) - 1)
-                b1 = min(len(ctx.ca), int(np.searchsorted(ctx.neg_az, -lo, side="right")) + 1)
-                if b1 <= b0:
-                    return
-        ux, uy = ctx.ca64[b0:b1, None], ctx.sa64[b0:b1, None]  # (W', 1)
-        den = ux * e[None, :, 1] - uy * e[None, :, 0]  # u × e
-        s = (w0[None, :, 0] * e[None, :, 1] - w0[None, :, 1] * e[None, :, 0]) / den
-        tau = (w0[None, :, 0] * uy - w0[None, :, 1] * ux) / den
-        valid = (np.abs(den) > 1e-12) & (tau >= 0) & (tau <= 1) & (s > 0)
-        any_col = valid.any(axis=1)
-        cols = np.flatnonzero(any_col)
-        if len(cols) == 0:
-            return
-        c0, c1 = int(cols[0]), int(cols[-1]) + 1
-        valid = valid[c0:c1]
-        s = s[c0:c1]
-        c0, c1 = c0 + b0, c1 + b0
-        s_v = np.where(valid, s, np.inf)
-        j_in = np.argmin(s_v, axis=1)
-        s_in = s_v[np.arange(c1 - c0), j_in]
-        s_out = np.where(valid, s, -np.inf).max(axis=1)
-        miss = ~np.isfinite(s_in)
-        s_in_c = np.where(miss, np.nan, np.maximum(s_in, 0.05))
-        s_out_c = np.where(miss, np.nan, s_out)
-        lo = float(_nanmin(np.minimum((zb - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
-        hi = float(_nanmax(np.maximum((zt - ctx.oz) / s_in_c, (zt - ctx.oz) / s_out_c)))
-        r0, r1 = self._rows(ctx, lo, hi)
-        if r1 <= r0 or not (ctx.s[r0:r1, c0:c1] > _nanmin(s_in_c)).any():
-            return
-        t = ctx.tan[r0:r1, None]
-        s_in2 = s_in[None, :]
-        z_in = ctx.oz + s_in2 * t
-        side = (z_in >= zb) & (z_in <= zt)
-        s_roof = np.where(t < 0, (zt - ctx.oz) / np.where(t < 0, t, -1.0), np.inf)
-        roof = (~side) & (z_in > zt) & (s_roof <= s_out[None, :])
-        s_new = np.where(side, s_in2, np.where(roof, s_roof, np.inf))
-        wr, wc = np.nonzero(s_new < ctx.s[r0:r1, c0:c1])
-        if len(wr) == 0:
-            return
-        jj = j_in
-        en = e_unit[jj]
-        nx, ny = en[:, 1], -en[:, 0]
-        ca, sa = ctx.ca64[c0:c1], ctx.sa64[c0:c1]
-        flip = (nx * ca + ny * sa) > 0  # the wall faces the sensor
-        nx, ny = np.where(flip, -nx, nx), np.where(flip, -ny, ny)
-        n_side = np.stack([nx, ny, np.zeros_like(nx)], -1)
-        # only the winning cells from here on (the same element-wise arithmetic as on the whole block)
-        nrm = np.where(side[wr, wc][:, None], n_side[wc], np.array([0, 0, 1], np.float32))
-        sfin = np.where(miss, 0.0, s_in)
-        hx = ctx.ox + sfin * ca
-        hy = ctx.oy + sfin * sa
-        along = (hx - v0[jj, 0]) * en[:, 0] + (hy - v0[jj, 1]) * en[:, 1]
-        tu = (along * (1.0 / _TEX_RES))[wc]
-        sw = s_new[wr, wc]
-        tv = (ctx.oz + sw * t[wr, 0]) * (1.0 / _TEX_RES)
-        self._commit(ctx, wr + r0, wc + c0, sw, m, nrm, tu, tv)
-
-    @staticmethod
-    def _commit(ctx: "_Ctx", rows: np.ndarray, cols: np.ndarray, s_new: np.ndarray, m: int,
-                nrm: np.ndarray, tu: np.ndarray, tv: np.ndarray) -> None:
-        """Write the winning hits of one solid (cells `rows`, `cols`; values per cell) into the depth buffer."""
-        at = rows * ctx.s.shape[1] + cols  # flat cell indices: one index array is the fast path of item assignment
-        ctx.s.reshape(-1)[at] = s_new
-        ctx.mat.reshape(-1)[at] = m
-        ctx.normal.reshape(-1, 3)[at] = nrm
-        uv = np.empty((len(at), 2), np.int32)  # both texture coordinates of a cell written as one 8-byte item
-        uv[:, 0] = tu
-        uv[:, 1] = tv
-        ctx.tex.reshape(-1).view(np.int64)[at] = uv.view(np.int64).reshape(-1)
 
     # ---------------------------------------------------------------- appearance
 
@@ -856,10 +608,36 @@ class Scene:
         return lam
 
 
-# np.nanmin/np.nanmax/np.nan_to_num without their Python wrappers (called for every solid in view);
-# the same values for the finite-or-NaN float arrays they get here
-_nanmin = np.fmin.reduce
-_nanmax = np.fmax.reduce
+_NO_AZ = np.zeros(0, np.float64)
+
+
+@dataclass(frozen=True)
+class _PrismTable:
+    """Vertical prisms packed for `solid_cast.cast_prisms`: footprint k is `verts[start[k]:start[k + 1]]` [m]."""
+
+    verts: np.ndarray  # (Σ M, 2) float64
+    start: np.ndarray  # (n + 1,) int64
+    edges: np.ndarray  # (Σ M, 2) edge vectors, vertex to next [m]
+    edges_unit: np.ndarray  # (Σ M, 2)
+    z_bottom: np.ndarray  # (n,) [m]
+    z_top: np.ndarray  # (n,) [m]
+    material: np.ndarray  # (n,) int32
+
+    @classmethod
+    def pack(cls, prisms: "list | tuple") -> "_PrismTable":
+        """Pack (verts (M, 2), z_bottom, z_top, material) tuples."""
+        verts = [np.asarray(p[0], np.float64).reshape(-1, 2) for p in prisms]
+        edges = [_edges(v) for v in verts]
+        cat = lambda xs: np.ascontiguousarray(np.concatenate(xs)) if xs else np.zeros((0, 2))  # noqa: E731
+        return cls(cat(verts), np.concatenate([[0], np.cumsum([len(v) for v in verts])]).astype(np.int64),
+                   cat([e[0] for e in edges]), cat([e[1] for e in edges]),
+                   np.array([float(p[1]) for p in prisms], np.float64), np.array([float(p[2]) for p in prisms], np.float64),
+                   np.array([int(p[3]) for p in prisms], np.int32))
+
+    def cast(self, rays: tuple, neg_az: np.ndarray, az_mid: float, which: np.ndarray, buffers: tuple) -> None:
+        """Intersect the prisms `which` (indices) with the rays into the depth buffers (see `cast_prisms`)."""
+        cast_prisms(*rays, neg_az, float(az_mid), np.asarray(which, np.int64), self.verts, self.start, self.edges,
+                    self.edges_unit, self.z_bottom, self.z_top, self.material, *buffers)
 
 
 def _edges(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -873,12 +651,6 @@ def _take_pairs(a: np.ndarray, flat_idx: np.ndarray) -> np.ndarray:
     return np.take(np.ascontiguousarray(a).view(np.int64).reshape(-1), flat_idx).view(np.int32).reshape(-1, 2)
 
 
-def _nan_to(a: np.ndarray, value: float) -> np.ndarray:
-    """Replace NaN by `value` in place in a float array that holds no infinity; return it."""
-    a[np.isnan(a)] = value
-    return a
-
-
 @dataclass
 class _Ctx:
     ox: float
@@ -886,8 +658,6 @@ class _Ctx:
     oz: float
     ca: np.ndarray
     sa: np.ndarray
-    ca64: np.ndarray
-    sa64: np.ndarray
     tan: np.ndarray
     neg_tan: np.ndarray
     neg_az: np.ndarray | None  # minus the world azimuths of the columns when they descend (ascending) [rad]

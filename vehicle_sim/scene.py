@@ -514,9 +514,7 @@ class Scene:
                 mat[rr, cc] = self.ground_material(fx, fy)
                 tex[rr, cc, 0] = (fx * np.float32(1.0 / self.res)).astype(np.int32)
                 tex[rr, cc, 1] = (fy * np.float32(1.0 / self.res)).astype(np.int32)
-        # solids: rays that miss a solid carry NaN and inf through its arithmetic (no warnings wanted)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            self._cast_solids(ctx, ox, oy, az_mid, az_half, rmax)
+        self._cast_solids(ctx, ox, oy, az_mid, az_half, rmax)
 
         riser &= ctx.mat == ground_mat  # the ground step still won its cell
         s_buf, mat = ctx.s, ctx.mat

@@ -105,6 +105,37 @@ def _round_solid_rows(p: np.ndarray, half: np.ndarray, c0: int, c1: int, dz_lo_i
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _wall_column(s: np.ndarray, mat: np.ndarray, normal: np.ndarray, tex: np.ndarray, j: int, r0: int, r1: int,
+                 tan: np.ndarray, oz: float, s_in: float, s_out: float, zb: float, zt: float, top_in_float32: bool,
+                 m: int, nx: float, ny: float, tu: float) -> None:
+    """Intersect the rays of column j, rows [r0, r1), with a vertical solid the column's ray enters at `s_in` and
+    leaves at `s_out` [m], between heights `zb` and `zt` [m]: its wall (normal (nx, ny, 0)) or, from above, its top
+    (normal up). A prism's top distance is taken in float32, as the array version did (its heights were weak
+    Python scalars there)."""
+    rise = zt - oz
+    rise32 = np.float32(rise)
+    for i in range(r0, r1):
+        t = np.float64(tan[i])
+        z_in = oz + s_in * t
+        side = z_in >= zb and z_in <= zt
+        if side:
+            s_new = s_in
+        elif z_in > zt and t < 0:
+            s_new = np.float64(rise32 / tan[i]) if top_in_float32 else rise / t
+            if not s_new <= s_out:
+                continue
+        else:
+            continue
+        if not s_new < s[i, j]:
+            continue
+        tv = (oz + s_new * t) * _INV_TEX
+        if side:
+            _commit(s, mat, normal, tex, i, j, s_new, m, nx, ny, 0.0, tu, tv)
+        else:
+            _commit(s, mat, normal, tex, i, j, s_new, m, 0.0, 0.0, 1.0, tu, tv)
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def cast_cylinders(ox: float, oy: float, oz: float, ca: np.ndarray, sa: np.ndarray, tan: np.ndarray,
                    neg_tan: np.ndarray, cylinders: np.ndarray, s: np.ndarray, mat: np.ndarray,
                    normal: np.ndarray, tex: np.ndarray) -> None:
@@ -132,25 +163,8 @@ def cast_cylinders(ox: float, oy: float, oz: float, ca: np.ndarray, sa: np.ndarr
             cj, sj = np.float64(ca[j]), np.float64(sa[j])
             hx = ox + s_in * cj - cx
             hy = oy + s_in * sj - cy
-            for i in range(r0, r1):
-                t = np.float64(tan[i])
-                z_in = oz + s_in * t
-                side = z_in >= zb and z_in <= zt
-                if side:
-                    s_new = s_in
-                elif z_in > zt and t < 0 and (zt - oz) / t <= s_out:
-                    s_new = (zt - oz) / t
-                else:
-                    continue
-                if not s_new < s[i, j]:
-                    continue
-                tv = (oz + s_new * t) * _INV_TEX
-                if side:
-                    _commit(s, mat, normal, tex, i, j, s_new, m, hx / r, hy / r, 0.0,
-                            math.atan2(hy, hx) * (r / _TEX_RES), tv)
-                else:
-                    _commit(s, mat, normal, tex, i, j, s_new, m, 0.0, 0.0, 1.0,
-                            math.atan2(hy, hx) * (r / _TEX_RES), tv)
+            _wall_column(s, mat, normal, tex, j, r0, r1, tan, oz, s_in, s_out, zb, zt, False, m, hx / r, hy / r,
+                         math.atan2(hy, hx) * (r / _TEX_RES))
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -231,7 +245,6 @@ def cast_prisms(ox: float, oy: float, oz: float, ca: np.ndarray, sa: np.ndarray,
         v0, v1 = start[k], start[k + 1]
         M = v1 - v0
         zb, zt = z_bottom[k], z_top[k]
-        roof_rise = np.float32(zt - oz)
         m = material[k]
         b0, b1 = 0, W
         dmin = np.inf
@@ -301,23 +314,4 @@ def cast_prisms(ox: float, oy: float, oz: float, ca: np.ndarray, sa: np.ndarray,
             hx = ox + s_in * cj
             hy = oy + s_in * sj
             along = (hx - verts[e, 0]) * enx + (hy - verts[e, 1]) * eny
-            tu = along * _INV_TEX
-            for i in range(r0, r1):
-                t = np.float64(tan[i])
-                z_in = oz + s_in * t
-                side = z_in >= zb and z_in <= zt
-                if side:
-                    s_new = s_in
-                elif z_in > zt and t < 0:
-                    s_new = np.float64(roof_rise / tan[i])  # in float32, as the array version did (heights were weak scalars there)
-                    if not s_new <= s_out:
-                        continue
-                else:
-                    continue
-                if not s_new < s[i, j]:
-                    continue
-                tv = (oz + s_new * t) * _INV_TEX
-                if side:
-                    _commit(s, mat, normal, tex, i, j, s_new, m, nx, ny, 0.0, tu, tv)
-                else:
-                    _commit(s, mat, normal, tex, i, j, s_new, m, 0.0, 0.0, 1.0, tu, tv)
+            _wall_column(s, mat, normal, tex, j, r0, r1, tan, oz, s_in, s_out, zb, zt, True, m, nx, ny, along * _INV_TEX)

@@ -47,6 +47,7 @@ chromium:
 bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench blackboard --json
 	$(VENV)/bin/sidewalk bench sim --json
+	$(VENV)/bin/sidewalk bench clock --json
 	$(VENV)/bin/sidewalk bench perception --json
 	$(VENV)/bin/sidewalk bench record --json
 	$(VENV)/bin/sidewalk bench eddie --json

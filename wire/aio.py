@@ -117,6 +117,23 @@ class Link:
 
         return self.session.subscribe_payload(key_expr, cb)
 
+    def subscribe_feed(self, key_expr: str, feed: Callable[[str, bytes, asyncio.AbstractEventLoop], None]) -> Any:
+        """Call `feed(key, payload, loop)` on the Zenoh thread for every sample matching `key_expr`.
+
+        For a high-rate stream whose samples mostly need no loop work (the sim clock at a high RTF):
+        `feed` must not block, and hands to the loop (`loop.call_soon_threadsafe`) only what the loop
+        must do. Exceptions in `feed` are its own to report; a closed loop ends the calls quietly.
+        """
+        loop = self._loop
+
+        def cb(key: str, data: bytes) -> None:
+            try:
+                feed(key, data, loop)
+            except RuntimeError:  # loop closed during shutdown
+                pass
+
+        return self.session.subscribe_payload(key_expr, cb)
+
     def subscribe_newest(self, key_expr: str, newest: dict[str, tuple[bytes, float]]) -> Any:
         """Keep in `newest` the latest payload of each key matching `key_expr` and its arrival [s, time.monotonic()].
 

@@ -27,14 +27,14 @@ from eddie.messages.map_manager import StopAtObject
 from eddie.messages.modules import ObjectStopped, ObstacleSeen
 from eddie.modules.args import parse_pose
 from eddie.modules.obstacle_stop import ObstacleStopConfig, obstacle_ahead
-from eddie.modules.sensing import Belief, CaptureError, capture_frame
+from eddie.modules.sensing import Belief, CaptureError, capture_scan
 from eddie.modules.stop_at_object import ObjectCorrection, sight_object
 from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 from modules.helm.tracker import tracker_config_for
-from modules.perception.obstacles import LaserScan, detect_obstacles
+from modules.perception.obstacles import detect_obstacles
 from modules.pilot import pilot_config_for
 from modules.runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
@@ -81,13 +81,13 @@ class ObstacleStop:
     async def cycle(self) -> str:
         """Check one range image along the controller's path; stop or release the controller when the verdict changes."""
         taken = self.switch.taken
-        frame = await capture_frame(self.m)
+        scan = await capture_scan(self.m)
         if self.switch.taken != taken or not self.switch.awake:
             return "a trigger came while the frame did"  # it may have switched detection off
-        pose = self.belief.local_at(frame.stamp)
+        pose = self.belief.local_at(scan.stamp)
         if pose is None:
             return "no controller pose at the capture"
-        seen = obstacle_ahead(LaserScan.from_capture(frame), self.cfg, path_local=self.path, pose_local=tuple(pose),
+        seen = obstacle_ahead(scan, self.cfg, path_local=self.path, pose_local=tuple(pose),
                               speed=self.belief.speed)
         self.m.publish("seen", ObstacleSeen(stamp=seen.stamp, blocked=seen.blocked, distance_m=seen.distance_m))
         if seen.blocked and not self.stopped:
@@ -163,14 +163,14 @@ class ObstacleStop:
         while True:
             due = self.m.clock.now() + FRAME_PERIOD_S
             try:
-                frame = await capture_frame(self.m)
+                scan = await capture_scan(self.m)
             except CaptureError as exc:
                 log.warning("obstacle_stop: no frame to look for the object in: %s", exc)
             else:
-                pose = self.belief.world_at(frame.stamp)
+                pose = self.belief.world_at(scan.stamp)
                 if pose is not None:
-                    obstacles = await asyncio.to_thread(detect_obstacles, LaserScan.from_capture(frame))
-                    corr.add(sight_object(obstacles, object_xy, (float(pose[0]), float(pose[1]), float(pose[2])), frame.stamp))
+                    obstacles = await asyncio.to_thread(detect_obstacles, scan)
+                    corr.add(sight_object(obstacles, object_xy, (float(pose[0]), float(pose[1]), float(pose[2])), scan.stamp))
             await self.m.clock.wait_until(due)
 
     async def on_trigger(self, data: Message) -> None:

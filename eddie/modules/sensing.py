@@ -1,7 +1,7 @@
 """What every EDDIE perception module needs: a sensor frame from the simulator, the believed pose, the map objects in view.
 
 A frame comes from the simulator's capture service like PERCEPTION's (laser and camera, never the
-truth labels). The believed pose is the controller's dead-reckoned `local` pose (stream `state`)
+truth labels); a module that reads only the range asks for the laser alone. The believed pose is the controller's dead-reckoned `local` pose (stream `state`)
 and the navigator's `world` ← `local` (stream `world_from_local`; until it speaks, the start pose
 the module was given).
 """
@@ -20,31 +20,57 @@ from eddie.modules.errors import EddieModuleError
 from eddie.navigator.local_pose_buffer import LocalPoseBuffer
 from eddie.toolkit.module import Module
 from modules.map_navigator import MapData, map_object
+from modules.perception.obstacles import LaserScan
 from modules.perception.sensor_frame import SensorFrame, SensorFrameError, decode_sensor_frame
 from modules.vocabulary import MapObject
+from wire.capture import CaptureDecodeError, decode_capture
 from wire.keys import SimKeys
 from wire.se2 import compose
 
-__all__ = ["CaptureError", "capture_frame", "Belief", "objects_in_view"]
+__all__ = ["CaptureError", "capture_frame", "capture_scan", "Belief", "objects_in_view"]
 
 
 class CaptureError(EddieModuleError):
     """The simulator's capture service did not answer, or answered with something that is not a frame."""
 
 
-async def capture_frame(m: Module, *, timeout: float = 15.0) -> SensorFrame:
-    """Ask the simulator for one laser + camera frame (no truth); raise CaptureError."""
+async def _capture(m: Module, request: dict, timeout: float) -> bytes:
+    """Ask the simulator's capture service; return the first good reply's bytes; raise CaptureError."""
     key = SimKeys(m.net.namespace).capture
-    replies = await m.link.get(key, payload=json.dumps({"laser": True, "camera": True}).encode(), timeout=timeout)
+    replies = await m.link.get(key, payload=json.dumps(request).encode(), timeout=timeout)
     for r in replies:
         if r.ok:
-            try:
-                return decode_sensor_frame(r.payload)
-            except SensorFrameError as exc:
-                raise CaptureError(f"{key}: {exc}") from None
+            return r.payload
     if replies:
         raise CaptureError(f"{key}: {replies[0].payload.decode(errors='replace')[:200]}")
     raise CaptureError(f"no simulator answered {key} within {timeout:.1f} s")
+
+
+async def capture_frame(m: Module, *, timeout: float = 15.0) -> SensorFrame:
+    """Ask the simulator for one laser + camera frame (no truth); raise CaptureError."""
+    payload = await _capture(m, {"laser": True, "camera": True}, timeout)
+    try:
+        return decode_sensor_frame(payload)
+    except SensorFrameError as exc:
+        raise CaptureError(f"{SimKeys(m.net.namespace).capture}: {exc}") from None
+
+
+async def capture_scan(m: Module, *, timeout: float = 15.0) -> LaserScan:
+    """Ask the simulator for one laser image alone (no camera, no truth); raise CaptureError.
+
+    For a module that reads only the range (OBSTACLE STOP): the simulator skips the camera's render
+    and its bytes. The scan is the one `capture_frame` would give to the bit (a capture's noise is
+    drawn from its stamp, the laser's first), and carries what a frame's does: no reflectance.
+    """
+    payload = await _capture(m, {"laser": True, "camera": False}, timeout)
+    try:
+        c = decode_capture(payload)
+    except CaptureDecodeError as exc:
+        raise CaptureError(f"{SimKeys(m.net.namespace).capture}: {exc}") from None
+    if c.laser_range is None or c.laser_valid is None or c.laser_az is None or c.laser_el is None:
+        raise CaptureError(f"{SimKeys(m.net.namespace).capture}: the capture has no laser image")
+    return LaserScan(range_m=c.laser_range, valid=c.laser_valid, az=c.laser_az, el=c.laser_el,
+                     T_vehicle_laser=c.T_vehicle_laser, ambiguity=float(c.ambiguity), stamp=float(c.stamp))
 
 
 class Belief:

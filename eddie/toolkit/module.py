@@ -103,7 +103,10 @@ class Module:
         self.link = Link.open(self.net)
         try:
             self.link.subscribe(self.keys.inbox(self.name), self._on_inbox)
-            self.link.subscribe(self.module_keys.sim_clock, self._on_clock)
+            if self._held is not None:  # lock-step: each tick releases what was sent before it, on the loop
+                self.link.subscribe(self.module_keys.sim_clock, self._on_clock)
+            else:
+                self.link.subscribe_feed(self.module_keys.sim_clock, self._feed_clock)
             if lockstep_enabled():  # the simulator's barrier waits for this module's loop (wire.lockstep)
                 self._participant = Participant(self.link.session, participant_name(self.name))
             self._beat()
@@ -280,6 +283,13 @@ class Module:
         except asyncio.QueueFull:
             self.dropped += 1
             warn_limited(log, "inbox-full", "%s: inbox full, message dropped (%d so far)", self.name, self.dropped)
+
+    def _feed_clock(self, _key: str, payload: bytes, loop: asyncio.AbstractEventLoop) -> None:
+        """Real time: take a clock tick on the Zenoh thread (`SimClock.feed`)."""
+        try:
+            self.clock.feed(decode_clock(payload), loop)
+        except ClockPayloadError as exc:
+            warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
 
     def _on_clock(self, _key: str, payload: bytes) -> None:
         try:

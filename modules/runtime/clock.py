@@ -24,9 +24,13 @@ class ClockNotRunningError(ModuleRuntimeError, RuntimeError):
 class SimClock:
     """Sim time [s] as last published by the simulator; sleeps and deadlines in sim time.
 
-    `advance(t)` must be called on the event loop thread (the runtime hands Zenoh samples over
-    with `call_soon_threadsafe`). Time never runs backwards here: a tick older than `now()` by
-    more than `reset_s` [s] is taken as a simulator restart and pending sleeps are re-based.
+    Two ways in. `advance(t)` runs on the event loop thread (lock-step hands every tick over that
+    way, so the barrier sees each one handled). `feed(t, loop)` runs on the Zenoh thread in real
+    time: a tick that wakes no sleeper only sets the time, and the loop is called
+    (`call_soon_threadsafe`) only for one that does, for the first tick and for a restart. At RTF 50
+    the simulator ticks 1000 times a second [wall], and a loop woken for each cost every module a
+    few percent of a core for nothing. Time never runs backwards here: a tick older than `now()`
+    by more than `reset_s` [s] is taken as a simulator restart and pending sleeps are re-based.
     """
 
     def __init__(self, *, reset_s: float = 1.0) -> None:
@@ -35,6 +39,8 @@ class SimClock:
         self._heap: list[tuple[float, int, asyncio.Future[None]]] = []
         self._seq = itertools.count()
         self._started: asyncio.Event | None = None
+        #: a wake is on its way to the loop (`feed`): later due ticks need not send another
+        self._wake_sent = False
         self.ticks = 0
 
     # ---- feeding --------------------------------------------------------------------------
@@ -53,8 +59,35 @@ class SimClock:
             heapq.heapify(self._heap)
         self._now = t
         self.ticks += 1
+        self._release()
+
+    def feed(self, t: float, loop: asyncio.AbstractEventLoop) -> None:
+        """Take tick `t` [s] on any thread (never blocks); call the loop only when it has something to do."""
+        now = self._now
+        if now is None or not t >= now:
+            if now is not None and now - t <= self._reset_s:
+                return  # a late, out-of-order tick
+            loop.call_soon_threadsafe(self.advance, t)  # the first tick, a restart, a non-finite one: the loop's rule
+            return
+        if not math.isfinite(t):
+            loop.call_soon_threadsafe(self.advance, t)
+            return
+        self._now = t
+        self.ticks += 1
+        try:
+            due = self._heap[0][0] <= t
+        except IndexError:  # nobody sleeps (the loop may pop the last one meanwhile)
+            return
+        if due and not self._wake_sent:
+            self._wake_sent = True
+            loop.call_soon_threadsafe(self._release)
+
+    def _release(self) -> None:
+        """Wake every sleeper whose deadline has passed (loop thread)."""
+        self._wake_sent = False
         if self._started is not None and not self._started.is_set():
             self._started.set()
+        t = self._now
         while self._heap and self._heap[0][0] <= t:
             _, _, fut = heapq.heappop(self._heap)
             if not fut.done():
@@ -100,6 +133,9 @@ class SimClock:
             return self._now
         fut: asyncio.Future[None] = asyncio.get_running_loop().create_future()
         heapq.heappush(self._heap, (t, next(self._seq), fut))
+        if self._now is not None and self._now >= t:
+            # a tick fed on the Zenoh thread between the test above and the push saw no sleeper due
+            self._release()
         try:
             await fut
         finally:

@@ -89,6 +89,13 @@ class ModuleRuntime:
         except ClockPayloadError as exc:
             warn_limited(log, "clock-sample", "bad sim clock sample: %.200s", exc)
 
+    def _feed_clock(self, _key: str, payload: bytes, loop: asyncio.AbstractEventLoop) -> None:
+        """Real time: take a clock tick on the Zenoh thread (`SimClock.feed`)."""
+        try:
+            self.clock.feed(decode_clock(payload), loop)
+        except ClockPayloadError as exc:
+            warn_limited(log, "clock-sample", "bad sim clock sample: %.200s", exc)
+
     def _beat(self, state: str | None = None) -> None:
         hb = Heartbeat(
             module=self.name, seq=self._seq, sim_time=self.clock.now() if self.clock.running else None,
@@ -141,7 +148,10 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
     installed: list[int] = []
     code = 0
     try:
-        link.subscribe(rt.keys.sim_clock, rt._on_clock)
+        if participant is not None:  # lock-step: every tick is handled on the loop, where the barrier sees it
+            link.subscribe(rt.keys.sim_clock, rt._on_clock)
+        else:
+            link.subscribe_feed(rt.keys.sim_clock, rt._feed_clock)
         hb_task = loop.create_task(rt._heartbeat_loop())
         if install_signals:
             for sig in (signal.SIGINT, signal.SIGTERM):

@@ -49,6 +49,17 @@ def bench_sim(
     _emit(mod.run(world=world, frames=frames), as_json)
 
 
+@bench_app.command("clock")
+def bench_clock(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    rtf: Annotated[float, typer.Option(min=0.1, help="Real-time factor the simulator runs at")] = 50.0,
+    seconds: Annotated[float, typer.Option(min=0.5, help="Wall time each figure is measured over [s]")] = 4.0,
+) -> None:
+    """What a module costs while it only waits on the sim clock, beside a bare Zenoh subscription to it."""
+    mod = importlib.import_module("bench.clock")
+    _emit(mod.run(rtf=rtf, seconds=seconds), as_json)
+
+
 @bench_app.command("perception")
 def bench_perception(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

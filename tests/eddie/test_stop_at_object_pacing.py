@@ -49,7 +49,7 @@ async def test_the_look_for_the_object_takes_one_frame_per_frame_period(monkeypa
             return _Frame()
         raise osm.CaptureError("no frame in this test")  # a failed capture waits its period too
 
-    monkeypatch.setattr(osm, "capture_frame", instant_capture)
+    monkeypatch.setattr(osm, "capture_scan", instant_capture)
     stop = osm.ObstacleStop(m)  # type: ignore[arg-type]
     m.clock.advance(10.0)
     look = asyncio.ensure_future(stop._sight((0.0, 0.0), ObjectCorrection()))

@@ -93,6 +93,86 @@ async def test_wait_for_times_out_in_sim_time() -> None:
     assert await asyncio.wait_for(task, 1.0) == 7
 
 
+class _CountingLoop:
+    """The running loop, counting what a feeding thread hands to it."""
+
+    def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
+        self.loop = loop
+        self.handed = 0
+
+    def call_soon_threadsafe(self, fn, *args):  # noqa: ANN001, ANN201 - the loop's signature
+        self.handed += 1
+        return self.loop.call_soon_threadsafe(fn, *args)
+
+
+async def _feed_from_thread(clock: SimClock, loop: _CountingLoop, ticks: list[float]) -> None:
+    """Feed `ticks` in order from a thread of their own, as Zenoh's does."""
+    await asyncio.to_thread(lambda: [clock.feed(t, loop) for t in ticks])  # type: ignore[arg-type]
+
+
+async def test_fed_ticks_set_the_time_and_call_the_loop_only_to_wake_a_sleeper() -> None:
+    clock = SimClock()
+    loop = _CountingLoop(asyncio.get_running_loop())
+    await _feed_from_thread(clock, loop, [10.0])  # the first tick goes through the loop (it starts the clock)
+    assert await asyncio.wait_for(clock.wait_running(), 1.0) == 10.0
+    assert loop.handed == 1
+    # ticks that wake nobody only set the time: now() is current without the loop doing anything
+    await _feed_from_thread(clock, loop, [10.05 + 0.05 * k for k in range(100)])
+    assert clock.now() == pytest.approx(15.0) and loop.handed == 1
+    woke: list[float] = []
+
+    async def napper() -> None:
+        woke.append(await clock.sleep(0.2))
+
+    task = asyncio.create_task(napper())
+    await asyncio.sleep(0)
+    await _feed_from_thread(clock, loop, [15.05, 15.1, 15.15])
+    assert not task.done() and loop.handed == 1
+    await _feed_from_thread(clock, loop, [15.2, 15.25, 15.3])  # 15.2 is due: one call, the later ticks none
+    await asyncio.wait_for(task, 1.0)
+    assert woke[0] >= 15.2 - 1e-9
+    assert loop.handed == 2
+    # a late tick is dropped; a restart goes through the loop and re-bases what sleeps
+    await _feed_from_thread(clock, loop, [15.1])
+    assert clock.now() == pytest.approx(15.3) and loop.handed == 2
+    task = asyncio.create_task(clock.sleep(3.0))
+    await asyncio.sleep(0)
+    await _feed_from_thread(clock, loop, [0.0, 2.9])
+    await asyncio.sleep(0)
+    await asyncio.sleep(0)
+    assert clock.now() == pytest.approx(2.9) and not task.done()
+    await _feed_from_thread(clock, loop, [3.0])
+    assert await asyncio.wait_for(task, 1.0) == pytest.approx(3.0)
+
+
+async def test_a_sleep_begun_while_the_thread_feeds_is_never_missed() -> None:
+    """Sleepers registered from the loop while another thread ticks on: each wakes within one tick of its deadline."""
+    clock = SimClock()
+    loop = _CountingLoop(asyncio.get_running_loop())
+    clock.advance(0.0)
+    stop = False
+    ticks = 0
+
+    def ticker() -> None:
+        nonlocal ticks
+        t = 0.0
+        while not stop and t < 1e6:
+            t += 0.001
+            clock.feed(t, loop)  # type: ignore[arg-type]
+            ticks += 1
+
+    feeding = asyncio.ensure_future(asyncio.to_thread(ticker))
+    try:
+        for _ in range(300):
+            start = clock.now()
+            got = await asyncio.wait_for(clock.sleep(0.002), 5.0)
+            assert got >= start + 0.002 - 1e-9
+    finally:
+        stop = True
+        await feeding
+    assert ticks > 600
+
+
 async def test_cancelled_sleep_leaves_no_waiter() -> None:
     clock = SimClock()
     clock.advance(0.0)

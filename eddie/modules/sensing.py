@@ -1,9 +1,9 @@
 """What every EDDIE perception module needs: a sensor frame from the simulator, the believed pose, the map objects in view.
 
 A frame comes from the simulator's capture service like PERCEPTION's (laser and camera, never the
-truth labels); a module that reads only the range asks for the laser alone. The believed pose is the controller's dead-reckoned `local` pose (stream `state`)
-and the navigator's `world` ← `local` (stream `world_from_local`; until it speaks, the start pose
-the module was given).
+truth labels); a module that reads only the range asks for the laser alone. The believed pose is
+the controller's dead-reckoned `local` pose (stream `state`) and the navigator's `world` ← `local`
+(stream `world_from_local`; until it speaks, the start pose the module was given).
 """
 
 from __future__ import annotations

@@ -106,8 +106,22 @@ class _CountingLoop:
 
 
 async def _feed_from_thread(clock: SimClock, loop: _CountingLoop, ticks: list[float]) -> None:
-    """Feed `ticks` in order from a thread of their own, as Zenoh's does."""
+    """Feed `ticks` in order from a thread of their own, as Zenoh's does; return once what they handed the loop ran
+    (it was queued before this coroutine's own wake-up)."""
     await asyncio.to_thread(lambda: [clock.feed(t, loop) for t in ticks])  # type: ignore[arg-type]
+
+
+async def _sleeping(clock: SimClock, sim_s: float) -> asyncio.Task:
+    """Start `clock.sleep(sim_s)` in a task; return it once the sleep is registered."""
+    registered = asyncio.Event()
+
+    async def sleeper() -> float:
+        registered.set()
+        return await clock.sleep(sim_s)  # registers before it first yields
+
+    task = asyncio.create_task(sleeper())
+    await registered.wait()
+    return task
 
 
 async def test_fed_ticks_set_the_time_and_call_the_loop_only_to_wake_a_sleeper() -> None:
@@ -119,28 +133,18 @@ async def test_fed_ticks_set_the_time_and_call_the_loop_only_to_wake_a_sleeper()
     # ticks that wake nobody only set the time: now() is current without the loop doing anything
     await _feed_from_thread(clock, loop, [10.05 + 0.05 * k for k in range(100)])
     assert clock.now() == pytest.approx(15.0) and loop.handed == 1
-    woke: list[float] = []
-
-    async def napper() -> None:
-        woke.append(await clock.sleep(0.2))
-
-    task = asyncio.create_task(napper())
-    await asyncio.sleep(0)
+    task = await _sleeping(clock, 0.2)
     await _feed_from_thread(clock, loop, [15.05, 15.1, 15.15])
     assert not task.done() and loop.handed == 1
     await _feed_from_thread(clock, loop, [15.2, 15.25, 15.3])  # 15.2 is due: one call, the later ticks none
-    await asyncio.wait_for(task, 1.0)
-    assert woke[0] >= 15.2 - 1e-9
+    assert await asyncio.wait_for(task, 1.0) >= 15.2 - 1e-9
     assert loop.handed == 2
     # a late tick is dropped; a restart goes through the loop and re-bases what sleeps
     await _feed_from_thread(clock, loop, [15.1])
     assert clock.now() == pytest.approx(15.3) and loop.handed == 2
-    task = asyncio.create_task(clock.sleep(3.0))
-    await asyncio.sleep(0)
+    task = await _sleeping(clock, 3.0)
     await _feed_from_thread(clock, loop, [0.0, 2.9])
-    await asyncio.sleep(0)
-    await asyncio.sleep(0)
-    assert clock.now() == pytest.approx(2.9) and not task.done()
+    assert clock.now() == pytest.approx(2.9) and not task.done() and clock.pending == 1
     await _feed_from_thread(clock, loop, [3.0])
     assert await asyncio.wait_for(task, 1.0) == pytest.approx(3.0)
 

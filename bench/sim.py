@@ -7,6 +7,9 @@
   renders on a side thread while the laser scans) [ms] (robust to other processes competing for the
   cores; `load_avg_1min` says how busy the machine was);
 - `laser_ms_p50`, `camera_ms_p50`: the two sensors alone [ms];
+- `obstacle_check_ms_p50`: OBSTACLE STOP's check of each of those laser images
+  (`eddie.modules.obstacle_stop.obstacle_ahead`: the points in the corridor along the path ahead, at
+  2 m/s; the scan as the module gets it, without reflectance) [ms] wall;
 - `step_us_p50`, `step_us_p95`: one `Simulator.step()` (kinematics, odometry, watchdog, ground checks) [µs];
 - `rtf_reached`: sim seconds per wall second of the pure simulator loop — physics at 100 Hz driving
   the vehicle, plus a capture of both sensors every 0.5 s of sim time (the ERIM's 2 frames/s), as the
@@ -57,6 +60,10 @@ def _pct(xs: list[float], q: float) -> float:
 
 def run(world: str = "campus", frames: int = 100) -> dict:
     """Benchmark the simulator on `world` (name or file) with `frames` captures; return the figures."""
+    from dataclasses import replace
+
+    from eddie.modules.obstacle_stop import obstacle_ahead
+    from modules.perception.obstacles import LaserScan
     from wire.drive import DriveCommand
     from vehicle_sim.scene import Scene
     from vehicle_sim.sensors import CaptureRequest, capture
@@ -71,7 +78,7 @@ def run(world: str = "campus", frames: int = 100) -> dict:
     poses = path_poses(w, frames)
     rng = np.random.default_rng(0)
     capture(scene, poses[0], 0.0, rng=rng)  # warm caches (camera model, noise bank)
-    render, render_cpu, laser, camera = [], [], [], []
+    render, render_cpu, laser, camera, check = [], [], [], [], []
     only_laser = CaptureRequest(camera=False)
     only_camera = CaptureRequest(laser=False)
     for i, pose in enumerate(poses):
@@ -81,8 +88,17 @@ def run(world: str = "campus", frames: int = 100) -> dict:
         render_cpu.append((time.process_time() - c) * 1e3)
     for pose in poses[: max(1, frames // 4)]:
         t = time.perf_counter()
-        capture(scene, pose, 0.0, only_laser, rng=rng)
+        got = capture(scene, pose, 0.0, only_laser, rng=rng)
         laser.append((time.perf_counter() - t) * 1e3)
+        scan = replace(LaserScan.from_capture(got), reflectance=None)
+        # a path curving gently ahead (curvature 0.05 1/m, a point every 2 m to 20 m; `world` as `local`)
+        arc = np.arange(11) * 2.0
+        yaw = pose[2] + 0.05 * arc
+        ahead = np.column_stack([pose[0] + np.cumsum(np.r_[0.0, 2.0 * np.cos(yaw[:-1])]),
+                                 pose[1] + np.cumsum(np.r_[0.0, 2.0 * np.sin(yaw[:-1])])])
+        t = time.perf_counter()
+        obstacle_ahead(scan, path_local=ahead, pose_local=pose, speed=2.0)
+        check.append((time.perf_counter() - t) * 1e3)
         t = time.perf_counter()
         capture(scene, pose, 0.0, only_camera, rng=rng)
         camera.append((time.perf_counter() - t) * 1e3)
@@ -121,6 +137,7 @@ def run(world: str = "campus", frames: int = 100) -> dict:
         "load_avg_1min": round(os.getloadavg()[0], 2),
         "laser_ms_p50": round(_pct(laser, 50), 2),
         "camera_ms_p50": round(_pct(camera, 50), 2),
+        "obstacle_check_ms_p50": round(_pct(check, 50), 2),
         "step_us_p50": round(_pct(steps, 50), 1),
         "step_us_p95": round(_pct(steps, 95), 1),
         "rtf_reached": round(sim_seconds / wall, 1),

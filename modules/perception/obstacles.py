@@ -109,6 +109,29 @@ class HeightMap:
         return np.nan_to_num(self.top - self.ground, nan=0.0)
 
 
+#: the last scanner's ray directions: (azimuths, elevations, rotation) → (H, W, 3) unit vectors, `vehicle` frame
+_RAYS: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = []
+
+
+def _ray_directions(az: np.ndarray, el: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """Return the unit direction (H, W, 3) of every pixel's ray in the `vehicle` frame (read-only).
+
+    A scanner's angles and mounting do not change from scan to scan, so the last one's are kept.
+    """
+    for a, e, r, dv in _RAYS:
+        if np.array_equal(a, az) and np.array_equal(e, el) and np.array_equal(r, R):
+            return dv
+    az64 = az.astype(np.float64)
+    el64 = el.astype(np.float64)
+    ce = np.cos(el64)[:, None]
+    dirs = np.stack([ce * np.cos(az64)[None, :], ce * np.sin(az64)[None, :],
+                     np.broadcast_to(np.sin(el64)[:, None], (len(el64), len(az64)))], axis=-1)
+    dv = dirs @ R.T
+    dv.flags.writeable = False
+    _RAYS[:] = [(az.copy(), el.copy(), R.copy(), dv)]
+    return dv
+
+
 def scan_points(scan: LaserScan, max_horizontal: float = 20.0) -> np.ndarray:
     """Return the scan's points (N, 4) float32: x, y, z in the `vehicle` frame [m] and σ_z [m], range unwrapped, within `max_horizontal` [m].
 
@@ -116,15 +139,9 @@ def scan_points(scan: LaserScan, max_horizontal: float = 20.0) -> np.ndarray:
     σ_r = 0.015 + 0.00012 r² / ρ (ρ the effective reflectance read back from the reflectance image)
     times |sin| of the ray's elevation. Grazing ground returns are weak and noisy; faces of objects are not.
     """
-    az = scan.az.astype(np.float64)
-    el = scan.el.astype(np.float64)
-    ce = np.cos(el)[:, None]
-    dirs = np.stack([ce * np.cos(az)[None, :], ce * np.sin(az)[None, :],
-                     np.broadcast_to(np.sin(el)[:, None], (len(el), len(az)))], axis=-1)
-    R = scan.T_vehicle_laser[:3, :3]
     t = scan.T_vehicle_laser[:3, 3]
     valid = scan.valid.astype(bool)
-    dv = dirs @ R.T
+    dv = _ray_directions(scan.az, scan.el, scan.T_vehicle_laser[:3, :3])
     r = unwrap_over_ground(unwrap_range(scan.range_m, valid, scan.ambiguity).astype(np.float64), valid, dv[..., 2], float(t[2]),
                            scan.ambiguity)
     xyz = dv * r[..., None] + t
@@ -246,13 +263,27 @@ def path_clear_distance(scan: LaserScan, path: np.ndarray, half_width: float, cf
     path = np.asarray(path, np.float64)
     if len(path) < 2 or len(pts) == 0:
         return math.inf
+    # only points in the path's box grown by the half width can lie in the corridor: the point-to-segment
+    # distances below (points × segments) are worked out for those alone, in the scan's order, so the
+    # result is the same to the bit (the margin covers the float32 → float64 of the exact test)
+    lo = path.min(axis=0) - (half_width + 1e-6)
+    hi = path.max(axis=0) + (half_width + 1e-6)
+    near = (pts[:, 0] >= lo[0]) & (pts[:, 0] <= hi[0]) & (pts[:, 1] >= lo[1]) & (pts[:, 1] <= hi[1])
+    pts = pts[near]
+    if len(pts) == 0:
+        return math.inf
     a, b = path[:-1], path[1:]
     e = b - a
     L = np.linalg.norm(e, axis=1)
     cum = np.concatenate([[0.0], np.cumsum(L)])
-    rel = pts[:, None, :2] - a[None]
-    t = np.clip((rel * e[None]).sum(-1) / np.maximum(L * L, 1e-12)[None], 0.0, 1.0)
-    d = np.linalg.norm(rel - t[..., None] * e[None], axis=-1)
+    # per coordinate on (points, segments) arrays: the same sums and roots as a norm over a last axis of two
+    rx = pts[:, 0:1].astype(np.float64) - a[None, :, 0]
+    ry = pts[:, 1:2].astype(np.float64) - a[None, :, 1]
+    ex, ey = e[None, :, 0], e[None, :, 1]
+    t = np.clip((rx * ex + ry * ey) / np.maximum(L * L, 1e-12)[None], 0.0, 1.0)
+    dx = rx - t * ex
+    dy = ry - t * ey
+    d = np.sqrt(dx * dx + dy * dy)
     seg = np.argmin(d, axis=1)
     dmin = d[np.arange(len(pts)), seg]
     inside = dmin <= half_width

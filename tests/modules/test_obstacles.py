@@ -7,7 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from modules.perception.obstacles import ObstacleConfig, detect_obstacles, path_clear_distance
+from scipy.ndimage import minimum_filter
+
+from modules.perception.obstacles import ObstacleConfig, detect_obstacles, path_clear_distance, scan_points
 from tests.modules._laser_synth import synthetic_scan
 
 
@@ -45,6 +47,61 @@ def test_fast_mode_sees_only_the_corridor() -> None:
     veer = np.array([[0.0, 0.0], [5.0, 0.0], [10.0, 2.8], [20.0, 2.8]])  # the path turns into it
     d = path_clear_distance(scan, veer, 1.2)
     assert 10.0 < d < 12.5
+
+
+def _clear_distance_over_every_point(scan, path: np.ndarray, half_width: float, cfg: ObstacleConfig = ObstacleConfig(),  # noqa: ANN001
+                                     min_points: int = 3) -> float:
+    """The corridor test written plainly: every scan point against every segment, by norms (the reference)."""
+    pts = scan_points(scan, cfg.max_horizontal)
+    a, b = path[:-1], path[1:]
+    e = b - a
+    L = np.linalg.norm(e, axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(L)])
+    rel = pts[:, None, :2] - a[None]
+    t = np.clip((rel * e[None]).sum(-1) / np.maximum(L * L, 1e-12)[None], 0.0, 1.0)
+    d = np.linalg.norm(rel - t[..., None] * e[None], axis=-1)
+    seg = np.argmin(d, axis=1)
+    inside = d[np.arange(len(pts)), seg] <= half_width
+    if not inside.any():
+        return math.inf
+    s = (cum[seg] + t[np.arange(len(pts)), seg] * L[seg])[inside]
+    z, sig = pts[inside, 2], pts[inside, 3]
+    order = np.argsort(s)
+    s, z, sig = s[order], z[order], sig[order]
+    bins = np.floor(s / 0.5).astype(np.int64)
+    nb = int(bins.max()) + 1
+    cnt = np.bincount(bins, minlength=nb)
+    low = np.bincount(bins, weights=z.astype(np.float64), minlength=nb) / np.maximum(cnt, 1)
+    low = minimum_filter(np.where(cnt > 0, low, np.inf), size=5, mode="nearest")
+    hz = z - np.where(np.isfinite(low), low, 0.0)[bins]
+    hot = (hz > cfg.min_height) & (hz > 3.0 * sig) & (z < cfg.max_height)
+    return float(s[hot][min_points - 1]) if hot.sum() >= min_points else math.inf
+
+
+def test_the_corridor_drops_no_point_the_full_test_keeps() -> None:
+    """Only points in the path's box are tested against its segments: the distance is the plain test's, to the bit.
+
+    Each scan has a box just inside the corridor's edge, on either side of a random path, where a box cut too
+    tight would lose it.
+    """
+    rng = np.random.default_rng(3)
+    found = 0
+    for _ in range(40):
+        steps = rng.normal([2.5, 0.0], [0.8, 1.5], size=(int(rng.integers(2, 8)), 2))
+        path = np.cumsum(np.vstack([[0.0, 0.0], steps]), axis=0)
+        half = float(rng.uniform(0.8, 2.5))
+        k = int(rng.integers(1, len(path) - 1))
+        e = path[k + 1] - path[k]
+        n = np.array([-e[1], e[0]]) / max(float(np.hypot(*e)), 1e-9)
+        cx, cy = path[k] + 0.5 * e + n * (half - 0.25) * rng.choice([-1.0, 1.0])
+        boxes = [(cx - 0.2, cx + 0.2, cy - 0.2, cy + 0.2, 1.0)]
+        x0, y0 = rng.uniform(3.0, 17.0), rng.uniform(-6.0, 6.0)
+        boxes.append((x0, x0 + 1.0, y0, y0 + 1.0, 1.5))
+        scan = synthetic_scan(boxes)
+        want = _clear_distance_over_every_point(scan, path, half)
+        assert path_clear_distance(scan, path, half) == want
+        found += math.isfinite(want)
+    assert found >= 10  # the corridors did meet boxes
 
 
 def test_plan_goes_into_the_vehicle_frame_ahead_of_the_vehicle() -> None:

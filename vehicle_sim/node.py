@@ -147,9 +147,12 @@ class SimNode:
             z.wait_connected(name="sim", cancelled=self._stop.is_set)  # never serve (and say ready) while connected to nothing
             k = self.keys
             lossy = not self.config.lockstep  # in lock-step a lost tick would change what the modules do
-            self._pub_clock = z.publisher(k.clock, droppable=lossy)
-            self._pub_odom = z.publisher(k.odom, droppable=lossy)
-            self._pub_truth = z.publisher(k.truth, droppable=lossy)
+            # in real time batched, not express: at RTF 50 these go out 1000 times a second [wall] each, and a
+            # busy subscriber filled its few one-sample batches, so every publish waited (or dropped): the
+            # physics loop fell to RTF 25 for a tenth of the run (session 17)
+            self._pub_clock = z.publisher(k.clock, droppable=lossy, express=not lossy)
+            self._pub_odom = z.publisher(k.odom, droppable=lossy, express=not lossy)
+            self._pub_truth = z.publisher(k.truth, droppable=lossy, express=not lossy)
             self._pub_events = z.publisher(k.events)
             self._pub_hb = z.publisher(k.heartbeat, droppable=True)
             self._pub_preview = z.publisher(k.preview, droppable=True)  # monitor/recorder only: may drop, never blocks

@@ -418,14 +418,18 @@ class Session:
         self._keep.append(sub)
         return sub
 
-    def publisher(self, key: str, *, droppable: bool = False, as_json: bool = False) -> Publisher:
-        """Declare a reliable express publisher on `key`; `droppable` ones drop under congestion instead of blocking."""
+    def publisher(self, key: str, *, droppable: bool = False, as_json: bool = False, express: bool = True) -> Publisher:
+        """Declare a reliable publisher on `key`; `droppable` ones drop under congestion instead of blocking.
+
+        `express` samples go out at once, each in its own batch; without it Zenoh batches the samples
+        queued while its transmit task was busy.
+        """
         self._check()
         pub = self._z.declare_publisher(
             key,
             encoding=_JSON if as_json else _MSGPACK,
             congestion_control=zenoh.CongestionControl.DROP if droppable else zenoh.CongestionControl.BLOCK,
-            express=True,
+            express=express,
             reliability=zenoh.Reliability.RELIABLE,
         )
         w = Publisher(pub)

@@ -82,9 +82,10 @@ class ObstacleStop:
         """Check one range image along the controller's path; stop or release the controller when the verdict changes."""
         taken = self.switch.taken
         scan = await capture_scan(self.m)
+        caught_up = await self.belief.reached(scan.stamp)
         if self.switch.taken != taken or not self.switch.awake:
             return "a trigger came while the frame did"  # it may have switched detection off
-        pose = self.belief.local_at(scan.stamp)
+        pose = self.belief.local_at(scan.stamp) if caught_up else None
         if pose is None:
             return "no controller pose at the capture"
         seen = obstacle_ahead(scan, self.cfg, path_local=self.path, pose_local=tuple(pose),
@@ -167,7 +168,7 @@ class ObstacleStop:
             except CaptureError as exc:
                 log.warning("obstacle_stop: no frame to look for the object in: %s", exc)
             else:
-                pose = self.belief.world_at(scan.stamp)
+                pose = self.belief.world_at(scan.stamp) if await self.belief.reached(scan.stamp) else None
                 if pose is not None:
                     obstacles = await asyncio.to_thread(detect_obstacles, scan)
                     corr.add(sight_object(obstacles, object_xy, (float(pose[0]), float(pose[1]), float(pose[2])), scan.stamp))

@@ -129,6 +129,8 @@ class RoadFollowing:
                 return "no mission route"
         taken = self.switch.taken
         frame = await capture_frame(self.m)
+        if not await self.belief.reached(frame.stamp):
+            return "no controller pose at the capture (its stream is behind the simulator)"
         at_capture, prior = self.belief.local_at(frame.stamp), self.belief.world_at(frame.stamp)
         if at_capture is None or prior is None:
             return "no controller pose at the capture"

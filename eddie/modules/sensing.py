@@ -8,6 +8,7 @@ the controller's dead-reckoned `local` pose (stream `state`) and the navigator's
 
 from __future__ import annotations
 
+import asyncio
 import json
 import math
 
@@ -26,6 +27,7 @@ from modules.vocabulary import MapObject
 from wire.capture import CaptureDecodeError, decode_capture
 from wire.keys import SimKeys
 from wire.se2 import compose
+from wire.timemode import lockstep_enabled
 
 __all__ = ["CaptureError", "capture_frame", "capture_scan", "Belief", "objects_in_view"]
 
@@ -73,11 +75,17 @@ async def capture_scan(m: Module, *, timeout: float = 15.0) -> LaserScan:
                      T_vehicle_laser=c.T_vehicle_laser, ambiguity=float(c.ambiguity), stamp=float(c.stamp))
 
 
+#: how long [s wall] a module waits for the controller's pose to reach a capture's stamp before it skips the frame
+POSE_WAIT_S = 2.0
+
+
 class Belief:
     """The controller's `local` poses (the newest and a short history) and navigator `world` ← `local`, kept from their streams.
 
     A frame is paired with the pose at its capture stamp (`local_at`), not the newest one: at RTF 20
-    a capture's round trip is seconds of sim, metres of travel.
+    a capture's round trip is seconds of sim, metres of travel. On a loaded machine the controller's
+    stream can be behind the simulator: a frame stamped after the newest pose waits for the pose
+    that covers it (`reached`) rather than take the newest, which at RTF 50 was up to 14 s sim old.
     """
 
     def __init__(self, m: Module, world_from_local: tuple[float, float, float]) -> None:
@@ -88,12 +96,40 @@ class Belief:
         self.speed = 0.0
         self.fixes_used = 0
         self.history = LocalPoseBuffer(span_s=30.0)
+        self._waiting: list[tuple[float, asyncio.Future[None]]] = []
         m.subscribe("controller", "state", ControllerState, self._on_state)
         m.subscribe("navigator", "world_from_local", WorldFromLocal, self._on_transform)
 
     def _on_state(self, st: ControllerState) -> None:
         self.local, self.local_stamp, self.speed = np.array([st.x, st.y, st.yaw]), st.stamp, st.v
         self.history.add(st.stamp, st.x, st.y, st.yaw)
+        if self._waiting:
+            still = []
+            for stamp, fut in self._waiting:
+                if stamp <= st.stamp:
+                    if not fut.done():
+                        fut.set_result(None)
+                else:
+                    still.append((stamp, fut))
+            self._waiting = still
+
+    async def reached(self, stamp: float, timeout_s: float = POSE_WAIT_S) -> bool:
+        """Wait until the controller's newest pose is at or past sim time `stamp` [s]; False after `timeout_s` [s wall].
+
+        In lock-step the simulator does not step while a module works, and the controller's pose of
+        each control period comes before the tick: nothing newer would come, so it does not wait.
+        """
+        if (self.local_stamp is not None and self.local_stamp >= stamp) or lockstep_enabled():
+            return True
+        fut: asyncio.Future[None] = asyncio.get_running_loop().create_future()
+        self._waiting.append((stamp, fut))
+        try:
+            await asyncio.wait_for(fut, timeout_s)
+            return True
+        except asyncio.TimeoutError:
+            return False
+        finally:
+            self._waiting = [w for w in self._waiting if w[1] is not fut]
 
     def _on_transform(self, t: WorldFromLocal) -> None:
         self.world_from_local, self.fixes_used = np.array([t.x, t.y, t.yaw]), t.fixes_used

@@ -18,7 +18,7 @@ import shapely
 
 from blackboard.errors import BlackboardError, ExtrapolationError, UnknownFrameError
 from blackboard.frames import SE2, FrameTree, apply_se2
-from blackboard.geometry import geometry_coords, to_shapely
+from blackboard.geometry import Polygon, geometry_coords, polygon_shape, to_shapely
 from blackboard.spec import AttrPredicate, Intersects, Near, Nearest, Spec, Within
 from blackboard.store import Record, Store
 
@@ -113,8 +113,12 @@ class _Region:
             g = pred.point
         else:
             g = pred.geometry
-        self.kind, self.xy = geometry_coords(g)
-        self.shape = to_shapely(self.kind, self.xy)
+        if type(g) is Polygon:
+            self.kind = "polygon"
+            self.xy, self.shape = polygon_shape(g)
+        else:
+            self.kind, self.xy = geometry_coords(g)
+            self.shape = to_shapely(self.kind, self.xy)
         shapely.prepare(self.shape)
         self.pad = pred.distance if isinstance(pred, Near) else 0.0
 
@@ -199,7 +203,8 @@ class Evaluator:
     def _geo_select(self, region: _Region, spec: Spec, tail_ok: Callable[[Record], bool]) -> list[Record]:
         """Return the records satisfying the region (not nearest), the plain filters and `tail_ok`."""
         store, frames = self.store, self.frames
-        out: dict[int, Record] = {}
+        records = store.records
+        hits: list[int] = []  # row ids: each token is in one frame, and in its point grid or the R*Tree, not both
         types = spec.types()
         for gframe, rids in list(store.by_frame.items()):
             if not rids:
@@ -221,18 +226,16 @@ class Evaluator:
                     # the geometric test first, on every point (of the types asked for) at once; then the
                     # per-token filters on what passed
                     inside = region.test_points(pxy if Tinv is None else apply_se2(Tinv, pxy))
-                    records = store.records
                     if not spec.where and not spec.any_of:
-                        for rid in prids[inside].tolist():
-                            out[rid] = records[rid]
+                        hits.extend(prids[inside].tolist())
                     else:
                         for rid in prids[inside].tolist():
                             rec = records[rid]
                             if self._plain_ok(spec, rec) and tail_ok(rec):
-                                out[rid] = rec
+                                hits.append(rid)
                 cands = []
                 for rid in store.shapes_in_box(minx, maxx, miny, maxy):
-                    rec = store.records.get(rid)
+                    rec = records.get(rid)
                     if rec is None or rec.frame != gframe or (types is not None and rec.type not in types):
                         continue
                     if self._plain_ok(spec, rec) and tail_ok(rec):
@@ -240,13 +243,11 @@ class Evaluator:
                 if not cands:
                     continue
                 mask = region.test_records(cands, Tinv)
-                for r, ok in zip(cands, mask):
-                    if ok:
-                        out[r.rid] = r
+                hits.extend(r.rid for r, ok in zip(cands, mask) if ok)
             elif frames.connected(region.frame, gframe):
                 cands, shapes, cache = [], [], {}
                 for rid in rids:
-                    rec = store.records.get(rid)
+                    rec = records.get(rid)
                     if rec is None or rec.kind is None or (types is not None and rec.type not in types):
                         continue
                     if not (self._plain_ok(spec, rec) and tail_ok(rec)):
@@ -257,10 +258,9 @@ class Evaluator:
                         continue
                     cands.append(rec)
                 mask = region.test(shapes)
-                for r, ok in zip(cands, mask):
-                    if ok:
-                        out[r.rid] = r
-        return [out[k] for k in sorted(out)]
+                hits.extend(r.rid for r, ok in zip(cands, mask) if ok)
+        hits.sort()
+        return [records[rid] for rid in hits]
 
     def _nearest(self, region: _Region, spec: Spec, tail_ok: Callable[[Record], bool]) -> list[Record]:
         """Return the k records closest to the region's point (ties by id)."""

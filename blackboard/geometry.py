@@ -29,6 +29,7 @@ __all__ = [
     "parse_geometry_wire_fast",
     "coords_to_wire",
     "to_shapely",
+    "polygon_shape",
     "positional_init",
 ]
 
@@ -108,14 +109,16 @@ class Polygon(BaseModel):
     @model_validator(mode="after")
     def _check(self) -> "Polygon":
         _finite_points(self.points)
-        _check_polygon(np.asarray(self.points, dtype=np.float64))
+        xy = np.asarray(self.points, dtype=np.float64)
+        _remember_shape(self, xy, _check_polygon(xy))
         return self
 
 
 Geometry = Annotated[Union[Point, Polyline, Polygon], Field(discriminator="kind")]
 
 
-def _check_polygon(xy: np.ndarray) -> None:
+def _check_polygon(xy: np.ndarray) -> shapely.Polygon:
+    """Raise ValueError unless the (N,2) vertices [m] make a simple polygon of positive area; return its shapely polygon."""
     if len(xy) >= 2 and xy[0, 0] == xy[-1, 0] and xy[0, 1] == xy[-1, 1]:  # (np.array_equal costs 2 µs here)
         xy = xy[:-1]
     if len(xy) < 3:
@@ -125,6 +128,28 @@ def _check_polygon(xy: np.ndarray) -> None:
         raise ValueError("polygon has zero area")
     if not poly.is_valid:
         raise ValueError("polygon is not simple (self-intersecting)")
+    return poly
+
+
+#: the coordinates and shapely polygon of the polygons validated last, by identity (each entry holds its
+#: model, so an id is not reused while it is here): a spec's region reuses what its validation built
+_shapes: dict[int, tuple[Polygon, np.ndarray, shapely.Polygon]] = {}
+_SHAPES_KEPT = 64
+
+
+def _remember_shape(p: Polygon, xy: np.ndarray, shape: shapely.Polygon) -> None:
+    if len(_shapes) >= _SHAPES_KEPT:
+        _shapes.clear()
+    _shapes[id(p)] = (p, xy, shape)
+
+
+def polygon_shape(p: Polygon) -> tuple[np.ndarray, shapely.Polygon]:
+    """Return a polygon's (N,2) float64 vertices [m] and its shapely polygon (built at validation if that was recent)."""
+    hit = _shapes.get(id(p))
+    if hit is not None and hit[0] is p:
+        return hit[1], hit[2]
+    xy = np.asarray(p.points, dtype=np.float64)
+    return xy, shapely.Polygon(xy)
 
 
 def geometry_coords(geom: Point | Polyline | Polygon) -> tuple[str, np.ndarray]:

@@ -179,3 +179,53 @@ def test_large_store_uses_the_rtree_and_returns_the_right_tokens(core):
     exp = np.sort(d)[:5]
     got_d = [math.hypot(t["geometry"]["x"] - 500, t["geometry"]["y"] - 500) for t in near]
     np.testing.assert_allclose(got_d, exp)
+
+
+def test_within_returns_exactly_the_tokens_inside_in_id_order_whether_its_polygon_was_just_validated_or_not(core):
+    """A Within region reuses the shapely polygon its validation built (blackboard.geometry.polygon_shape):
+    points from the grid and lines and polygons from the R*Tree, in two frames, against a brute-force test."""
+    import numpy as np
+    import shapely
+
+    from blackboard.geometry import _SHAPES_KEPT
+
+    rng = np.random.default_rng(5)
+    ops, shapes = [], []
+    for i in range(3000):
+        x, y = (float(v) for v in rng.uniform(0, 200, size=2))
+        frame = "world" if i % 3 else "site"  # site: world shifted by (50, 0), a static frame
+        r = i % 7
+        if r == 0:
+            g = {"kind": "polyline", "points": [[x, y], [x + 3.0, y + 1.0]]}
+            s = shapely.LineString([(x, y), (x + 3.0, y + 1.0)])
+        elif r == 1:
+            g = square(x, y, x + 2.0, y + 2.0)
+            s = shapely.box(x, y, x + 2.0, y + 2.0)
+        else:
+            g, s = pt(x, y), shapely.Point(x, y)
+        ops.append({"op": "post", "type": "bbt_obstacle", "attrs": {"confidence": 0.5}, "stamp": 0.0, "frame": frame, "geometry": g})
+        shapes.append(shapely.affinity.translate(s, 50.0, 0.0) if frame == "site" else s)
+    core.apply_requests([[{"op": "static", "parent": "world", "child": "site", "pose": [50.0, 0.0, 0.0]}]])
+    results, _ = core.apply_requests([ops])
+    ids = [r["ok"]["id"] for r in results[0]]
+    found = 0
+    for k in range(30):
+        cx, cy = (float(v) for v in rng.uniform(20, 230, size=2))
+        n = int(rng.integers(3, 9))
+        ang = np.sort(rng.uniform(0, 2 * np.pi, size=n))
+        rad = rng.uniform(5, 30, size=n)  # a star-shaped, often concave polygon
+        pts = [(cx + r * np.cos(a), cy + r * np.sin(a)) for a, r in zip(ang, rad)]
+        if k % 2:
+            pts.append(pts[0])  # closed ring: the repeated vertex is dropped by validation, not by the wire
+        poly = Polygon(points=pts)
+        spec = Spec(type="bbt_obstacle", geometry=Within(poly, frame="world"))
+        if k % 3 == 0:
+            for _ in range(_SHAPES_KEPT + 1):  # validate others until this polygon's shape is forgotten
+                Polygon(points=[(0, 0), (1, 0), (0, 1)])
+        want_shape = shapely.Polygon(pts)
+        want = [ids[i] for i, s in enumerate(shapes) if want_shape.covers(s)]
+        got = [t["id"] for t in core.retrieve(spec)]
+        assert got == want, (k, len(got), len(want))
+        assert got == [t["id"] for t in core.retrieve(spec)]  # asked again: the same
+        found += len(got)
+    assert found > 300  # the regions held something to find

@@ -12,7 +12,7 @@ import math
 import numpy as np
 from shapely.geometry import LineString, Point
 
-__all__ = ["KERB_MARGIN_M", "lane_goal", "lane_offset", "kept_lane_offset", "shift_into_lane"]
+__all__ = ["KERB_MARGIN_M", "lane_goal", "goal_lane_offset", "lane_point", "lane_offset", "kept_lane_offset", "shift_into_lane"]
 
 #: kept between the vehicle's obstacle clearance and the road's edge when a step keeps to a side [m]
 KERB_MARGIN_M = 0.5
@@ -34,16 +34,27 @@ def kept_lane_offset(keep: str | None, width_m: float, keep_offset_m: float, edg
     return math.copysign(max(0.0, min(abs(off), keep_offset_m, width_m / 2.0 - edge_keep_m)), off)
 
 
-def lane_goal(map_data, line, goal: tuple[float, float], keep: str | None) -> tuple[float, float] | None:
-    """Return `goal` moved a quarter of the nearest path's width to the kept side of the route's last direction (None: no side)."""
-    if keep not in ("right", "left") or len(line) < 2 or not map_data.world.edges:
+def goal_lane_offset(map_data, goal: tuple[float, float], keep: str | None) -> float | None:
+    """Return the offset [m] left (+) of the heading of the lane `keep` at `goal`: a quarter of the nearest path's width (None: no side)."""
+    if keep not in ("right", "left") or not map_data.world.edges:
         return None
     p = Point(goal)
     width = min(map_data.world.edges, key=lambda e: LineString(e.coords).distance(p)).width
+    return lane_offset(keep, width)
+
+
+def lane_point(goal: tuple[float, float], offset_m: float, yaw: float) -> tuple[float, float]:
+    """Return `goal` moved `offset_m` [m] to the left (+) of heading `yaw` [rad] (`world`), as the truth verdict judges a kept side."""
+    return goal[0] - offset_m * math.sin(yaw), goal[1] + offset_m * math.cos(yaw)
+
+
+def lane_goal(map_data, line, goal: tuple[float, float], keep: str | None) -> tuple[float, float] | None:
+    """Return `goal` moved a quarter of the nearest path's width to the kept side of the route's last direction (None: no side)."""
+    off = goal_lane_offset(map_data, goal, keep) if len(line) >= 2 else None
+    if off is None:
+        return None
     (ax, ay), (bx, by) = line[-2], line[-1]
-    yaw = math.atan2(by - ay, bx - ax)
-    off = lane_offset(keep, width)
-    return goal[0] - off * math.sin(yaw), goal[1] + off * math.cos(yaw)
+    return lane_point(goal, off, math.atan2(by - ay, bx - ax))
 
 
 def shift_into_lane(route: np.ndarray, offset_m: float | np.ndarray) -> np.ndarray:

@@ -4,11 +4,14 @@ EDDIE has no CAPTAIN on a blackboard: the mission is compiled into annotations, 
 drives the route the triggers shape. The mission service only keeps the mission's status (the
 CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit` reads the same
 states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
-controller `local` pose): reached within `reach_m` less a margin of the step's goal, at the closest
-approach (the route's end, or the belief passing the goal or stopping closing on it), or (as the PILOT judges arrival
-under CODGER: along its path, within `progress_m` of the end) projected within `progress_m` of the
-step route's end while within 2·`reach_m` of the goal (within `reach_m` of it or its lane's goal for a step kept to a side) → succeeded; no progress for
-`stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
+controller `local` pose): reached within `reach_m` less a margin of the step's goal (or, for a step kept
+to a side, of the goal moved into the lane of the route's last direction or of the believed heading, as
+the truth verdict judges it), at the closest approach (the route's end, or the belief passing the goal or
+stopping closing on it), or (as the PILOT judges arrival under CODGER: along its path, within
+`progress_m` of the end) projected within `progress_m` of the step route's end while within 2·`reach_m`
+of the goal (within `reach_m` of it or its lane's goal for a step kept to a side), or past the route's
+end and along the next step's route within `reach_m` of it (the goal went by between two looks)
+→ succeeded; no progress for `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
 onto the step's route, shrinking by `progress_m`). Routes come from the MAP NAVIGATOR's route selection on the robot's map,
 one step after the other from the previous goal, as the mission compiler lays them out.
 """
@@ -21,7 +24,7 @@ from shapely.geometry import LineString, Point
 from pydantic import BaseModel, ConfigDict, Field
 
 from eddie.missions.destination import destination_object, destination_point
-from eddie.missions.lane import lane_goal
+from eddie.missions.lane import goal_lane_offset, lane_goal, lane_point
 from eddie.modules.errors import EddieModuleError
 from modules.captain.sequencer import MissionRun, Next
 from modules.map_navigator import MapData, RouteError, RouteOptions, select_route
@@ -52,9 +55,13 @@ class StepGoal(BaseModel):
     speed_mps: float | None = None
     #: how close [m] to the goal counts as reached (the step's tolerance)
     reach_m: float = Field(1.0, gt=0.0)
-    #: the goal in the lane the step keeps to (a quarter of the road's width off the centre, as the truth
-    #: verdict judges it), also counted as reached: a road follower drives in the lane (issue 13)
+    #: the goal in the lane the step keeps to (a quarter of the road's width off the centre, to the side of the
+    #: route's last direction), also counted as reached: a road follower drives in the lane (issue 13)
     lane_goal: tuple[float, float] | None = None
+    #: that lane's offset [m] left (+) of the vehicle's heading: the truth verdict judges the kept side from the
+    #: heading at each moment, so a vehicle that turns onto the next step's route short of the goal (a corner
+    #: cut) is in its lane on the side it now faces (None: the step keeps to no side)
+    lane_offset_m: float | None = None
 
 
 def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Mission, *, vehicle: str = "terregator") -> list[StepGoal]:
@@ -71,8 +78,10 @@ def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Missio
             line = (at, route.goal_xy)
         _obj, obj_xy = destination_object(map_data, step.destination.place, route.goal_xy)
         goal = destination_point(route.goal_xy, obj_xy, line)  # beside its object, if any
+        keep = step.constraints.keep
         out.append(StepGoal(step_index=i, route=tuple(line), goal=goal, speed_mps=step.constraints.speed_limit,
-                            reach_m=step.tolerance, lane_goal=lane_goal(map_data, line, goal, step.constraints.keep)))
+                            reach_m=step.tolerance, lane_goal=lane_goal(map_data, line, goal, keep),
+                            lane_offset_m=goal_lane_offset(map_data, goal, keep)))
         at = route.goal_xy
     return out
 
@@ -113,8 +122,9 @@ class MissionProgress:
             self._closest, self._closest_at = math.inf, now
         return True
 
-    def update(self, now: float, world_xy: tuple[float, float] | None) -> bool:
-        """Take the believed position (`world` [m], None: not known) at sim time `now` [s]; return whether the status changed."""
+    def update(self, now: float, world_xy: tuple[float, float] | None, yaw: float | None = None) -> bool:
+        """Take the believed position (`world` [m], None: not known) and heading (`yaw` [rad], None: not known) at sim
+        time `now` [s]; return whether the status changed."""
         if self.run.finished or self.run.current_step is None:
             return False
         i = self.run.current_step
@@ -125,7 +135,9 @@ class MissionProgress:
             self._wait_until = None
             return self._apply(self.run.wait_over(now), now)
         if world_xy is not None:
-            d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (self.goals[i].goal, self.goals[i].lane_goal) if g is not None)
+            sg = self.goals[i]
+            heading_lane = None if yaw is None or not sg.lane_offset_m else lane_point(sg.goal, sg.lane_offset_m, yaw)
+            d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (sg.goal, sg.lane_goal, heading_lane) if g is not None)
             # progress is measured along the route: a route may lead away from its goal for a while
             left = self._route_left(i, world_xy)
             inside = d <= max(self.goals[i].reach_m - self.margin_m, 0.2)
@@ -148,6 +160,17 @@ class MissionProgress:
                 return self._apply(self.run.step_finished(StepResult(
                     mission_id=mid, step_index=i, success=True,
                     reason=f"reached the end of its route ({d:.2f} m from the goal, believed)"), now), now)
+            if left <= self.progress_m and i + 1 < len(self.goals):
+                # the next step's route starts at this goal, and the vehicle drives on into it: a belief past this
+                # route's end, within the reach of the next route and along it, went through the goal between two
+                # looks (at RTF 50 a look can come seconds of sim apart, and a pass-by takes a few)
+                nxt = self._line(i + 1)
+                p = Point(world_xy)
+                along = float(nxt.project(p))
+                if self.progress_m <= along and nxt.distance(p) <= self.goals[i].reach_m:
+                    return self._apply(self.run.step_finished(StepResult(
+                        mission_id=mid, step_index=i, success=True,
+                        reason=f"passed its goal onto the next step's route ({along:.1f} m along it, believed)"), now), now)
             if left < self._best - self.progress_m:
                 self._best, self._best_at = left, now
         if now - self._best_at > self.stall_s:
@@ -156,11 +179,15 @@ class MissionProgress:
             return self._apply(self.run.step_finished(StepResult(mission_id=mid, step_index=i, success=False, reason=why), now), now)
         return False
 
-    def _route_left(self, i: int, world_xy: tuple[float, float]) -> float:
-        """Return how much of step `i`'s route [m] is left past the believed position's projection onto it."""
+    def _line(self, i: int) -> LineString:
         line = self._lines.get(i)
         if line is None:
             line = self._lines[i] = LineString(self.goals[i].route)
+        return line
+
+    def _route_left(self, i: int, world_xy: tuple[float, float]) -> float:
+        """Return how much of step `i`'s route [m] is left past the believed position's projection onto it."""
+        line = self._line(i)
         return float(line.length - line.project(Point(world_xy)))
 
     def cancel(self, now: float, reason: str = "cancelled by request") -> None:

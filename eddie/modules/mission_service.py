@@ -212,7 +212,9 @@ class MissionService:
                 await self._drive(prog)
             while not prog.status.terminal:
                 await self.m.clock.sleep(self.tick_s)
-                if prog.update(self._now(), self.believed()):
+                pose = self.belief.world()
+                if prog.update(self._now(), None if pose is None else (float(pose[0]), float(pose[1])),
+                               None if pose is None else float(pose[2])):
                     self._publish(prog)
             if not self.perception:
                 await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=f"mission {prog.status.state}"))

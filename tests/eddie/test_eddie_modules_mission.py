@@ -167,3 +167,79 @@ def test_the_dead_reckoned_route_keeps_to_the_steps_side_in_its_lane(campus) -> 
     # one offset per vertex: a road narrowing from 8 m to 3 m along the way north
     out = shift_into_lane(np.array([[0.0, 0.0], [0.0, 10.0], [0.0, 20.0]]), np.array([-1.5, -1.5, -0.5]))
     assert out[:, 0] == pytest.approx([1.5, 1.5, 0.5]) and out[:, 1] == pytest.approx([0.0, 10.0, 20.0])
+
+
+def _heading_drive(points, step_m: float = 0.2):
+    """Yield (x, y, yaw) every `step_m` [m] along a polyline, yaw [rad] the direction of travel."""
+    pts = np.asarray(points, dtype=float)
+    for a, b in zip(pts[:-1], pts[1:]):
+        yaw = math.atan2(b[1] - a[1], b[0] - a[0])
+        n = max(1, int(np.linalg.norm(b - a) / step_m))
+        for t in np.arange(n) / n:
+            x, y = a + t * (b - a)
+            yield float(x), float(y), yaw
+
+
+def _two_steps(route1, route2, goal1, goal2, *, lane_offset_m: float | None):
+    from eddie.missions.lane import lane_point
+    from eddie.modules.mission_progress import StepGoal
+
+    text = "mission: corner\nsteps:\n  - name: first\n    destination: a\n  - name: second\n    destination: b\n"
+    mission = parse_mission(text.encode(), source="t").model_copy(update={"mission_id": "corner"})
+
+    def goal(i, route, g):
+        yaw = math.atan2(route[-1][1] - route[-2][1], route[-1][0] - route[-2][0])
+        return StepGoal(step_index=i, route=route, goal=g, reach_m=1.5, lane_offset_m=lane_offset_m,
+                        lane_goal=None if lane_offset_m is None else lane_point(g, lane_offset_m, yaw))
+
+    return mission, [goal(0, route1, goal1), goal(1, route2, goal2)]
+
+
+def test_a_step_kept_right_whose_next_step_turns_is_reached_in_the_lane_the_vehicle_faces() -> None:
+    # west along y = 0 to the corner (0, 0), then north; keeping right, the vehicle turns north 1.5 m short of the
+    # corner: in the right lane of the road it now drives (east of the centre), as the truth verdict judges a kept
+    # side by the heading, but 1.5 m from the goal and from the lane goal of the first route's direction (north of it)
+    mission, goals = _two_steps(((20.0, 0.0), (0.0, 0.0)), ((0.0, 0.0), (0.0, 30.0)), (0.0, 0.0), (0.0, 30.0), lane_offset_m=-1.5)
+    drive = list(_heading_drive(((20.0, 0.0), (1.5, 0.0), (1.5, 29.0))))
+    for with_heading, want in ((True, "succeeded"), (False, "failed")):
+        prog = MissionProgress(mission, goals, stall_s=20.0)
+        prog.start(0.0)
+        t = 0.0
+        for x, y, yaw in drive:  # 1 m/s
+            t += 0.2
+            prog.update(t, (x, y), yaw if with_heading else None)
+        st = prog.status
+        assert st.steps[0].state == want, (with_heading, st.steps[0])
+    prog = MissionProgress(mission, goals, stall_s=20.0)
+    prog.start(0.0)
+    t = 0.0
+    for x, y, yaw in drive:
+        t += 0.2
+        prog.update(t, (x, y), yaw)
+        if prog.status.current_step == 1:
+            break
+    assert 1.4 <= x <= 1.6 and -0.1 <= y < 1.5, (x, y)  # it ended at the closest approach, just past the turn
+    assert "reached within" in prog.status.steps[0].reason
+
+
+def test_a_pass_through_the_goal_between_two_looks_ends_the_step_once_the_belief_is_along_the_next_route() -> None:
+    # north to (0, 20), then on north; looks 4.2 m apart (RTF 50 on a loaded machine) straddle the goal, neither
+    # inside its reach, the second past the route's end: on the next route, it went through the goal
+    mission, goals = _two_steps(((0.0, 0.0), (0.0, 20.0)), ((0.0, 20.0), (0.0, 50.0)), (0.0, 20.0), (0.0, 50.0), lane_offset_m=-0.5)
+    looks = [(0.0, float(y)) for y in np.arange(1.2, 48.0, 4.2)]  # ..., 18.0, 22.2, ...
+    assert min(abs(y - 20.0) for _, y in looks) > 1.9
+    past = 4.2 * (1 + next(k for k, (_, y) in enumerate(looks) if y > 20.0))  # when the first look past the goal comes
+    for beside, want in ((0.6, "succeeded"), (2.5, "failed")):  # on the next route, or more than the reach beside it
+        prog = MissionProgress(mission, goals, stall_s=20.0)
+        prog.start(0.0)
+        t = 0.0
+        for x, y in looks:
+            t += 4.2
+            prog.update(t, (x + beside, y), math.pi / 2)
+        for k in range(10):  # then stands at the second step's end
+            t += 4.2
+            prog.update(t, (beside, 48.0), math.pi / 2)
+        st = prog.status
+        assert st.steps[0].state == want, (beside, st.steps[0])
+        if want == "succeeded":
+            assert "onto the next step's route" in st.steps[0].reason and st.steps[0].finished_at == pytest.approx(past)

@@ -143,7 +143,7 @@ async def _trigger_bench(net: NetworkConfig, path: Path, n: int) -> dict:
                 break
             raise RuntimeError(f"expected the trigger of gate 0, got {inc.message!r}")
         else:
-            raise RuntimeError("the map manager never fired the first gate (crossed 10 times, 0.5 s apart)")
+            raise RuntimeError("the map manager never fired the first gate (20 states across it, 0.5 s apart)")
         from_manager: list[float] = []
         from_state: list[float] = []
         for k in range(2, n + 1):

@@ -47,11 +47,10 @@ class LandmarkMatching:
     async def cycle(self) -> str:
         """Match one frame; send the fix if there is one."""
         frame = await capture_frame(self.m)
-        if not await self.belief.reached(frame.stamp):
-            return "no controller pose at the capture (its stream is behind the simulator)"
-        local, prior = self.belief.local_at(frame.stamp), self.belief.world_at(frame.stamp)
-        if local is None or prior is None:
+        poses = await self.belief.at_capture(frame.stamp)
+        if poses is None:
             return "no controller pose at the capture"
+        local, prior = poses
         fix, why = landmark_fix(self.pipeline, colored_range_image(frame), objects_in_view(self.map, tuple(prior)), tuple(prior))
         if fix is None:
             return why

@@ -24,7 +24,7 @@ from shapely.geometry import LineString, Point
 from pydantic import BaseModel, ConfigDict, Field
 
 from eddie.missions.destination import destination_object, destination_point
-from eddie.missions.lane import goal_lane_offset, lane_goal, lane_point
+from eddie.missions.lane import goal_lane_offset, lane_point
 from eddie.modules.errors import EddieModuleError
 from modules.captain.sequencer import MissionRun, Next
 from modules.map_navigator import MapData, RouteError, RouteOptions, select_route
@@ -55,13 +55,19 @@ class StepGoal(BaseModel):
     speed_mps: float | None = None
     #: how close [m] to the goal counts as reached (the step's tolerance)
     reach_m: float = Field(1.0, gt=0.0)
-    #: the goal in the lane the step keeps to (a quarter of the road's width off the centre, to the side of the
-    #: route's last direction), also counted as reached: a road follower drives in the lane (issue 13)
-    lane_goal: tuple[float, float] | None = None
-    #: that lane's offset [m] left (+) of the vehicle's heading: the truth verdict judges the kept side from the
-    #: heading at each moment, so a vehicle that turns onto the next step's route short of the goal (a corner
-    #: cut) is in its lane on the side it now faces (None: the step keeps to no side)
+    #: the offset [m] left (+) of the heading of the lane the step keeps to (a quarter of the road's width; None: no
+    #: side): a road follower drives in the lane (issue 13), and the truth verdict judges the kept side from the
+    #: heading at each moment, so a vehicle that turns onto the next step's route short of the goal (a corner cut)
+    #: is in its lane on the side it now faces
     lane_offset_m: float | None = None
+
+    @property
+    def lane_goal(self) -> tuple[float, float] | None:
+        """Return the goal moved into the kept lane of the route's last direction (None: the step keeps to no side)."""
+        if self.lane_offset_m is None:
+            return None
+        (ax, ay), (bx, by) = self.route[-2], self.route[-1]
+        return lane_point(self.goal, self.lane_offset_m, math.atan2(by - ay, bx - ax))
 
 
 def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Mission, *, vehicle: str = "terregator") -> list[StepGoal]:
@@ -78,10 +84,8 @@ def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Missio
             line = (at, route.goal_xy)
         _obj, obj_xy = destination_object(map_data, step.destination.place, route.goal_xy)
         goal = destination_point(route.goal_xy, obj_xy, line)  # beside its object, if any
-        keep = step.constraints.keep
         out.append(StepGoal(step_index=i, route=tuple(line), goal=goal, speed_mps=step.constraints.speed_limit,
-                            reach_m=step.tolerance, lane_goal=lane_goal(map_data, line, goal, keep),
-                            lane_offset_m=goal_lane_offset(map_data, goal, keep)))
+                            reach_m=step.tolerance, lane_offset_m=goal_lane_offset(map_data, goal, step.constraints.keep)))
         at = route.goal_xy
     return out
 
@@ -136,8 +140,9 @@ class MissionProgress:
             return self._apply(self.run.wait_over(now), now)
         if world_xy is not None:
             sg = self.goals[i]
+            lane_goal = sg.lane_goal
             heading_lane = None if yaw is None or not sg.lane_offset_m else lane_point(sg.goal, sg.lane_offset_m, yaw)
-            d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (sg.goal, sg.lane_goal, heading_lane) if g is not None)
+            d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (sg.goal, lane_goal, heading_lane) if g is not None)
             # progress is measured along the route: a route may lead away from its goal for a while
             left = self._route_left(i, world_xy)
             inside = d <= max(self.goals[i].reach_m - self.margin_m, 0.2)
@@ -153,7 +158,7 @@ class MissionProgress:
                     reason=f"reached within {min(d, self._closest):.2f} m of the goal"), now), now)
             # a step kept to a side ends on that side: the other lane projects onto the route's end too, so
             # there the belief must be within the reach of the goal or its lane's goal
-            near_end = d <= (self.goals[i].reach_m if self.goals[i].lane_goal is not None else 2.0 * self.goals[i].reach_m)
+            near_end = d <= (sg.reach_m if lane_goal is not None else 2.0 * sg.reach_m)
             if left <= self.progress_m and near_end:
                 # the belief may be off across the route by more than the reach (a wide plaza gives vision
                 # no edges); driving to the route's end is arrival, as the PILOT's along-path test

@@ -82,12 +82,12 @@ class ObstacleStop:
         """Check one range image along the controller's path; stop or release the controller when the verdict changes."""
         taken = self.switch.taken
         scan = await capture_scan(self.m)
-        caught_up = await self.belief.reached(scan.stamp)
+        poses = await self.belief.at_capture(scan.stamp)
         if self.switch.taken != taken or not self.switch.awake:
             return "a trigger came while the frame did"  # it may have switched detection off
-        pose = self.belief.local_at(scan.stamp) if caught_up else None
-        if pose is None:
+        if poses is None:
             return "no controller pose at the capture"
+        pose = poses[0]
         seen = obstacle_ahead(scan, self.cfg, path_local=self.path, pose_local=tuple(pose),
                               speed=self.belief.speed)
         self.m.publish("seen", ObstacleSeen(stamp=seen.stamp, blocked=seen.blocked, distance_m=seen.distance_m))
@@ -168,8 +168,9 @@ class ObstacleStop:
             except CaptureError as exc:
                 log.warning("obstacle_stop: no frame to look for the object in: %s", exc)
             else:
-                pose = self.belief.world_at(scan.stamp) if await self.belief.reached(scan.stamp) else None
-                if pose is not None:
+                poses = await self.belief.at_capture(scan.stamp)
+                if poses is not None:
+                    pose = poses[1]
                     obstacles = await asyncio.to_thread(detect_obstacles, scan)
                     corr.add(sight_object(obstacles, object_xy, (float(pose[0]), float(pose[1]), float(pose[2])), scan.stamp))
             await self.m.clock.wait_until(due)

@@ -129,11 +129,10 @@ class RoadFollowing:
                 return "no mission route"
         taken = self.switch.taken
         frame = await capture_frame(self.m)
-        if not await self.belief.reached(frame.stamp):
-            return "no controller pose at the capture (its stream is behind the simulator)"
-        at_capture, prior = self.belief.local_at(frame.stamp), self.belief.world_at(frame.stamp)
-        if at_capture is None or prior is None:
+        poses = await self.belief.at_capture(frame.stamp)
+        if poses is None:
             return "no controller pose at the capture"
+        at_capture, prior = poses
         if self.follower is not None:
             return await self._follower_cycle(frame, at_capture, prior, taken)
         img = colored_range_image(frame)

@@ -154,6 +154,14 @@ class Belief:
         local = self.local_at(stamp)
         return None if local is None else compose(self.world_from_local, local)
 
+    async def at_capture(self, stamp: float) -> tuple[np.ndarray, np.ndarray] | None:
+        """Return the (`local`, `world`) poses (3,) at a capture's stamp [s] once the controller's stream has reached it
+        (`reached`); None when it does not within `POSE_WAIT_S`, or there is no pose at the stamp (`local_at`)."""
+        if not await self.reached(stamp):
+            return None
+        local = self.local_at(stamp)
+        return None if local is None else (local, compose(self.world_from_local, local))
+
 
 def objects_in_view(map_data: MapData, pose: tuple[float, float, float], reach: float = 24.0) -> tuple[MapObject, ...]:
     """Return the map objects whose footprint meets the sensor's reach ahead of `pose` (`world`)."""

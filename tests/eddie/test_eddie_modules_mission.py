@@ -181,16 +181,13 @@ def _heading_drive(points, step_m: float = 0.2):
 
 
 def _two_steps(route1, route2, goal1, goal2, *, lane_offset_m: float | None):
-    from eddie.missions.lane import lane_point
     from eddie.modules.mission_progress import StepGoal
 
     text = "mission: corner\nsteps:\n  - name: first\n    destination: a\n  - name: second\n    destination: b\n"
     mission = parse_mission(text.encode(), source="t").model_copy(update={"mission_id": "corner"})
 
     def goal(i, route, g):
-        yaw = math.atan2(route[-1][1] - route[-2][1], route[-1][0] - route[-2][0])
-        return StepGoal(step_index=i, route=route, goal=g, reach_m=1.5, lane_offset_m=lane_offset_m,
-                        lane_goal=None if lane_offset_m is None else lane_point(g, lane_offset_m, yaw))
+        return StepGoal(step_index=i, route=route, goal=g, reach_m=1.5, lane_offset_m=lane_offset_m)
 
     return mission, [goal(0, route1, goal1), goal(1, route2, goal2)]
 

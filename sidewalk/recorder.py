@@ -32,6 +32,18 @@ class Track:
 
     rows: list[tuple[float, float, float, float]] = field(default_factory=list)
 
+    def add(self, stamp: float, x: float, y: float, yaw: float) -> bool:
+        """Append a pose at sim time `stamp` [s]; a sample of the newest row's stamp again is not kept (return False).
+
+        A track holds one pose per sim time: the simulator repeats its pose while sim time stands (before a
+        run starts, a number of times that depends on wall time), and every repeat would weigh in the
+        error summaries taken over the track.
+        """
+        if self.rows and self.rows[-1][0] == stamp:
+            return False
+        self.rows.append((stamp, x, y, yaw))
+        return True
+
     def array(self) -> np.ndarray:
         """Return the track as an (N,4) float array."""
         return np.asarray(self.rows, dtype=float).reshape(-1, 4)
@@ -114,7 +126,8 @@ class Recorder:
         except WireError:
             self.bad_samples += 1
             return
-        self.truth.rows.append((t.stamp, t.x, t.y, t.yaw))
+        if not self.truth.add(t.stamp, t.x, t.y, t.yaw):
+            return
         self._new_truth.set()
         if t.stamp - self._last_estimate_t < self.estimate_period_s or (self._estimating and not self.lockstep):
             return

@@ -207,7 +207,8 @@ async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, sample
         out["zenoh_relay_p50_us"], out["zenoh_relay_p99_us"] = _pct(zr)
         out["notify_vs_zenoh_relay"] = out["notify_p50_us"] / out["zenoh_relay_p50_us"]
 
-        # --- throughput: pipelined, acknowledged posts (client coalesces each window into one batch)
+        # --- throughput: pipelined, acknowledged posts (the client coalesces them into messages of at most
+        # blackboard.client.MAX_WRITES_PER_MESSAGE)
         n_tp = max(20_000, samples * 10)
         window = 1000
         in_flight = 4

@@ -1,7 +1,9 @@
 """The async blackboard client every module uses.
 
 Writes issued in the same loop iteration are coalesced into one batch message (one commit on the
-node); each call still gets its own acknowledgement or typed error. A write resolves once the node
+node), at most `MAX_WRITES_PER_MESSAGE` to a message: a full message leaves at once, so the node
+commits it while the client is still issuing the rest (a stream of posts keeps both processes busy
+instead of taking turns). Each call still gets its own acknowledgement or typed error. A write resolves once the node
 has committed it (durable per the node's sync mode). Write batches travel as puts on
 `bb/write/<client>` (`[request_id, ops]`); after each commit the node publishes one message on
 `bb/to/<client>` with this client's acknowledgements (`[request_id, results]`) and the events of
@@ -63,7 +65,7 @@ from blackboard.spec import Spec, parse_spec
 from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_owned_wire
 from wire.ratelimit import warn_limited
 
-__all__ = ["BlackboardClient", "MonitorStream"]
+__all__ = ["BlackboardClient", "MonitorStream", "MAX_WRITES_PER_MESSAGE"]
 
 log = logging.getLogger("blackboard.client")
 #: msgpack packer of write batches (used on the client's loop thread only)
@@ -79,6 +81,11 @@ _WAIT_WARN_S = 5.0
 #: a write batch unacknowledged while the node is up is sent this many times, the wait doubling
 #: each time (10 + 20 + 40 s with the default timeout), before it fails
 _WRITE_TRIES = 3
+#: the most writes one batch message carries [-]. One message is one commit on the node, acknowledged
+#: whole; without a bound a burst of posts went out as one message, and client and node took turns
+#: (the node committing, the client waiting; then the client resolving, the node idle). 64–512
+#: measured alike on two cores (about 1.7× the posts a second of one unbounded message).
+MAX_WRITES_PER_MESSAGE = 256
 
 
 def _geom_wire(g: Point | Polyline | Polygon | None) -> dict | None:
@@ -361,7 +368,11 @@ class BlackboardClient:
         if self._closed:
             fut.set_exception(NodeUnavailableError("client is closed"))
             return fut
-        self._batch.append((op, fut, then))
+        batch = self._batch
+        batch.append((op, fut, then))
+        if len(batch) >= MAX_WRITES_PER_MESSAGE:
+            self._batch = []
+            self._send(batch)
         if not self._batch_scheduled:
             # the first write of a loop iteration goes out at once; later ones in the same
             # iteration are coalesced into one batch sent at the end of the iteration
@@ -376,8 +387,11 @@ class BlackboardClient:
             self._loop.call_soon(self._send_batch)
         else:
             self._batch_scheduled = False
-        if not batch:
-            return
+        if batch:
+            self._send(batch)
+
+    def _send(self, batch: list[tuple[WriteOp, asyncio.Future, Any]]) -> None:
+        """Send one write batch under a new request id (or hold it while the node is away)."""
         if self._session is None or self._wpub is None:
             _distribute(batch, None, NodeUnavailableError("client is closed"))
             return
@@ -682,7 +696,8 @@ class BlackboardClient:
         """Post a token; its type is the model's registered name. Await the Token (id, version 1).
 
         The request is queued when called (posts go out in call order; those made in the same loop
-        iteration share one message and one commit); the returned future resolves on the ack.
+        iteration share one message and one commit, `MAX_WRITES_PER_MESSAGE` at most); the returned
+        future resolves on the ack.
         """
         try:
             name = type or self.registry.name_of(attrs)

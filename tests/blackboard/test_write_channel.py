@@ -5,6 +5,7 @@ from __future__ import annotations
 import asyncio
 import os
 import signal
+import threading
 
 import msgpack
 import pytest
@@ -155,3 +156,46 @@ async def test_node_restart_serves_clients_again(tmp_path):
                 Spec(type="bbt_landmark", where=[AttrPredicate(path="name", op="==", value="kept")]))}
     finally:
         node2.stop()
+
+
+async def test_a_burst_of_writes_leaves_in_bounded_messages_the_first_full_one_at_once():
+    """1 + 3 × MAX + 7 posts issued without yielding: the first alone, then messages of at most MAX writes,
+    each full one on the wire before the burst is over; every post stored once, in call order."""
+    from blackboard.client import MAX_WRITES_PER_MESSAGE as cap
+
+    n = 1 + 3 * cap + 7
+    with start_node(namespace="wc5", types=TYPES) as node:
+        keys = BlackboardKeys("wc5")
+        async with BlackboardClient(node.client_net(), source="burst") as bb:
+            await bb.post(Segment(index=-1), stamp=0.0)  # the write channel is up
+            before = await bb.stats()
+            sizes: list[int] = []
+            first_full, seen_all = threading.Event(), threading.Event()
+
+            def on_write(_key: str, msg: list) -> None:
+                sizes.append(len(msg[1]))
+                if len(msg[1]) == cap:
+                    first_full.set()
+                if sum(sizes) == n:
+                    seen_all.set()
+
+            obs = _observer(node, keys.write(bb.client_id), on_write)
+            try:
+                await bb.post(Segment(index=-2), stamp=0.0)  # a round trip: the observer's subscription is matched
+                sizes.clear()
+                futs = [bb.post(Segment(index=k), stamp=0.0) for k in range(1 + cap)]
+                # still inside the loop iteration that issued them: the full message is already on the wire
+                assert first_full.wait(10), f"no full message left during the burst; seen {sizes}"
+                futs += [bb.post(Segment(index=k), stamp=0.0) for k in range(1 + cap, n)]
+                tokens = await asyncio.wait_for(asyncio.gather(*futs), 30)
+                assert seen_all.wait(10), sizes  # the observer's copies of the last messages
+            finally:
+                obs.close()
+            after = await bb.stats()
+        assert [t.attrs.index for t in tokens] == list(range(n))
+        ids = [int(t.id[1:]) for t in tokens]
+        assert ids == sorted(ids) and len(set(ids)) == n  # committed in call order, each once
+        assert max(sizes) == cap and sum(sizes) == n, sizes
+        assert sizes[0] == 1  # the first write of an iteration goes alone, as before
+        assert after.write_requests - before.write_requests == len(sizes) + 1  # + the round trip above
+        assert after.posts - before.posts == n + 1

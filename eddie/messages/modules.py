@@ -17,11 +17,16 @@ __all__ = ["ModuleSwitch", "RouteQuery", "MissionRoute", "ObstacleSeen", "Object
 
 @message_type("modules.switch")
 class ModuleSwitch(Message):
-    """Wake (`on`) or put to sleep a module, optionally in a `mode` (e.g. vision "through_intersection"); `reason` for the log."""
+    """Wake (`on`) or put to sleep a module, optionally in a `mode` (e.g. vision "through_intersection"); `reason` for the log.
+
+    `mission_id`: set by the mission service when a mission starts (`on`) or ends (asleep); a module
+    that keeps the running mission's route asks for the route of this mission again.
+    """
 
     on: bool
     mode: str = ""
     reason: str = ""
+    mission_id: str = ""
 
 
 @message_type("modules.route_query")

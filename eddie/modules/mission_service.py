@@ -10,7 +10,8 @@ work unchanged for both architectures. Each step's outcome is judged from the be
 `eddie.modules.mission_progress`). With `--perception off` it drives: it sends the whole route,
 moved into `local` by the navigator's `world` ← `local`, to the controller as one path (the seed's
 dead reckoning along a known route), with each step's speed limit; with perception on, vision road
-following drives and this module only keeps the status.
+following drives: this module wakes it when a mission starts and puts it to sleep when the mission
+ends, stopping the vehicle unless the mission succeeded (a failed or cancelled mission's stop holds).
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from shapely.geometry import LineString, Point
 
 from eddie.messages.controller import PathCommand, Stop
 from eddie.missions.lane import KERB_MARGIN_M, kept_lane_offset, shift_into_lane
-from eddie.messages.modules import MissionRoute
+from eddie.messages.modules import MissionRoute, ModuleSwitch
 from eddie.modules.mission_progress import MissionProgress, MissionRouteError, step_goals
 from eddie.modules.args import parse_pose
 from eddie.modules.sensing import Belief
@@ -208,7 +209,10 @@ class MissionService:
             self.running = prog
             prog.start(self._now())
             self._publish(prog)
-            if not self.perception:
+            mid = prog.status.mission_id
+            if self.perception:
+                await self.m.send("road_following", ModuleSwitch(on=True, mission_id=mid, reason=f"mission {mid} started"))
+            else:
                 await self._drive(prog)
             while not prog.status.terminal:
                 await self.m.clock.sleep(self.tick_s)
@@ -216,8 +220,26 @@ class MissionService:
                 if prog.update(self._now(), None if pose is None else (float(pose[0]), float(pose[1])),
                                None if pose is None else float(pose[2])):
                     self._publish(prog)
-            if not self.perception:
-                await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=f"mission {prog.status.state}"))
+            await self._end(prog)
+
+    async def _end(self, prog: MissionProgress) -> None:
+        """Stop driving for a mission that ended: vision put to sleep, the vehicle stopped unless it succeeded under vision.
+
+        Vision road following drives while a mission runs with perception on: woken when it starts, put
+        to sleep when it ends (its paths, at a higher priority, would otherwise undo the end's stop). A
+        mission that succeeded under vision drives out the path it was given (it ends at the route's end).
+        """
+        state, mid = prog.status.state, prog.status.mission_id
+        if self.perception:
+            await self.m.send("road_following", ModuleSwitch(on=False, mission_id=mid, reason=f"mission {mid} {state}"))
+        if self.perception and state == "succeeded":
+            return
+        stop = Stop(client=CLIENT, priority=PRIORITY, reason=f"mission {state}")
+        await self.m.send("controller", stop)
+        if self.perception:
+            # a path vision sent before the switch reached it may reach the controller after the stop
+            await self.m.clock.sleep(self.tick_s)
+            await self.m.send("controller", stop)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -5,7 +5,9 @@
 
 It sleeps until a trigger wakes it (`ModuleSwitch(on=True)` in its inbox: "resume vision after
 intersection", "use vision through intersection") and goes back to sleep on `ModuleSwitch(on=False)`
-("dead reckon through intersection"). Awake, each cycle: capture a frame (laser + camera, no
+("dead reckon through intersection"). The mission service wakes it when a mission starts and puts it
+to sleep when the mission ends (so a failed or cancelled mission's stop holds); woken for another
+mission, it asks for that mission's route. Awake, each cycle: capture a frame (laser + camera, no
 truth), note the controller's `local` pose then, segment with PERCEPTION's pipeline on the map
 objects in view, send the position the road edges give to the navigator (as PERCEPTION's fixes reach
 the PILOT under CODGER), move the road into `local`, plan with the PILOT's planner along the mission's
@@ -123,6 +125,12 @@ class RoadFollowing:
 
     async def cycle(self) -> str:
         """Run one cycle; return what happened (for the log)."""
+        if self.route is not None and self.switch.mission_id and self.route.mission_id != self.switch.mission_id:
+            # the mission service woke this module for another mission: its route, and the road afresh
+            self.route = None
+            if self.follower is not None:
+                self.follower.reset()
+            self.lane_offset_m = None
         if self.route is None:
             self.route = await self._route()
             if self.route is None:

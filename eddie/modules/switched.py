@@ -54,6 +54,8 @@ class Switch:
         self.awake = awake
         self.mode = ""
         self.last: Message | None = None
+        #: the mission the mission service last switched the module for ("": none yet)
+        self.mission_id = ""
         #: how many triggers and switches were taken so far (a cycle compares it across its slow part)
         self.taken = 0
 
@@ -65,6 +67,8 @@ class Switch:
         """Apply an inbox message: a `ModuleSwitch`, or a trigger; anything else is ignored."""
         if isinstance(msg, ModuleSwitch):
             self.taken += 1
+            if msg.mission_id:
+                self.mission_id = msg.mission_id
             self._set(name, msg.on, msg.mode, msg.reason)
             return
         data = trigger_data(msg)

@@ -32,6 +32,7 @@ import time
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
+from bench.errors import BenchError
 from blackboard import (
     BlackboardClient,
     NetworkConfig,
@@ -119,7 +120,7 @@ def _start_floor(ns: str) -> tuple[subprocess.Popen, str]:
     line = p.stdout.readline() if r else ""
     if not line.startswith("floor ready"):
         p.kill()
-        raise RuntimeError(f"floor process failed to start: {line!r}")
+        raise BenchError(f"floor process failed to start: {line!r}")
     return p, ep
 
 

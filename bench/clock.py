@@ -26,6 +26,7 @@ import threading
 import time
 
 from bench.eddie import _spawn, _stop
+from bench.errors import BenchError
 from wire.keys import ModuleKeys
 from wire.network import NetworkConfig
 from wire.ports import free_port
@@ -46,7 +47,7 @@ def _floor(net: NetworkConfig, seconds: float) -> tuple[float, float]:
     try:
         s.subscribe_payload(ModuleKeys(net.namespace).sim_clock, on_tick)
         if not ticking.wait(10.0):
-            raise RuntimeError(f"no sim clock tick within 10 s on {net.connect}")
+            raise BenchError(f"no sim clock tick within 10 s on {net.connect}")
         c0, t0, n0 = time.process_time(), time.monotonic(), n[0]
         time.sleep(seconds)  # the measured window [s wall]: the process does nothing but hear ticks
         wall = time.monotonic() - t0

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.errors import BenchError
 from wire.keys import Keys
 from wire.network import NetworkConfig
 from wire.ports import free_port
@@ -86,7 +87,7 @@ def _spawn(args: list[str], ready: str, timeout: float = 60.0) -> subprocess.Pop
             return p
     p.kill()
     p.wait(10)
-    raise RuntimeError(f"{args[:3]} did not start (no {ready!r})")
+    raise BenchError(f"{args[:3]} did not start (no {ready!r})")
 
 
 def _stop(p: subprocess.Popen) -> None:
@@ -141,9 +142,9 @@ async def _trigger_bench(net: NetworkConfig, path: Path, n: int) -> dict:
                 continue
             if isinstance(inc.message, TriggerMessage) and inc.message.annotation_id == "g0000":
                 break
-            raise RuntimeError(f"expected the trigger of gate 0, got {inc.message!r}")
+            raise BenchError(f"expected the trigger of gate 0, got {inc.message!r}")
         else:
-            raise RuntimeError("the map manager never fired the first gate (20 states across it, 0.5 s apart)")
+            raise BenchError("the map manager never fired the first gate (20 states across it, 0.5 s apart)")
         from_manager: list[float] = []
         from_state: list[float] = []
         for k in range(2, n + 1):
@@ -153,7 +154,7 @@ async def _trigger_bench(net: NetworkConfig, path: Path, n: int) -> dict:
             t_arr = time.time()
             msg = inc.message
             if not isinstance(msg, TriggerMessage) or msg.annotation_id != f"g{k - 1:04d}":
-                raise RuntimeError(f"expected the trigger of gate {k - 1}, got {msg!r}")
+                raise BenchError(f"expected the trigger of gate {k - 1}, got {msg!r}")
             from_manager.append((t_arr - msg.crossed_wall) * 1e3)
             from_state.append((t_arr - t_pub) * 1e3)
     m50, m99 = _pct(from_manager)
@@ -219,7 +220,7 @@ async def _bench(ns: str, ep: str, samples: int) -> dict:
             replies = await me.link.get(floor_key, query, timeout=2.0)
             t2 = time.perf_counter()
             if not replies or not replies[0].ok:
-                raise RuntimeError("the floor process did not answer")
+                raise BenchError("the floor process did not answer")
             pos_us.append((t1 - t0) * 1e6)
             floor_us.append((t2 - t1) * 1e6)
     p50, p99 = _pct(pos_us)

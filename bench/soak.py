@@ -31,6 +31,7 @@ import numpy as np
 import psutil
 from pydantic import BaseModel, ConfigDict
 
+from bench.errors import BenchError
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec, token_type
 from blackboard.testing import start_node
 
@@ -185,7 +186,7 @@ def run(*, minutes: float = 10.0, rate: float = 1000.0, monitors: int = 20, keep
             try:
                 assert watcher.stdout is not None and watcher.stdin is not None
                 if watcher.stdout.readline().strip() != "ready":
-                    raise RuntimeError("the soak watcher did not come up")
+                    raise BenchError("the soak watcher did not come up")
                 posted = asyncio.run(_post(net, rate, minutes * 60.0, monitors, keep, node.proc.pid))
                 watcher.stdin.write(f"end {posted['posts']}\n")
                 watcher.stdin.flush()

@@ -5,13 +5,30 @@ from __future__ import annotations
 import importlib
 import json
 import os
-from typing import Annotated
+from typing import Annotated, Any, Callable
 
 import typer
 
 __all__ = ["bench_app"]
 
 bench_app = typer.Typer(help="Benchmarks; each prints one JSON object.", no_args_is_help=True)
+
+
+def _measure(name: str, run: Callable[..., dict], **kw: Any) -> dict:
+    """Return `run(**kw)`; a benchmark that could not measure says why and exits 1 (no traceback).
+
+    What it cannot measure: a process it needs that did not start or answer (`BenchError`), the
+    blackboard or an EDDIE link failing with its typed error, a wait that timed out.
+    """
+    from bench.errors import BenchError
+    from blackboard.errors import BlackboardError
+    from eddie.errors import EddieError
+
+    try:
+        return run(**kw)
+    except (BenchError, BlackboardError, EddieError, TimeoutError) as exc:
+        typer.echo(f"sidewalk bench {name}: could not measure: {exc or type(exc).__name__}", err=True)
+        raise typer.Exit(1) from None
 
 
 def _emit(result: dict, as_json: bool) -> None:
@@ -35,7 +52,7 @@ def bench_blackboard(
 ) -> None:
     """Blackboard node and client in separate processes, beside the raw-Zenoh floor."""
     mod = importlib.import_module("bench.blackboard")
-    _emit(mod.run(tokens=tokens, samples=samples), as_json)
+    _emit(_measure("blackboard", mod.run, tokens=tokens, samples=samples), as_json)
 
 
 @bench_app.command("sim")
@@ -46,7 +63,7 @@ def bench_sim(
 ) -> None:
     """Simulator render time, step time and the real-time factor reached."""
     mod = importlib.import_module("bench.sim")
-    _emit(mod.run(world=world, frames=frames), as_json)
+    _emit(_measure("sim", mod.run, world=world, frames=frames), as_json)
 
 
 @bench_app.command("clock")
@@ -57,7 +74,7 @@ def bench_clock(
 ) -> None:
     """What a module costs while it only waits on the sim clock, beside a bare Zenoh subscription to it."""
     mod = importlib.import_module("bench.clock")
-    _emit(mod.run(rtf=rtf, seconds=seconds), as_json)
+    _emit(_measure("clock", mod.run, rtf=rtf, seconds=seconds), as_json)
 
 
 @bench_app.command("perception")
@@ -70,7 +87,7 @@ def bench_perception(
     """PERCEPTION's cycle time (captured frame to driving-unit result) at default resolution, with the IoU beside it."""
     mod = importlib.import_module("bench.perception")
     try:
-        result = mod.run(world=world, frames=frames, seed=seed)
+        result = _measure("perception", mod.run, world=world, frames=frames, seed=seed)
     except (FileNotFoundError, ValueError) as exc:
         raise typer.BadParameter(f"--world {world!r}: {exc}") from None
     _emit(result, as_json)
@@ -83,7 +100,7 @@ def bench_secure(
 ) -> None:
     """The cost of --secure: post → monitor latency, plain peers vs plain clients vs TLS + passwords + access control."""
     mod = importlib.import_module("bench.secure")
-    _emit(mod.run(samples=samples), as_json)
+    _emit(_measure("secure", mod.run, samples=samples), as_json)
 
 
 @bench_app.command("record")
@@ -106,7 +123,7 @@ def bench_record(
         raise typer.BadParameter(f"--arch must be codger or eddie, got {arch!r}")
     if monitor and not os.access(mod.CHROMIUM, os.X_OK):
         raise typer.BadParameter(f"--monitor needs Debian's chromium at {mod.CHROMIUM} (apt-get install -y chromium)")
-    _emit(mod.run(mission=mission or mod.DEFAULT_MISSION, rtf=rtf, seed=seed, arch=arch, perception=perception, without=without,
+    _emit(_measure("record", mod.run, mission=mission or mod.DEFAULT_MISSION, rtf=rtf, seed=seed, arch=arch, perception=perception, without=without,
                   monitor=monitor), as_json)
 
 
@@ -119,7 +136,7 @@ def bench_eddie(
     if samples < 10:
         raise typer.BadParameter(f"--samples must be ≥ 10, got {samples}")
     mod = importlib.import_module("bench.eddie")
-    _emit(mod.run(samples=samples), as_json)
+    _emit(_measure("eddie", mod.run, samples=samples), as_json)
 
 
 @bench_app.command("soak")
@@ -135,7 +152,7 @@ def bench_soak(
         raise typer.BadParameter(f"wants --minutes > 0, --rate > 0, --monitors ≥ 1, --keep ≥ 0 "
                                  f"(got {minutes}, {rate}, {monitors}, {keep})")
     mod = importlib.import_module("bench.soak")
-    _emit(mod.run(minutes=minutes, rate=rate, monitors=monitors, keep=keep), as_json)
+    _emit(_measure("soak", mod.run, minutes=minutes, rate=rate, monitors=monitors, keep=keep), as_json)
 
 
 @bench_app.command("fuzz")
@@ -148,7 +165,7 @@ def bench_fuzz(
     if payloads < 1:
         raise typer.BadParameter(f"must be ≥ 1, got {payloads}", param_hint="--payloads")
     mod = importlib.import_module("bench.fuzz")
-    result = mod.run(payloads=payloads, seed=seed)
+    result = _measure("fuzz", mod.run, payloads=payloads, seed=seed)
     _emit(result, as_json)
     if result["violation_count"] or not all(result["still_serving"].values()) or not all(result["alive"].values()):
         raise typer.Exit(1)

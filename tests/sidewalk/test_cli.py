@@ -66,3 +66,21 @@ def test_bad_map_error_is_named():
 def test_bad_sim_start_is_named():
     r = runner.invoke(app, ["sim", "serve", "--start", "1,2"])
     assert r.exit_code == 2 and "--start must be X,Y,YAW" in r.output
+
+
+def test_a_benchmark_that_cannot_measure_says_why_without_a_traceback(monkeypatch):
+    import bench.eddie
+    from bench.errors import BenchError
+    from eddie.errors import LinkTimeout
+
+    for exc in (BenchError("the map manager never fired the first gate (20 states across it, 0.5 s apart)"),
+                LinkTimeout("module 'controller': no reply to 'position' within 2 s")):
+        def fail(**_kw):  # noqa: ANN202 - what bench.eddie.run raises when its processes do not answer
+            raise exc
+
+        monkeypatch.setattr(bench.eddie, "run", fail)
+        r = runner.invoke(app, ["bench", "eddie", "--json", "--samples", "10"])
+        assert r.exit_code == 1, r.output
+        assert f"sidewalk bench eddie: could not measure: {exc}" in r.output
+        assert "Traceback" not in r.output
+        assert isinstance(r.exception, SystemExit)  # an exit with the message, not the error escaping

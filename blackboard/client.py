@@ -375,7 +375,7 @@ class BlackboardClient:
             self._send(batch)
         if not self._batch_scheduled:
             # the first write of a loop iteration goes out at once; later ones in the same
-            # iteration are coalesced into one batch sent at the end of the iteration
+            # iteration are coalesced into batches, each sent once full, the last at the iteration's end
             self._batch_scheduled = True
             self._send_batch(reschedule=True)
         return fut

@@ -125,8 +125,9 @@ class RoadFollowing:
 
     async def cycle(self) -> str:
         """Run one cycle; return what happened (for the log)."""
-        if self.route is not None and self.switch.mission_id and self.route.mission_id != self.switch.mission_id:
-            # the mission service woke this module for another mission: its route, and the road afresh
+        sw = self.switch
+        if self.route is not None and sw.mission_id and (self.route.mission_id != sw.mission_id or not sw.mission_running):
+            # the mission ended (a trigger woke this module since) or another began: ask again, see the road afresh
             self.route = None
             if self.follower is not None:
                 self.follower.reset()

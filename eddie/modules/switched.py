@@ -54,8 +54,10 @@ class Switch:
         self.awake = awake
         self.mode = ""
         self.last: Message | None = None
-        #: the mission the mission service last switched the module for ("": none yet)
+        #: the mission the mission service last switched the module for ("": none yet), and whether it
+        #: said the mission started (True) or ended (False)
         self.mission_id = ""
+        self.mission_running = False
         #: how many triggers and switches were taken so far (a cycle compares it across its slow part)
         self.taken = 0
 
@@ -68,7 +70,7 @@ class Switch:
         if isinstance(msg, ModuleSwitch):
             self.taken += 1
             if msg.mission_id:
-                self.mission_id = msg.mission_id
+                self.mission_id, self.mission_running = msg.mission_id, msg.on
             self._set(name, msg.on, msg.mode, msg.reason)
             return
         data = trigger_data(msg)

@@ -19,10 +19,10 @@ def test_the_mission_service_switch_names_its_mission_and_a_trigger_keeps_it() -
     s = Switch(awake=True)
     assert s.mission_id == ""
     s.take("road_following", ModuleSwitch(on=False, mission_id="m-1", reason="mission m-1 cancelled"))
-    assert (s.awake, s.mission_id, s.taken) == (False, "m-1", 1)
-    s.take("road_following", _trigger(ResumeVision(node_id="n3", segment_index=2)))  # a trigger wakes it; the mission stays
-    assert (s.awake, s.mission_id, s.taken) == (True, "m-1", 2)
-    s.take("road_following", ModuleSwitch(on=False, mode="dead_reckon"))  # a switch naming no mission keeps the last one
-    assert (s.awake, s.mission_id) == (False, "m-1")
+    assert (s.awake, s.mission_id, s.mission_running, s.taken) == (False, "m-1", False, 1)
+    s.take("road_following", _trigger(ResumeVision(node_id="n3", segment_index=2)))  # a trigger wakes it; the mission stays ended
+    assert (s.awake, s.mission_id, s.mission_running, s.taken) == (True, "m-1", False, 2)
     s.take("road_following", ModuleSwitch(on=True, mission_id="m-2", reason="mission m-2 started"))
-    assert (s.awake, s.mode, s.mission_id, s.taken) == (True, "", "m-2", 4)
+    assert (s.awake, s.mode, s.mission_id, s.mission_running, s.taken) == (True, "", "m-2", True, 3)
+    s.take("road_following", ModuleSwitch(on=False, mode="dead_reckon"))  # a switch naming no mission keeps the last one
+    assert (s.awake, s.mission_id, s.mission_running) == (False, "m-2", True)

@@ -15,7 +15,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.kalman import ExtendedKalmanFilter
 from pydantic import BaseModel, ConfigDict, Field
 
 from wire.se2 import between, compose, inverse, wrap_angle
@@ -100,6 +99,10 @@ class PoseFilter:
         if not np.all(np.isfinite(pose)):
             raise EstimatorError("initial pose must be finite")
         _check_pd(cov, "initial pose")
+        # imported here: filterpy imports scipy.stats (0.4 s), and every module that reads the PILOT's
+        # config imports this file, while only the position estimators build a filter
+        from filterpy.kalman import ExtendedKalmanFilter
+
         self._ekf = ExtendedKalmanFilter(dim_x=3, dim_z=3)
         self._ekf.x = pose.reshape(3, 1).copy()
         self._ekf.P = cov.copy()

@@ -5,7 +5,8 @@ from __future__ import annotations
 import importlib
 import json
 import os
-from typing import Annotated, Any, Callable
+from types import ModuleType
+from typing import Annotated, Any
 
 import typer
 
@@ -14,8 +15,8 @@ __all__ = ["bench_app"]
 bench_app = typer.Typer(help="Benchmarks; each prints one JSON object.", no_args_is_help=True)
 
 
-def _measure(name: str, run: Callable[..., dict], **kw: Any) -> dict:
-    """Return `run(**kw)`; a benchmark that could not measure says why and exits 1 (no traceback).
+def _measure(mod: ModuleType, **kw: Any) -> dict:
+    """Return the benchmark module's `run(**kw)`; one that could not measure says why and exits 1 (no traceback).
 
     What it cannot measure: a process it needs that did not start or answer (`BenchError`), the
     blackboard or an EDDIE link failing with its typed error, a wait that timed out.
@@ -25,8 +26,9 @@ def _measure(name: str, run: Callable[..., dict], **kw: Any) -> dict:
     from eddie.errors import EddieError
 
     try:
-        return run(**kw)
+        return mod.run(**kw)
     except (BenchError, BlackboardError, EddieError, TimeoutError) as exc:
+        name = mod.__name__.rsplit(".", 1)[-1]
         typer.echo(f"sidewalk bench {name}: could not measure: {exc or type(exc).__name__}", err=True)
         raise typer.Exit(1) from None
 
@@ -52,7 +54,7 @@ def bench_blackboard(
 ) -> None:
     """Blackboard node and client in separate processes, beside the raw-Zenoh floor."""
     mod = importlib.import_module("bench.blackboard")
-    _emit(_measure("blackboard", mod.run, tokens=tokens, samples=samples), as_json)
+    _emit(_measure(mod, tokens=tokens, samples=samples), as_json)
 
 
 @bench_app.command("sim")
@@ -63,7 +65,7 @@ def bench_sim(
 ) -> None:
     """Simulator render time, step time and the real-time factor reached."""
     mod = importlib.import_module("bench.sim")
-    _emit(_measure("sim", mod.run, world=world, frames=frames), as_json)
+    _emit(_measure(mod, world=world, frames=frames), as_json)
 
 
 @bench_app.command("clock")
@@ -74,7 +76,7 @@ def bench_clock(
 ) -> None:
     """What a module costs while it only waits on the sim clock, beside a bare Zenoh subscription to it."""
     mod = importlib.import_module("bench.clock")
-    _emit(_measure("clock", mod.run, rtf=rtf, seconds=seconds), as_json)
+    _emit(_measure(mod, rtf=rtf, seconds=seconds), as_json)
 
 
 @bench_app.command("perception")
@@ -87,7 +89,7 @@ def bench_perception(
     """PERCEPTION's cycle time (captured frame to driving-unit result) at default resolution, with the IoU beside it."""
     mod = importlib.import_module("bench.perception")
     try:
-        result = _measure("perception", mod.run, world=world, frames=frames, seed=seed)
+        result = _measure(mod, world=world, frames=frames, seed=seed)
     except (FileNotFoundError, ValueError) as exc:
         raise typer.BadParameter(f"--world {world!r}: {exc}") from None
     _emit(result, as_json)
@@ -100,7 +102,7 @@ def bench_secure(
 ) -> None:
     """The cost of --secure: post → monitor latency, plain peers vs plain clients vs TLS + passwords + access control."""
     mod = importlib.import_module("bench.secure")
-    _emit(_measure("secure", mod.run, samples=samples), as_json)
+    _emit(_measure(mod, samples=samples), as_json)
 
 
 @bench_app.command("record")
@@ -123,7 +125,7 @@ def bench_record(
         raise typer.BadParameter(f"--arch must be codger or eddie, got {arch!r}")
     if monitor and not os.access(mod.CHROMIUM, os.X_OK):
         raise typer.BadParameter(f"--monitor needs Debian's chromium at {mod.CHROMIUM} (apt-get install -y chromium)")
-    _emit(_measure("record", mod.run, mission=mission or mod.DEFAULT_MISSION, rtf=rtf, seed=seed, arch=arch, perception=perception, without=without,
+    _emit(_measure(mod, mission=mission or mod.DEFAULT_MISSION, rtf=rtf, seed=seed, arch=arch, perception=perception, without=without,
                   monitor=monitor), as_json)
 
 
@@ -136,7 +138,7 @@ def bench_eddie(
     if samples < 10:
         raise typer.BadParameter(f"--samples must be ≥ 10, got {samples}")
     mod = importlib.import_module("bench.eddie")
-    _emit(_measure("eddie", mod.run, samples=samples), as_json)
+    _emit(_measure(mod, samples=samples), as_json)
 
 
 @bench_app.command("soak")
@@ -152,7 +154,7 @@ def bench_soak(
         raise typer.BadParameter(f"wants --minutes > 0, --rate > 0, --monitors ≥ 1, --keep ≥ 0 "
                                  f"(got {minutes}, {rate}, {monitors}, {keep})")
     mod = importlib.import_module("bench.soak")
-    _emit(_measure("soak", mod.run, minutes=minutes, rate=rate, monitors=monitors, keep=keep), as_json)
+    _emit(_measure(mod, minutes=minutes, rate=rate, monitors=monitors, keep=keep), as_json)
 
 
 @bench_app.command("fuzz")
@@ -165,7 +167,7 @@ def bench_fuzz(
     if payloads < 1:
         raise typer.BadParameter(f"must be ≥ 1, got {payloads}", param_hint="--payloads")
     mod = importlib.import_module("bench.fuzz")
-    result = _measure("fuzz", mod.run, payloads=payloads, seed=seed)
+    result = _measure(mod, payloads=payloads, seed=seed)
     _emit(result, as_json)
     if result["violation_count"] or not all(result["still_serving"].values()) or not all(result["alive"].values()):
         raise typer.Exit(1)

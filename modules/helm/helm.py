@@ -2,7 +2,9 @@
 
 Reads odometry (local←vehicle) from the simulator's drive interface and local path plans (frame
 `local`) from the blackboard; sends timed DriveCommands (speed [m/s], curvature [1/m], duration [s])
-on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time). Whenever a new plan appears the old one
+on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time), every one: a HELM that fell behind (a loaded
+machine at a high RTF) posts the odometry that queued up meanwhile, so the pose history a delayed fix is
+propagated through has no holes. Whenever a new plan appears the old one
 is dropped (seed §2.3.4). With no plan, or at its end, it commands stops. It also stops while the newest
 `obstacle_report` says something stands on the plan ahead, and drives on once a newer one says clear.
 """
@@ -22,12 +24,15 @@ from blackboard.errors import BlackboardError
 from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError, tracker_config_for
 from modules.vocabulary import LocalPathPlan, ObstacleReport
 from wire.keys import root as keys_root
-from wire.timemode import lockstep_enabled
+from wire.ratelimit import warn_limited
 from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
 
-__all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys"]
+__all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys", "MAX_POSES_IN_FLIGHT"]
 
 log = logging.getLogger(__name__)
+
+#: Poses posted and not yet acknowledged, at most; beyond it (the blackboard away) odometry is not posted.
+MAX_POSES_IN_FLIGHT = 256
 
 
 class DriveKeys(BaseModel):
@@ -92,10 +97,9 @@ class Helm:
         self.obstacle: ObstacleReport | None = None
         self.obstacle_stops = 0
         self._held = False
-        self._pose_task: asyncio.Task | None = None
-        #: lock-step: post each pose as its odometry arrives (the simulator announces sim time t only once the
-        #: pose of t is on the blackboard), not when the control loop wakes at t beside the modules reading it
-        self._pose_on_odom = lockstep_enabled()
+        self.poses_posted = 0
+        self.poses_dropped = 0
+        self._poses_in_flight = 0
 
     def _on_odom(self, _key: str, payload: bytes) -> None:
         try:
@@ -107,14 +111,36 @@ class Helm:
         if self.odom is None or od.stamp >= self.odom.stamp:
             self.odom = od
             self._odom_event.set()
-            if self._pose_on_odom and self.rt.is_ready:
-                self._maybe_post_pose(od)
+            if self.rt.is_ready:
+                self._post_pose(od)
 
-    def _maybe_post_pose(self, od: Odometry) -> None:
-        """Post `od` as the moving vehicle position when a pose period passed and the previous post is done."""
-        if od.stamp - self._last_pose_stamp >= 1.0 / self.cfg.pose_hz - 1e-6 and (self._pose_task is None or self._pose_task.done()):
-            self._last_pose_stamp = od.stamp
-            self._pose_task = asyncio.ensure_future(self._post_pose(od))
+    def _post_pose(self, od: Odometry) -> None:
+        """Post `od` as the moving vehicle position if a pose period passed since the last one posted.
+
+        Called for each odometry sample as it arrives, never waiting: posts are pipelined (those of one
+        loop iteration share a message), so samples that queued while the process was held up all go
+        out, and lock-step's simulator, which announces sim time t only once the pose of t is on the
+        blackboard, is never kept waiting on the control loop.
+        """
+        if od.stamp - self._last_pose_stamp < 1.0 / self.cfg.pose_hz - 1e-6:
+            return
+        if self._poses_in_flight >= MAX_POSES_IN_FLIGHT:
+            self.poses_dropped += 1
+            warn_limited(log, "helm-poses", "helm: %d poses unacknowledged (blackboard away?): odometry not posted", self._poses_in_flight)
+            return
+        self._last_pose_stamp = od.stamp
+        self._poses_in_flight += 1
+        fut = self.rt.bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=od.x, y=od.y, yaw=od.yaw),
+                                   stamp=od.stamp, hold=self.cfg.pose_hold_s)
+        fut.add_done_callback(self._pose_done)
+
+    def _pose_done(self, fut: asyncio.Future) -> None:
+        self._poses_in_flight -= 1
+        exc = None if fut.cancelled() else fut.exception()
+        if exc is None:
+            self.poses_posted += 1
+        else:
+            warn_limited(log, "helm-pose-failed", "helm: posting the moving vehicle position failed: %s", exc)
 
     def take_plan(self, plan: LocalPathPlan) -> bool:
         """Replace the plan being tracked with `plan` (frame local); return False if unusable."""
@@ -177,13 +203,6 @@ class Helm:
         self._held = hold
         return hold
 
-    async def _post_pose(self, od: Odometry) -> None:
-        try:
-            await self.rt.bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=od.x, y=od.y, yaw=od.yaw),
-                                       stamp=od.stamp, hold=self.cfg.pose_hold_s)
-        except BlackboardError as exc:
-            log.warning("helm: posting the moving vehicle position failed: %s", exc)
-
     async def run(self) -> None:
         """Track plans until the runtime asks to stop; always leave the vehicle commanded to stop."""
         rt = self.rt
@@ -200,6 +219,7 @@ class Helm:
         except BlackboardError as exc:
             log.warning("helm: cannot read the newest plan: %s", exc)
         rt.ready()
+        self._post_pose(self.odom)
         period = 1.0 / self.cfg.control_hz
         last_t = rt.clock.now()
         try:
@@ -216,16 +236,10 @@ class Helm:
                     self._send(0.0, 0.0)
                 else:
                     self._send(cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon)
-                # The pose goes out without holding up control: the drive command never waits for the
-                # blackboard's acknowledgement (at a high RTF the watchdog would stop the vehicle).
-                if not self._pose_on_odom:
-                    self._maybe_post_pose(od)
                 await rt.clock.sleep(period)
         finally:
             plan_task.cancel()
             obstacle_task.cancel()
-            if self._pose_task is not None:
-                self._pose_task.cancel()
             try:
                 self._send(0.0, 0.0)
             except Exception as exc:  # the session may already be closing

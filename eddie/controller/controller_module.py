@@ -3,7 +3,8 @@
 Inbox and service `command`: controller commands (`eddie.messages.controller`); the inbox also takes
 the map manager's `set_speed` triggers (a mission speed cap over every client); service `position`:
 the dead-reckoned pose now; service `recorded_path`: a stretch of the driven path. Streams: `state`
-every control tick (≥ 10 Hz sim), `path` when the path changes, `events` for every event (also written
+every control period of odometry (≥ 10 Hz sim), published as the odometry arrives, so one that queued
+while the process was held up still goes out and a module interpolating the stream finds no holes, `path` when the path changes, `events` for every event (also written
 to the process log).
 """
 
@@ -13,7 +14,6 @@ import logging
 
 from wire.drive import DriveMessageError, Odometry, decode, encode
 from wire.keys import SimKeys
-from wire.lockstep import lockstep_enabled
 
 from eddie.controller.integrated_controller import ControllerConfig, IntegratedController
 from eddie.errors import BadMessage, ControlRefused
@@ -45,9 +45,9 @@ class ControllerModule:
         self.core = IntegratedController(cfg)
         self.sim = SimKeys(m.net.namespace)
         self.bad_odometry = 0
-        #: lock-step: the state goes out as the odometry of each control period arrives (the simulator announces
-        #: sim time t only once it was handled), so every module woken at t already holds the controller's pose of t
-        self._state_on_odom = lockstep_enabled()
+        #: the state goes out as the odometry of each control period arrives: in lock-step the simulator announces
+        #: sim time t only once it was handled, so every module woken at t already holds the controller's pose of t;
+        #: in real time a controller held up (a loaded machine at RTF 50) still publishes the odometry that queued
         self._next_state: float | None = None  # sim time [s] of the next state published on odometry (None: not started)
 
     def _on_odom(self, _key: str, payload: bytes) -> None:
@@ -131,16 +131,13 @@ class ControllerModule:
         inbox = asyncio.ensure_future(self._inbox())
         m.ready()
         period = 1.0 / self.cfg.control_hz
-        if self._state_on_odom:
-            m.publish("state", self.core.state(m.clock.now()))
-            self._next_state = m.clock.now() + period - 1e-6
+        m.publish("state", self.core.state(m.clock.now()))
+        self._next_state = m.clock.now() + period - 1e-6
         try:
             while True:
                 now = m.clock.now()
                 cmd = self.core.tick(now)
                 m.link.put(self.sim.cmd, encode(cmd))
-                if not self._state_on_odom:
-                    m.publish("state", self.core.state(now))
                 self._flush()
                 await m.clock.sleep(period)
         finally:

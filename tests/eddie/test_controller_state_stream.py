@@ -1,0 +1,104 @@
+"""The controller's `state` stream has no holes when the controller falls behind its odometry.
+
+A real controller process; the test plays the simulator (sim clock and the odometry of a vehicle
+driving a circle) and listens to the stream. A loaded machine at a high RTF holds a process up for
+seconds of sim time, and the odometry that queued meanwhile reaches it in one burst; the test sends
+such a burst. The vision modules and the navigator pair each capture with the controller's pose at
+its stamp, interpolated in this stream: every control period of the burst must be in it.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import math
+import os
+import sys
+
+from wire.drive import Odometry, SimClock, encode
+from wire.keys import SimKeys
+from wire.network import NetworkConfig
+from wire.ports import free_port
+
+from eddie.messages.controller import ControllerState
+from eddie.toolkit import Module
+from tests.modules._procs import spawn, stop
+
+RADIUS = 2.0  # [m] of the circle driven
+SPEED = 1.0  # [m/s]
+STEP = 0.05  # [s] sim between odometry samples (the simulator's 20 Hz)
+
+
+def _odom(k: int) -> Odometry:
+    """Odometry sample k: `local←vehicle` on a left-hand circle of RADIUS at SPEED, from the origin."""
+    t = round(k * STEP, 6)
+    w = SPEED / RADIUS
+    return Odometry(stamp=t, x=RADIUS * math.sin(w * t), y=RADIUS * (1.0 - math.cos(w * t)),
+                    yaw=math.remainder(w * t, 2 * math.pi), v=SPEED, omega=w, distance=SPEED * t)
+
+
+async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_its_state_stream():
+    ns = f"css{os.getpid()}"
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    keys = SimKeys(ns)
+    ctl = None
+    ticker: asyncio.Future | None = None
+    stop_ticks = asyncio.Event()
+    k = 0
+    async with Module("tester", NetworkConfig(namespace=ns, listen=(ep,))) as me:
+
+        def tick() -> None:
+            nonlocal k
+            k += 1
+            od = _odom(k)
+            me.link.put(keys.odom, encode(od))
+            me.link.put(keys.clock, encode(SimClock(stamp=od.stamp, rtf=5.0, rtf_actual=5.0, step=k)))
+
+        async def steady() -> None:  # RTF ≈ 5 until told to stop
+            while not stop_ticks.is_set():
+                tick()
+                await asyncio.sleep(STEP / 5.0)
+
+        states: list[ControllerState] = []
+        seen = asyncio.Event()
+        want_stamp = [math.inf]
+
+        def on_state(s: ControllerState) -> None:
+            states.append(s)
+            if s.stamp >= want_stamp[0] - 1e-9:
+                seen.set()
+
+        me.subscribe("controller", "state", ControllerState, on_state)
+        try:
+            ticker = asyncio.ensure_future(steady())
+            ctl = await asyncio.to_thread(spawn, [sys.executable, "-m", "eddie.controller", "--vehicle", "terregator",
+                                                  "--ns", ns, "--connect", ep], "SIDEWALK-READY controller")
+            want_stamp[0] = _odom(k).stamp
+            await asyncio.wait_for(seen.wait(), 30.0)
+            stop_ticks.set()
+            await ticker
+            # the burst: 3 s sim of odometry at once, as a held-up controller receives it
+            burst_from = k
+            for _ in range(60):
+                tick()
+            last = k
+            stop_ticks.clear()
+            ticker = asyncio.ensure_future(steady())  # and the simulator goes on
+            seen.clear()
+            want_stamp[0] = _odom(last).stamp
+            await asyncio.wait_for(seen.wait(), 30.0)
+            t0, t1 = _odom(burst_from).stamp, _odom(last).stamp
+            stamps = sorted({s.stamp for s in states if t0 - 0.1 <= s.stamp <= t1})
+            gaps = [b - a for a, b in zip(stamps, stamps[1:])]
+            # one state per control period (10 Hz sim): no gap longer than a period and an odometry step
+            assert stamps and max(gaps) <= 0.1 + STEP + 1e-6, f"holes in the state stream during the burst: {max(gaps):.2f} s"
+            for s in states:  # each state is the odometry of its stamp
+                k_s = round(s.stamp / STEP)
+                if abs(k_s * STEP - s.stamp) < 1e-6 and k_s > 0:
+                    want = _odom(k_s)
+                    assert math.hypot(s.x - want.x, s.y - want.y) < 1e-6
+        finally:
+            stop_ticks.set()
+            if ticker is not None:
+                await ticker
+            code = stop(ctl) if ctl is not None else 0
+    assert code == 0

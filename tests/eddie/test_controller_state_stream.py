@@ -14,26 +14,15 @@ import math
 import os
 import sys
 
-from wire.drive import Odometry, SimClock, encode
+from wire.drive import SimClock, encode
 from wire.keys import SimKeys
 from wire.network import NetworkConfig
 from wire.ports import free_port
 
 from eddie.messages.controller import ControllerState
 from eddie.toolkit import Module
+from tests._odometry import STEP, circle_odometry
 from tests.modules._procs import spawn, stop
-
-RADIUS = 2.0  # [m] of the circle driven
-SPEED = 1.0  # [m/s]
-STEP = 0.05  # [s] sim between odometry samples (the simulator's 20 Hz)
-
-
-def _odom(k: int) -> Odometry:
-    """Odometry sample k: `local←vehicle` on a left-hand circle of RADIUS at SPEED, from the origin."""
-    t = round(k * STEP, 6)
-    w = SPEED / RADIUS
-    return Odometry(stamp=t, x=RADIUS * math.sin(w * t), y=RADIUS * (1.0 - math.cos(w * t)),
-                    yaw=math.remainder(w * t, 2 * math.pi), v=SPEED, omega=w, distance=SPEED * t)
 
 
 async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_its_state_stream():
@@ -49,7 +38,7 @@ async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_i
         def tick() -> None:
             nonlocal k
             k += 1
-            od = _odom(k)
+            od = circle_odometry(k)
             me.link.put(keys.odom, encode(od))
             me.link.put(keys.clock, encode(SimClock(stamp=od.stamp, rtf=5.0, rtf_actual=5.0, step=k)))
 
@@ -72,7 +61,7 @@ async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_i
             ticker = asyncio.ensure_future(steady())
             ctl = await asyncio.to_thread(spawn, [sys.executable, "-m", "eddie.controller", "--vehicle", "terregator",
                                                   "--ns", ns, "--connect", ep], "SIDEWALK-READY controller")
-            want_stamp[0] = _odom(k).stamp
+            want_stamp[0] = circle_odometry(k).stamp
             await asyncio.wait_for(seen.wait(), 30.0)
             stop_ticks.set()
             await ticker
@@ -84,9 +73,9 @@ async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_i
             stop_ticks.clear()
             ticker = asyncio.ensure_future(steady())  # and the simulator goes on
             seen.clear()
-            want_stamp[0] = _odom(last).stamp
+            want_stamp[0] = circle_odometry(last).stamp
             await asyncio.wait_for(seen.wait(), 30.0)
-            t0, t1 = _odom(burst_from).stamp, _odom(last).stamp
+            t0, t1 = circle_odometry(burst_from).stamp, circle_odometry(last).stamp
             stamps = sorted({s.stamp for s in states if t0 - 0.1 <= s.stamp <= t1})
             gaps = [b - a for a, b in zip(stamps, stamps[1:])]
             # one state per control period (10 Hz sim): no gap longer than a period and an odometry step
@@ -94,7 +83,7 @@ async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_i
             for s in states:  # each state is the odometry of its stamp
                 k_s = round(s.stamp / STEP)
                 if abs(k_s * STEP - s.stamp) < 1e-6 and k_s > 0:
-                    want = _odom(k_s)
+                    want = circle_odometry(k_s)
                     assert math.hypot(s.x - want.x, s.y - want.y) < 1e-6
         finally:
             stop_ticks.set()

@@ -21,22 +21,11 @@ import pytest
 from blackboard import BlackboardClient, NetworkConfig
 from blackboard.testing import start_node
 from modules.runtime import Link
-from wire.drive import Odometry, SimClock, encode
+from wire.drive import SimClock, encode
+from tests._odometry import STEP, circle_odometry
 from tests.modules._procs import spawn, stop
 
 pytestmark = pytest.mark.e2e
-
-RADIUS = 2.0  # [m] of the circle driven
-SPEED = 1.0  # [m/s]
-STEP = 0.05  # [s] sim between odometry samples (the simulator's 20 Hz)
-
-
-def _odom(k: int) -> Odometry:
-    """Odometry sample k: `local←vehicle` on a left-hand circle of RADIUS at SPEED, from the origin."""
-    t = round(k * STEP, 6)
-    w = SPEED / RADIUS
-    return Odometry(stamp=t, x=RADIUS * math.sin(w * t), y=RADIUS * (1.0 - math.cos(w * t)),
-                    yaw=math.remainder(w * t, 2 * math.pi), v=SPEED, omega=w, distance=SPEED * t)
 
 
 async def test_odometry_that_queued_while_the_helm_was_held_up_is_all_posted():
@@ -51,7 +40,7 @@ async def test_odometry_that_queued_while_the_helm_was_held_up_is_all_posted():
     def tick() -> None:
         nonlocal k
         k += 1
-        od = _odom(k)
+        od = circle_odometry(k)
         link.put(f"{root}/sim/odom", encode(od))
         link.put(f"{root}/sim/clock", encode(SimClock(stamp=od.stamp, rtf=5.0, rtf_actual=5.0, step=k)))
 
@@ -78,7 +67,7 @@ async def test_odometry_that_queued_while_the_helm_was_held_up_is_all_posted():
                     pass
 
             first = k
-            await asyncio.wait_for(until_posted(_odom(first).stamp), 30.0)
+            await asyncio.wait_for(until_posted(circle_odometry(first).stamp), 30.0)
             stop_ticks.set()
             await ticker
             # the burst: 3 s sim of odometry at once, as a held-up HELM receives it
@@ -88,10 +77,10 @@ async def test_odometry_that_queued_while_the_helm_was_held_up_is_all_posted():
             last = k
             stop_ticks.clear()
             ticker = asyncio.ensure_future(steady())  # and the simulator goes on
-            await asyncio.wait_for(until_posted(_odom(last).stamp), 30.0)
+            await asyncio.wait_for(until_posted(circle_odometry(last).stamp), 30.0)
             worst_xy = worst_yaw = 0.0
             for j in range(burst_from, last + 1):
-                want = _odom(j)
+                want = circle_odometry(j)
                 got = await bb.lookup_pose(parent="local", child="vehicle", stamp=want.stamp)
                 worst_xy = max(worst_xy, math.hypot(got.x - want.x, got.y - want.y))
                 worst_yaw = max(worst_yaw, abs(math.remainder(got.yaw - want.yaw, 2 * math.pi)))

@@ -3,23 +3,26 @@
 Inbox and service `command`: controller commands (`eddie.messages.controller`); the inbox also takes
 the map manager's `set_speed` triggers (a mission speed cap over every client); service `position`:
 the dead-reckoned pose now; service `recorded_path`: a stretch of the driven path. Streams: `state`
-every control period of odometry (≥ 10 Hz sim), published as the odometry arrives, so one that queued
-while the process was held up still goes out and a module interpolating the stream finds no holes, `path` when the path changes, `events` for every event (also written
+every control tick (≥ 10 Hz sim) with the odometry of the periods it missed (`trail`: a controller held
+up publishes what queued meanwhile), `path` when the path changes, `events` for every event (also written
 to the process log).
 """
 
 from __future__ import annotations
 
 import logging
+import math
+from collections import deque
 
 from wire.drive import DriveMessageError, Odometry, decode, encode
 from wire.keys import SimKeys
+from wire.lockstep import lockstep_enabled
 
 from eddie.controller.integrated_controller import ControllerConfig, IntegratedController
 from eddie.errors import BadMessage, ControlRefused
 from eddie.messages.map_manager import SetSpeed, TriggerMessage, open_trigger_data
 from eddie.messages.controller import (
-    DeadReckon, Nudge, PathCommand, PositionQuery, RecordedPath, RecordedPathQuery, Release, SpeedLimit, Stop,
+    MAX_TRAIL, DeadReckon, Nudge, PathCommand, PositionQuery, RecordedPath, RecordedPathQuery, Release, SpeedLimit, Stop,
 )
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Incoming, Module
@@ -45,10 +48,13 @@ class ControllerModule:
         self.core = IntegratedController(cfg)
         self.sim = SimKeys(m.net.namespace)
         self.bad_odometry = 0
-        #: the state goes out as the odometry of each control period arrives: in lock-step the simulator announces
-        #: sim time t only once it was handled, so every module woken at t already holds the controller's pose of t;
-        #: in real time a controller held up (a loaded machine at RTF 50) still publishes the odometry that queued
+        #: lock-step: the state goes out as the odometry of each control period arrives (the simulator announces
+        #: sim time t only once it was handled), so every module woken at t already holds the controller's pose of t
+        self._state_on_odom = lockstep_enabled()
         self._next_state: float | None = None  # sim time [s] of the next state published on odometry (None: not started)
+        #: real time: odometry of each control period since the last state published, for its `trail`
+        self._trail: deque[tuple[float, float, float, float]] = deque(maxlen=MAX_TRAIL)
+        self._next_trail = -math.inf
 
     def _on_odom(self, _key: str, payload: bytes) -> None:
         try:
@@ -58,10 +64,25 @@ class ControllerModule:
             self.bad_odometry += 1
             warn_limited(log, "bad-odometry", "controller: bad odometry: %.200s", exc)
             return
+        if not self._state_on_odom and od.stamp >= self._next_trail:
+            self._trail.append((od.stamp, od.x, od.y, od.yaw))
+            self._next_trail = od.stamp + 1.0 / self.cfg.control_hz - 1e-6
         if self._next_state is not None and od.stamp >= self._next_state:
             # stamped with the odometry's time: it may arrive before the clock tick of the same step
             self.m.publish("state", self.core.state(od.stamp), stamp=od.stamp)
             self._next_state = od.stamp + 1.0 / self.cfg.control_hz - 1e-6
+
+    def _publish_state(self, now: float) -> None:
+        """Publish the state with the odometry of the control periods since the previous one as its trail.
+
+        Not before the first odometry: a pose of (0, 0, 0) stamped now would enter every pose history as the vehicle's.
+        """
+        if self.core.odom is None:
+            return
+        st = self.core.state(now)
+        trail = tuple(s for s in self._trail if s[0] < st.stamp)
+        self._trail.clear()
+        self.m.publish("state", st.model_copy(update={"trail": trail}) if trail else st)
 
     def _now(self) -> float:
         return self.m.now() or 0.0
@@ -131,13 +152,17 @@ class ControllerModule:
         inbox = asyncio.ensure_future(self._inbox())
         m.ready()
         period = 1.0 / self.cfg.control_hz
-        m.publish("state", self.core.state(m.clock.now()))
-        self._next_state = m.clock.now() + period - 1e-6
+        if self._state_on_odom:
+            if self.core.odom is not None:
+                m.publish("state", self.core.state(m.clock.now()))
+            self._next_state = m.clock.now() + period - 1e-6
         try:
             while True:
                 now = m.clock.now()
                 cmd = self.core.tick(now)
                 m.link.put(self.sim.cmd, encode(cmd))
+                if not self._state_on_odom:
+                    self._publish_state(now)
                 self._flush()
                 await m.clock.sleep(period)
         finally:

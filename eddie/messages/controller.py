@@ -15,7 +15,7 @@ from pydantic import Field, model_validator
 from eddie.toolkit.message import Finite, Message, message_type
 
 __all__ = [
-    "XY", "CommandMode", "ControllerMode", "PathCommand", "DeadReckon", "SpeedLimit", "Nudge", "Stop", "Release",
+    "XY", "MAX_TRAIL", "CommandMode", "ControllerMode", "PathCommand", "DeadReckon", "SpeedLimit", "Nudge", "Stop", "Release",
     "CommandAck", "PositionQuery", "Position", "RecordedPathQuery", "RecordedPath", "ControllerState",
     "ControllerPath", "ControllerEvent", "ControllerCommand",
 ]
@@ -24,6 +24,8 @@ __all__ = [
 _F = Finite
 #: A point (x [m], y [m]) in `local`.
 XY = tuple[_F, _F]
+#: Odometry samples a state's `trail` carries at most (10 s sim at the controller's 10 Hz).
+MAX_TRAIL = 100
 #: `immediate` replaces the current path; `queued` is appended to it.
 CommandMode = Literal["immediate", "queued"]
 #: What the controller is doing.
@@ -164,6 +166,10 @@ class ControllerState(Message):
     odometer: float = 0.0
     speed_limit: float | None = None
     mission_speed: float | None = None
+    #: the odometry (stamp [s], x [m], y [m], yaw [rad] in `local`) of the control periods since the previous
+    #: state, oldest first, this one's not among them: a controller held up (a loaded machine at a high RTF)
+    #: hands on what queued meanwhile, so a module keeping the pose history has no holes in it
+    trail: tuple[tuple[_F, _F, _F, _F], ...] = Field(default=(), max_length=MAX_TRAIL)
 
 
 @message_type("controller.path")

@@ -102,6 +102,8 @@ class Belief:
 
     def _on_state(self, st: ControllerState) -> None:
         self.local, self.local_stamp, self.speed = np.array([st.x, st.y, st.yaw]), st.stamp, st.v
+        for t, x, y, yaw in st.trail:  # the periods a held-up controller missed
+            self.history.add(t, x, y, yaw)
         self.history.add(st.stamp, st.x, st.y, st.yaw)
         if self._waiting:
             still = []

@@ -60,6 +60,13 @@ class Navigator:
         """Return whether the first controller pose has arrived (world←local is known)."""
         return self.filter is not None
 
+    def on_passed(self, stamp: float, x: float, y: float, yaw: float) -> None:
+        """Keep a local←vehicle pose the controller passed through at `stamp` [s] (a state's trail), for pairing fixes.
+
+        The filter predicts on the states alone: one odometry increment per state, whatever its trail.
+        """
+        self.buffer.add(stamp, x, y, yaw)
+
     def on_local(self, stamp: float, x: float, y: float, yaw: float) -> None:
         """Take the controller's local←vehicle pose at `stamp` [s]: start, or predict with the motion since the last."""
         pose = np.array([x, y, yaw], dtype=np.float64)

@@ -46,7 +46,7 @@ class NavigatorModule:
     def _on_state(self, st: ControllerState) -> None:
         first = not self.nav.started
         for t, x, y, yaw in st.trail:  # the periods a held-up controller missed
-            self.nav.on_local(t, x, y, yaw)
+            self.nav.on_passed(t, x, y, yaw)
         self.nav.on_local(st.stamp, st.x, st.y, st.yaw)
         if first:
             self._started.set()

@@ -71,3 +71,18 @@ async def test_in_lock_step_a_frame_does_not_wait(monkeypatch):
         assert await belief.reached(20.0, timeout_s=30.0) is True
     finally:
         await _close(vision, ctrl)
+
+
+async def test_a_frame_is_paired_with_a_pose_from_the_trail_a_held_up_controller_hands_on():
+    ctrl, vision, belief = await _pair("trail")
+    try:
+        # the vehicle turns at 1 rad/s between 10 s and 12 s; the controller, held up, publishes 12 s with the
+        # periods it missed as the state's trail
+        turn = [(10.0 + 0.1 * i, 30.0 + np.sin(0.1 * i), 1.0 - np.cos(0.1 * i), 0.1 * i) for i in range(1, 20)]
+        got = asyncio.ensure_future(belief.reached(12.0, timeout_s=30.0))
+        ctrl.publish("state", ControllerState(stamp=12.0, x=30.0 + np.sin(2.0), y=1.0 - np.cos(2.0), yaw=2.0, v=1.0,
+                                              curvature=1.0, trail=tuple(turn)))
+        assert await got is True
+        np.testing.assert_allclose(belief.local_at(11.0), [30.0 + np.sin(1.0), 1.0 - np.cos(1.0), 1.0], atol=1e-9)
+    finally:
+        await _close(vision, ctrl)

@@ -42,6 +42,32 @@ def test_a_line_fix_corrects_only_across_the_line_using_the_buffered_local_pose(
         raise AssertionError("a fix outside the buffer must be refused")
 
 
+def test_a_fix_is_paired_with_the_pose_the_controller_passed_through_at_its_stamp_from_a_states_trail():
+    # a circle of 2 m at 1 m/s in local; world = local shifted by (2, 1); states at 0 s and 3 s only, the
+    # poses between handed on as the second state's trail (a controller held up for 3 s [sim])
+    def local(t: float) -> tuple[float, float, float]:
+        return 2.0 * math.sin(0.5 * t), 2.0 * (1.0 - math.cos(0.5 * t)), 0.5 * t
+
+    def world(t: float) -> np.ndarray:
+        x, y, yaw = local(t)
+        return np.array([x + 2.0, y + 1.0, yaw])
+
+    def fixed(trail: bool) -> np.ndarray:
+        nav = Navigator((2.3, 0.7, 0.0), sigma_xy=1.0)  # the start estimate 0.4 m off
+        nav.on_local(0.0, *local(0.0))
+        if trail:
+            for i in range(1, 30):
+                nav.on_passed(i * 0.1, *local(i * 0.1))
+        nav.on_local(3.0, *local(3.0))
+        w0 = world(1.5)
+        w = nav.fix(PointFixMessage(stamp=1.5, x=w0[0], y=w0[1], yaw=w0[2], sigma_xy=0.02, sigma_yaw=0.002, source="lm"), now=3.0)
+        return compose(np.array([w.x, w.y, w.yaw]), np.array(local(3.0)))
+
+    assert np.hypot(*(fixed(trail=True) - world(3.0))[:2]) < 0.05
+    # without the trail the pose at 1.5 s is read off the chord of 3 s of the circle
+    assert np.hypot(*(fixed(trail=False) - world(3.0))[:2]) > 0.3
+
+
 def test_a_fix_far_outside_the_estimates_uncertainty_is_refused_and_counted():
     nav = Navigator((10.0, 5.0, 0.3), sigma_xy=0.5, sigma_yaw=math.radians(3.0))
     for i in range(21):

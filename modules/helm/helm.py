@@ -2,10 +2,10 @@
 
 Reads odometry (local←vehicle) from the simulator's drive interface and local path plans (frame
 `local`) from the blackboard; sends timed DriveCommands (speed [m/s], curvature [1/m], duration [s])
-on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time), every one: a HELM that fell behind (a loaded
-machine at a high RTF) posts the odometry that queued up meanwhile, so the pose history a delayed fix is
-propagated through has no holes. Whenever a new plan appears the old one
-is dropped (seed §2.3.4). With no plan, or at its end, it commands stops. It also stops while the newest
+on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time), every one: the odometry of each pose
+period is queued as it arrives and posted at the next control tick, so a HELM that fell behind (a loaded
+machine at a high RTF) leaves no holes in the pose history a delayed fix is propagated through, and the
+poses of one tick share a message. Whenever a new plan appears the old one is dropped (seed §2.3.4). With no plan, or at its end, it commands stops. It also stops while the newest
 `obstacle_report` says something stands on the plan ahead, and drives on once a newer one says clear.
 """
 
@@ -25,6 +25,7 @@ from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError, track
 from modules.vocabulary import LocalPathPlan, ObstacleReport
 from wire.keys import root as keys_root
 from wire.ratelimit import warn_limited
+from wire.timemode import lockstep_enabled
 from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
 
 __all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys", "MAX_POSES_IN_FLIGHT"]
@@ -100,6 +101,10 @@ class Helm:
         self.poses_posted = 0
         self.poses_dropped = 0
         self._poses_in_flight = 0
+        self._pose_queue: list[Odometry] = []
+        #: lock-step: post each pose as its odometry arrives (the simulator announces sim time t only once the
+        #: pose of t is on the blackboard), not when the control loop wakes at t beside the modules reading it
+        self._pose_on_odom = lockstep_enabled()
 
     def _on_odom(self, _key: str, payload: bytes) -> None:
         try:
@@ -112,27 +117,29 @@ class Helm:
             self.odom = od
             self._odom_event.set()
             if self.rt.is_ready:
-                self._post_pose(od)
+                self._queue_pose(od)
+                if self._pose_on_odom:
+                    self._post_poses()
 
-    def _post_pose(self, od: Odometry) -> None:
-        """Post `od` as the moving vehicle position if a pose period passed since the last one posted.
+    def _queue_pose(self, od: Odometry) -> None:
+        """Queue `od` to be posted as the moving vehicle position if a pose period passed since the last one queued."""
+        if od.stamp - self._last_pose_stamp >= 1.0 / self.cfg.pose_hz - 1e-6:
+            self._last_pose_stamp = od.stamp
+            self._pose_queue.append(od)
 
-        Called for each odometry sample as it arrives, never waiting: posts are pipelined (those of one
-        loop iteration share a message), so samples that queued while the process was held up all go
-        out, and lock-step's simulator, which announces sim time t only once the pose of t is on the
-        blackboard, is never kept waiting on the control loop.
-        """
-        if od.stamp - self._last_pose_stamp < 1.0 / self.cfg.pose_hz - 1e-6:
-            return
-        if self._poses_in_flight >= MAX_POSES_IN_FLIGHT:
-            self.poses_dropped += 1
-            warn_limited(log, "helm-poses", "helm: %d poses unacknowledged (blackboard away?): odometry not posted", self._poses_in_flight)
-            return
-        self._last_pose_stamp = od.stamp
-        self._poses_in_flight += 1
-        fut = self.rt.bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=od.x, y=od.y, yaw=od.yaw),
-                                   stamp=od.stamp, hold=self.cfg.pose_hold_s)
-        fut.add_done_callback(self._pose_done)
+    def _post_poses(self) -> None:
+        """Post every queued pose, oldest first, without waiting: issued together, they leave in one message."""
+        queue, self._pose_queue = self._pose_queue, []
+        for od in queue:
+            if self._poses_in_flight >= MAX_POSES_IN_FLIGHT:
+                self.poses_dropped += 1
+                warn_limited(log, "helm-poses", "helm: %d poses unacknowledged (blackboard away?): odometry not posted",
+                             self._poses_in_flight)
+                continue
+            self._poses_in_flight += 1
+            fut = self.rt.bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=od.x, y=od.y, yaw=od.yaw),
+                                       stamp=od.stamp, hold=self.cfg.pose_hold_s)
+            fut.add_done_callback(self._pose_done)
 
     def _pose_done(self, fut: asyncio.Future) -> None:
         self._poses_in_flight -= 1
@@ -219,7 +226,8 @@ class Helm:
         except BlackboardError as exc:
             log.warning("helm: cannot read the newest plan: %s", exc)
         rt.ready()
-        self._post_pose(self.odom)
+        self._queue_pose(self.odom)
+        self._post_poses()
         period = 1.0 / self.cfg.control_hz
         last_t = rt.clock.now()
         try:
@@ -236,6 +244,9 @@ class Helm:
                     self._send(0.0, 0.0)
                 else:
                     self._send(cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon)
+                # the poses go out without holding up control: the drive command never waits for the
+                # blackboard's acknowledgement (at a high RTF the watchdog would stop the vehicle)
+                self._post_poses()
                 await rt.clock.sleep(period)
         finally:
             plan_task.cancel()

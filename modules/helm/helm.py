@@ -2,10 +2,11 @@
 
 Reads odometry (local←vehicle) from the simulator's drive interface and local path plans (frame
 `local`) from the blackboard; sends timed DriveCommands (speed [m/s], curvature [1/m], duration [s])
-on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time), every one: the odometry of each pose
-period is queued as it arrives and posted at the next control tick, so a HELM that fell behind (a loaded
-machine at a high RTF) leaves no holes in the pose history a delayed fix is propagated through, and the
-poses of one tick share a message. Whenever a new plan appears the old one is dropped (seed §2.3.4). With no plan, or at its end, it commands stops. It also stops while the newest
+on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time), every one: the odometry of each
+pose period is queued as it arrives and posted at the next control tick, so a HELM that fell behind (a
+loaded machine at a high RTF) leaves no holes in the pose history a delayed fix is propagated through,
+and the poses of one tick share a message. Whenever a new plan appears the old one is dropped (seed
+§2.3.4). With no plan, or at its end, it commands stops. It also stops while the newest
 `obstacle_report` says something stands on the plan ahead, and drives on once a newer one says clear.
 """
 

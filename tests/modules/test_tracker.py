@@ -201,3 +201,22 @@ def test_helm_commands_are_timed_so_a_late_one_does_not_trip_the_watchdog():
     assert helm.command_duration(0.01, moving=True) == pytest.approx(0.15)  # at least 1.5 control periods
     assert helm.command_duration(1.2, moving=True) == pytest.approx(1.2)
     assert helm.command_duration(50.0, moving=True) == pytest.approx(2.0)
+
+
+def test_a_late_arc_command_lapses_before_it_turns_the_vehicle_past_the_plan():
+    # heading 0.3 rad off a straight plan: pure pursuit's arc to the lookahead point turns the heading
+    # by twice its bearing, so held all the way it ends ~0.3 rad off on the other side (the weave)
+    cfg = TrackerConfig(max_speed=1.0, max_accel=10.0, max_curvature=2.0, lookahead_base=1.0, lookahead_gain=1.0, lookahead_max=5.0)
+    xs = np.linspace(0.0, 20.0, 81)
+    tr = PathTracker(cfg)
+    tr.set_plan(np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1), np.full(len(xs), 1.0))
+    cmd = tr.command(np.array([5.0, 0.0, 0.3]), 1.0)
+    assert cmd.speed > 0.0 and cmd.curvature < 0.0
+
+    def heading_after(t: float) -> float:  # the arc held for t [s]
+        return 0.3 + cmd.speed * cmd.curvature * t
+
+    reach_time = (cfg.lookahead_base + cfg.lookahead_gain * cmd.speed) / cmd.speed
+    assert heading_after(reach_time) < -0.2  # held to the lookahead point: turned past the plan
+    assert cmd.horizon < reach_time
+    assert abs(heading_after(cmd.horizon)) <= cfg.overshoot + 0.02  # lapses about aligned with the plan

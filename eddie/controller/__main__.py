@@ -11,7 +11,7 @@ from modules.runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
 
 from eddie.controller.controller_module import ControllerModule
-from eddie.controller.integrated_controller import ControllerConfig
+from eddie.controller.integrated_controller import ARC_OVERSHOOT_RAD, ControllerConfig
 from eddie.toolkit.module import Module
 from eddie.toolkit.process import run_module
 
@@ -43,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--nudge-tau: must be > 0 [s]")
     if args.max_speed is not None and not (math.isfinite(args.max_speed) and args.max_speed > 0.0):
         parser.error("--max-speed: must be > 0 [m/s]")
-    tracker = tracker_config_for(args.vehicle)
+    tracker = tracker_config_for(args.vehicle).model_copy(update={"overshoot": ARC_OVERSHOOT_RAD})
     if args.max_speed is not None:
         tracker = tracker.model_copy(update={"max_speed": min(tracker.max_speed, args.max_speed)})
     cfg = ControllerConfig(tracker=tracker, control_hz=args.control_hz, nudge_tau_s=args.nudge_tau)

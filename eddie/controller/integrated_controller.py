@@ -27,7 +27,14 @@ from eddie.messages.controller import (
     Position, Release, SpeedLimit, Stop,
 )
 
-__all__ = ["IntegratedController", "ControllerConfig"]
+__all__ = ["IntegratedController", "ControllerConfig", "ARC_OVERSHOOT_RAD"]
+
+#: How far [rad] past its lookahead point's bearing a drive command's arc may turn the vehicle before
+#: it lapses (`TrackerConfig.overshoot`). A late command (the controller held up 2 s sim at RTF 50) no
+#: longer weaves the vehicle into a bench beside the walk: the campus tour at RTF 50 succeeded in 13 of
+#: 16 runs with it, 9 of 16 without (docs/performance.md, session 20). The HELM's tracker leaves it
+#: unset: CODGER did no better with it (9 of 12 against 12 of 12).
+ARC_OVERSHOOT_RAD = 0.1
 
 
 @dataclass(frozen=True)

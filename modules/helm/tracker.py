@@ -42,8 +42,10 @@ class TrackerConfig(BaseModel):
     )
     max_turn_rate: float = Field(0.5, gt=0.0, description="turn-in-place rate [rad/s]")
     speed_lag: float = Field(0.0, ge=0.0, description="drive's speed response time [s]: braking starts this much earlier")
-    overshoot: float = Field(
-        0.1, ge=0.0, description="how far [rad] past the lookahead point's bearing an arc may turn the vehicle before it lapses"
+    overshoot: float | None = Field(
+        None, ge=0.0,
+        description="how far [rad] past the lookahead point's bearing an arc may turn the vehicle before it lapses "
+                    "(None: it holds to the lookahead point)",
     )
 
 
@@ -64,10 +66,11 @@ class TrackCommand:
 
     `turn_rate` [rad/s] is set (with speed 0) when a skid-steer vehicle should turn on the spot.
     `horizon` [s] is how long the command stays good if no newer one follows: the time to reach the
-    lookahead point on its arc (never past the plan's end), but on a curved arc no longer than it takes
-    to turn the heading by the point's bearing and `overshoot` more (pure pursuit's arc turns by twice
-    the bearing, so a late command held the whole way leaves the vehicle turned past the plan as far as
-    it started off it: the weave), or to finish the turn on the spot;
+    lookahead point on its arc (never past the plan's end), and with `TrackerConfig.overshoot` set, on a
+    curved arc no longer than it takes to turn the heading by the point's bearing and the overshoot
+    more (pure pursuit's arc turns by twice the bearing, so a late command held the whole way leaves
+    the vehicle turned past the plan as far as it started off it: the weave), or to finish the turn on
+    the spot;
     infinite for a stop.
     """
 
@@ -195,6 +198,6 @@ class PathTracker:
         reach = min(ld, max(remaining - cfg.goal_tolerance, 0.0))
         horizon = reach / v_cmd if v_cmd > 1e-6 else 0.0
         turn_rate = v_cmd * abs(kappa)  # [rad/s]
-        if turn_rate > 1e-9:
+        if cfg.overshoot is not None and turn_rate > 1e-9:
             horizon = min(horizon, (abs(bearing) + cfg.overshoot) / turn_rate)
         return TrackCommand(-v_cmd if reverse else v_cmd, kappa, cross, remaining, False, horizon=horizon)

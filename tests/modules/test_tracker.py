@@ -206,17 +206,24 @@ def test_helm_commands_are_timed_so_a_late_one_does_not_trip_the_watchdog():
 def test_a_late_arc_command_lapses_before_it_turns_the_vehicle_past_the_plan():
     # heading 0.3 rad off a straight plan: pure pursuit's arc to the lookahead point turns the heading
     # by twice its bearing, so held all the way it ends ~0.3 rad off on the other side (the weave)
-    cfg = TrackerConfig(max_speed=1.0, max_accel=10.0, max_curvature=2.0, lookahead_base=1.0, lookahead_gain=1.0, lookahead_max=5.0)
     xs = np.linspace(0.0, 20.0, 81)
-    tr = PathTracker(cfg)
-    tr.set_plan(np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1), np.full(len(xs), 1.0))
-    cmd = tr.command(np.array([5.0, 0.0, 0.3]), 1.0)
+    plan = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+
+    def command(overshoot: float | None):
+        cfg = TrackerConfig(max_speed=1.0, max_accel=10.0, max_curvature=2.0, lookahead_base=1.0, lookahead_gain=1.0,
+                            lookahead_max=5.0, overshoot=overshoot)
+        tr = PathTracker(cfg)
+        tr.set_plan(plan, np.full(len(xs), 1.0))
+        return tr.command(np.array([5.0, 0.0, 0.3]), 1.0)
+
+    cmd = command(0.1)
     assert cmd.speed > 0.0 and cmd.curvature < 0.0
 
     def heading_after(t: float) -> float:  # the arc held for t [s]
         return 0.3 + cmd.speed * cmd.curvature * t
 
-    reach_time = (cfg.lookahead_base + cfg.lookahead_gain * cmd.speed) / cmd.speed
+    reach_time = (1.0 + 1.0 * cmd.speed) / cmd.speed
     assert heading_after(reach_time) < -0.2  # held to the lookahead point: turned past the plan
     assert cmd.horizon < reach_time
-    assert abs(heading_after(cmd.horizon)) <= cfg.overshoot + 0.02  # lapses about aligned with the plan
+    assert abs(heading_after(cmd.horizon)) <= 0.1 + 0.02  # lapses about aligned with the plan
+    assert command(None).horizon == pytest.approx(reach_time)  # unset: the arc holds to the lookahead point

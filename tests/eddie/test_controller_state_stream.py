@@ -15,14 +15,13 @@ import math
 import os
 import sys
 
-from wire.drive import SimClock, encode
 from wire.keys import SimKeys
 from wire.network import NetworkConfig
 from wire.ports import free_port
 
 from eddie.messages.controller import ControllerState
 from eddie.toolkit import Module
-from tests._odometry import STEP, circle_odometry
+from tests._odometry import STEP, CircleDrive, circle_odometry
 from tests.modules._procs import spawn, stop
 
 
@@ -31,23 +30,8 @@ async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_i
     ep = f"tcp/127.0.0.1:{free_port()}"
     keys = SimKeys(ns)
     ctl = None
-    ticker: asyncio.Future | None = None
-    stop_ticks = asyncio.Event()
-    k = 0
     async with Module("tester", NetworkConfig(namespace=ns, listen=(ep,))) as me:
-
-        def tick() -> None:
-            nonlocal k
-            k += 1
-            od = circle_odometry(k)
-            me.link.put(keys.odom, encode(od))
-            me.link.put(keys.clock, encode(SimClock(stamp=od.stamp, rtf=5.0, rtf_actual=5.0, step=k)))
-
-        async def steady() -> None:  # RTF ≈ 5 until told to stop
-            while not stop_ticks.is_set():
-                tick()
-                await asyncio.sleep(STEP / 5.0)
-
+        drive = CircleDrive(me.link.put, keys.odom, keys.clock)
         states: list[ControllerState] = []
         seen = asyncio.Event()
         want_stamp = [math.inf]
@@ -59,20 +43,13 @@ async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_i
 
         me.subscribe("controller", "state", ControllerState, on_state)
         try:
-            ticker = asyncio.ensure_future(steady())
+            drive.start()
             ctl = await asyncio.to_thread(spawn, [sys.executable, "-m", "eddie.controller", "--vehicle", "terregator",
                                                   "--ns", ns, "--connect", ep], "SIDEWALK-READY controller")
-            want_stamp[0] = circle_odometry(k).stamp
+            want_stamp[0] = circle_odometry(drive.k).stamp
             await asyncio.wait_for(seen.wait(), 30.0)
-            stop_ticks.set()
-            await ticker
-            # the burst: 3 s sim of odometry at once, as a held-up controller receives it
-            burst_from = k
-            for _ in range(60):
-                tick()
-            last = k
-            stop_ticks.clear()
-            ticker = asyncio.ensure_future(steady())  # and the simulator goes on
+            # the burst: 3 s sim of odometry at once, as a held-up controller receives it; then the simulator goes on
+            burst_from, last = await drive.burst(60)
             seen.clear()
             want_stamp[0] = circle_odometry(last).stamp
             await asyncio.wait_for(seen.wait(), 30.0)
@@ -87,8 +64,6 @@ async def test_odometry_that_queued_while_the_controller_was_held_up_is_all_in_i
                 want = circle_odometry(round(t / STEP))
                 assert abs(want.stamp - t) < 1e-6 and math.hypot(x - want.x, y - want.y) < 1e-6
         finally:
-            stop_ticks.set()
-            if ticker is not None:
-                await ticker
+            await drive.halt()
             code = stop(ctl) if ctl is not None else 0
     assert code == 0

@@ -21,8 +21,7 @@ import pytest
 from blackboard import BlackboardClient, NetworkConfig
 from blackboard.testing import start_node
 from modules.runtime import Link
-from wire.drive import SimClock, encode
-from tests._odometry import STEP, circle_odometry
+from tests._odometry import CircleDrive, circle_odometry
 from tests.modules._procs import spawn, stop
 
 pytestmark = pytest.mark.e2e
@@ -34,25 +33,9 @@ async def test_odometry_that_queued_while_the_helm_was_held_up_is_all_posted():
     link = Link.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))
     root = f"sidewalk/{ns}"
     helm = None
-    ticker: asyncio.Future | None = None
-    k = 0
-
-    def tick() -> None:
-        nonlocal k
-        k += 1
-        od = circle_odometry(k)
-        link.put(f"{root}/sim/odom", encode(od))
-        link.put(f"{root}/sim/clock", encode(SimClock(stamp=od.stamp, rtf=5.0, rtf_actual=5.0, step=k)))
-
-    stop_ticks = asyncio.Event()
-
-    async def steady() -> None:  # RTF ≈ 5 until told to stop
-        while not stop_ticks.is_set():
-            tick()
-            await asyncio.sleep(STEP / 5.0)
-
+    drive = CircleDrive(link.put, f"sidewalk/{ns}/sim/odom", f"sidewalk/{ns}/sim/clock")
     try:
-        ticker = asyncio.ensure_future(steady())
+        drive.start()
         helm = await asyncio.to_thread(spawn, [sys.executable, "-m", "modules.helm", "--vehicle", "terregator",
                                                "--ns", ns, "--connect", node.endpoint], "SIDEWALK-READY helm")
         async with BlackboardClient(node.client_net(), source="test-pilot") as bb:
@@ -66,17 +49,9 @@ async def test_odometry_that_queued_while_the_helm_was_held_up_is_all_posted():
                 while await newest() < stamp - 1e-9:
                     pass
 
-            first = k
-            await asyncio.wait_for(until_posted(circle_odometry(first).stamp), 30.0)
-            stop_ticks.set()
-            await ticker
-            # the burst: 3 s sim of odometry at once, as a held-up HELM receives it
-            burst_from = k
-            for _ in range(60):
-                tick()
-            last = k
-            stop_ticks.clear()
-            ticker = asyncio.ensure_future(steady())  # and the simulator goes on
+            await asyncio.wait_for(until_posted(circle_odometry(drive.k).stamp), 30.0)
+            # the burst: 3 s sim of odometry at once, as a held-up HELM receives it; then the simulator goes on
+            burst_from, last = await drive.burst(60)
             await asyncio.wait_for(until_posted(circle_odometry(last).stamp), 30.0)
             worst_xy = worst_yaw = 0.0
             for j in range(burst_from, last + 1):
@@ -89,9 +64,7 @@ async def test_odometry_that_queued_while_the_helm_was_held_up_is_all_posted():
             assert worst_xy < 0.002, f"local←vehicle strays {worst_xy:.4f} m from the odometry in the burst"
             assert worst_yaw < 1e-3, worst_yaw
     finally:
-        stop_ticks.set()
-        if ticker is not None:
-            await ticker
+        await drive.halt()
         code = stop(helm) if helm is not None else 0
         link.close()
         node.stop()

@@ -5,7 +5,10 @@ After the commit the node publishes one message per client on `bb/to/<client>`: 
 the acknowledgements `[request_id, results]` of that client's batches and the events of its
 monitors (a put relayed by the node costs less in zenoh than a query answered by it, and one
 message per client per commit wakes the client once). The queryables `bb/post|batch|update|delete`
-serve the same writes to standard Zenoh tools (JSON or msgpack).
+serve the same writes to standard Zenoh tools (JSON or msgpack). A client retrieves on the same
+channel, `[request_id, "retrieve", request]`, answered after the writes sent before it as an
+acknowledgement whose result is the list of tokens (or one error object); `bb/retrieve` serves
+the same to standard tools.
 
 Requests go into one inbox. Whoever drains it holds the state lock; it takes every request
 waiting, applies consecutive writes in one transaction (group commit), publishes monitor events
@@ -80,6 +83,10 @@ _MAX_DROPPED = 4096
 #: generation and full collections ran every few batches, each scanning every token (6-13 µs per post at
 #: 40,000-120,000 tokens, measured); at these they run about once per 100,000 posts
 _GC_THRESHOLDS = (20_000, 20, 10)
+
+
+class _Packed(bytes):
+    """A result already msgpack-encoded (a retrieve's token list): an acknowledgement carries it as it is."""
 
 
 class _Ack:
@@ -329,6 +336,9 @@ class BlackboardNode:
             stats.errors += 1
             warn_limited(log, "undecodable-batch", "undecodable write batch from %s: %.200s", client, exc.message)
             return
+        if type(msg) is list and len(msg) == 3 and type(msg[1]) is str:
+            self._on_read(client, msg[0], msg[1], msg[2])
+            return
         if type(msg) is not list or len(msg) != 2:
             stats.errors += 1
             warn_limited(log, "malformed-batch", "write batch from %s is not [request_id, ops]: %.200r", client, msg)
@@ -343,6 +353,23 @@ class BlackboardNode:
             self._deliver({client: [(rid, BadRequestError(f"{key}: ops must be a list of operations").to_wire())]}, {})
             return
         self._pending.append((_Ack(client, rid), ops, False))
+
+    def _on_read(self, client: str, rid: Any, kind: str, body: Any) -> None:
+        """Answer a put-channel read `[request_id, kind, request]` after the writes that came before it."""
+        self._flush()
+        res: Any
+        try:
+            if kind != "retrieve":
+                raise BadRequestError(f"unknown read {kind!r} on the write channel (takes \"retrieve\")"[:200])
+            res = _Packed(self.core.retrieve_packed(RetrieveRequest.from_wire(body, {})))
+        except BlackboardError as exc:
+            self.core.stats.errors += 1
+            res = exc.to_wire()
+        except Exception as exc:  # noqa: BLE001 - the node must keep serving
+            log.exception("internal error answering a read from %s", client)
+            self.core.stats.errors += 1
+            res = {"error": "blackboard_error", "message": f"internal error: {type(exc).__name__}: {exc}"[:300]}
+        self._deliver({client: [(rid, res)]}, {})
 
     def _on_post(self, q: ZQuery) -> None:
         self._enqueue(q, [self._single_op(q, "post")], True)
@@ -505,7 +532,7 @@ class BlackboardNode:
             ev = events.get(client)
             note = "resync" if notice and client in notice else None
             try:
-                head = (b"\x92" if note is None else b"\x93") + (_packb(a) if a else b"\x90")
+                head = (b"\x92" if note is None else b"\x93") + (_pack_acks(a) if a else b"\x90")
             except Exception:  # noqa: BLE001 - a request id msgpack cannot echo back (a foreign writer)
                 warn_limited(log, "ack-encode", "cannot encode the acknowledgement for %s", client)
                 continue
@@ -600,6 +627,14 @@ class BlackboardNode:
             self._resync_due[client] = None
             log.info("client %s is back: asking it to re-register its monitors", client)
             self._deliver({}, {})
+
+
+def _pack_acks(acks: list) -> bytes:
+    """Encode `[[request_id, result], …]`, a `_Packed` result spliced in as it is."""
+    for _, res in acks:
+        if type(res) is _Packed:
+            return pack_array_of_packed([b"\x92" + _packb(rid) + (r if type(r) is _Packed else _packb(r)) for rid, r in acks])
+    return _packb(acks)
 
 
 def serve(

@@ -56,3 +56,37 @@ async def test_monitor_delivers_again_after_the_node_is_killed_and_restarted(tmp
         node.kill()
         if node2 is not None:
             node2.stop()
+
+
+async def test_a_retrieve_in_flight_when_the_node_dies_is_asked_again_of_the_restarted_node(tmp_path):
+    """A retrieve sent to a frozen node that is then SIGKILLed neither fails nor hangs: it is held and
+    answered by the restarted node, from what was acknowledged before."""
+    import os
+    import signal
+
+    from tests._procs import wait_stopped
+
+    db = str(tmp_path / "bb.sqlite")
+    port = free_port()
+    node = start_node(namespace="rc2", port=port, db=db, types=TYPES)
+    node2 = None
+    try:
+        async with BlackboardClient(node.client_net(), source="reader", timeout=30.0) as bb:
+            kept = await bb.post(Segment(index=3), stamp=0.0)
+            os.kill(node.proc.pid, signal.SIGSTOP)
+            wait_stopped(node.proc.pid)
+            asked = asyncio.ensure_future(bb.retrieve(Spec(type="bbt_segment")))
+            stepped = asyncio.Event()
+            asyncio.get_running_loop().call_soon(stepped.set)  # runs after the retrieve's first step
+            await stepped.wait()
+            assert bb.awaiting_acks  # the read is on the wire, unanswered
+            node.kill()
+            await bb.wait_node(alive=False, timeout=30)
+            assert not asked.done()
+            node2 = start_node(namespace="rc2", port=port, db=db, types=TYPES)
+            got = await asyncio.wait_for(asked, 30)  # well before the 30 s timeout's retry
+            assert [t.id for t in got] == [kept.id]
+    finally:
+        node.kill()
+        if node2 is not None:
+            node2.stop()

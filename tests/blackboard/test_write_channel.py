@@ -199,3 +199,42 @@ async def test_a_burst_of_writes_leaves_in_bounded_messages_the_first_full_one_a
         assert sizes[0] == 1  # the first write of an iteration goes alone, as before
         assert after.write_requests - before.write_requests == len(sizes) + 1  # + the round trip above
         assert after.posts - before.posts == n + 1
+
+
+async def test_a_retrieve_travels_the_write_channel_behind_the_writes_issued_before_it():
+    """1 + MAX + 40 posts issued without yielding, then a retrieve: it leaves on `bb/write/<client>` after the
+    last of their messages and finds every one; a bad spec and an unknown read come back as typed errors."""
+    from blackboard import BadRequestError, BadSpecError
+    from blackboard.client import MAX_WRITES_PER_MESSAGE as cap
+
+    n = 1 + cap + 40
+    with start_node(namespace="wc6", types=TYPES) as node:
+        keys = BlackboardKeys("wc6")
+        async with BlackboardClient(node.client_net(), source="reader") as bb:
+            await bb.post(Segment(index=-1), stamp=0.0)
+            kinds: list[str] = []
+            seen_read = threading.Event()
+
+            def on_write(_key: str, msg: list) -> None:
+                kinds.append(msg[1] if len(msg) == 3 else f"write×{len(msg[1])}")
+                if len(msg) == 3:
+                    seen_read.set()
+
+            obs = _observer(node, keys.write(bb.client_id), on_write)
+            try:
+                await bb.post(Segment(index=-2), stamp=0.0)  # a round trip: the observer's subscription is matched
+                kinds.clear()
+                futs = [bb.post(Segment(index=k), stamp=0.0) for k in range(n)]
+                got = await asyncio.wait_for(bb.retrieve(Spec(type="bbt_segment", where=[
+                    AttrPredicate(path="index", op=">=", value=0)])), 20)
+                assert seen_read.wait(10), kinds
+                await asyncio.wait_for(asyncio.gather(*futs), 20)
+            finally:
+                obs.close()
+            assert sorted(t.attrs.index for t in got) == list(range(n))
+            assert kinds == ["write×1", f"write×{cap}", "write×40", "retrieve"], kinds
+            with pytest.raises(BadSpecError):
+                await asyncio.wait_for(bb.retrieve_raw({"type": "bbt_segment", "limit": -3}), 10)
+            with pytest.raises(BadRequestError, match="unknown read"):
+                await asyncio.wait_for(bb._read("frobnicate", {}), 10)
+            assert len(await bb.retrieve(Spec(type="bbt_segment"))) == n + 2  # the node serves on

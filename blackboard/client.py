@@ -398,8 +398,8 @@ class BlackboardClient:
         if batch:
             self._send(batch)
 
-    def _send(self, batch: list[tuple[WriteOp, asyncio.Future, Any]]) -> None:
-        """Send one write batch under a new request id (or hold it while the node is away)."""
+    def _send(self, batch: "list[tuple[WriteOp, asyncio.Future, Any]] | _Read") -> None:
+        """Send one write batch (or read) under a new request id (or hold it while the node is away)."""
         if self._session is None or self._wpub is None:
             _distribute(batch, None, NodeUnavailableError("client is closed"))
             return
@@ -802,11 +802,7 @@ class BlackboardClient:
             batch, self._batch = self._batch, []
             self._send(batch)
         read = _Read(kind, body, loop.create_future())
-        rid = next(self._rids)
-        if not self._node_alive and self._node_seen and self.reconnect:
-            self._held.append((rid, read))  # sent once the node is back
-        else:
-            self._put_batch(rid, read)
+        self._send(read)  # under its own request id, held while the node is away, as a write batch
         return await read.fut
 
     async def retrieve(self, spec: Spec, *, frame: str | None = None, frame_stamp: float | None = None) -> list[Token]:

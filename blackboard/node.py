@@ -282,7 +282,7 @@ class BlackboardNode:
         except Exception as exc:  # noqa: BLE001 - the node must keep serving
             log.exception("internal error answering %s", q.key)
             self.core.stats.errors += 1
-            self._reply_err(q, {"error": "blackboard_error", "message": f"internal error: {type(exc).__name__}: {exc}"[:300]})
+            self._reply_err(q, _unexpected(exc, "internal error"))
 
     def _reply(self, q: ZQuery, obj: Any) -> None:
         data = encode(obj, as_json=q.is_json)
@@ -368,7 +368,7 @@ class BlackboardNode:
         except Exception as exc:  # noqa: BLE001 - the node must keep serving
             log.exception("internal error answering a read from %s", client)
             self.core.stats.errors += 1
-            res = {"error": "blackboard_error", "message": f"internal error: {type(exc).__name__}: {exc}"[:300]}
+            res = _unexpected(exc, "internal error")
         self._deliver({client: [(rid, res)]}, {})
 
     def _on_post(self, q: ZQuery) -> None:
@@ -403,7 +403,7 @@ class BlackboardNode:
             results, changes = self.core.apply_requests([p[1] for p in pending])
         except Exception as exc:  # noqa: BLE001 - e.g. disk full: nothing acknowledged
             log.exception("commit failed")
-            err = {"error": "blackboard_error", "message": f"commit failed: {type(exc).__name__}: {exc}"[:300]}
+            err = _unexpected(exc, "commit failed")
             acks: dict[str, list] = {}
             for q, _, _ in pending:
                 if type(q) is _Ack:
@@ -627,6 +627,11 @@ class BlackboardNode:
             self._resync_due[client] = None
             log.info("client %s is back: asking it to re-register its monitors", client)
             self._deliver({}, {})
+
+
+def _unexpected(exc: BaseException, what: str) -> dict:
+    """Return the wire error object for a failure that is no BlackboardError (`what`: where it happened)."""
+    return {"error": "blackboard_error", "message": f"{what}: {type(exc).__name__}: {exc}"[:300]}
 
 
 def _pack_acks(acks: list) -> bytes:

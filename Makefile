@@ -44,6 +44,7 @@ chromium:
 	fi
 
 ## Benchmarks: each prints one JSON object; the last two are the campus tour at RTF 50 under each architecture (report.json's figures).
+## Each round's two runs are kept in runs/bench-rtf50-<arch>-<UTC time> (runs/bench-rtf50-<arch> links the newest).
 bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench blackboard --json
 	$(VENV)/bin/sidewalk bench sim --json
@@ -52,8 +53,12 @@ bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench record --json
 	$(VENV)/bin/sidewalk bench eddie --json
 	@mkdir -p runs; for arch in codger eddie; do \
-	  rm -rf runs/bench-rtf50-$$arch; $(VENV)/bin/sidewalk run --mission campus-tour --rtf 50 --arch $$arch --out runs/bench-rtf50-$$arch > runs/bench-rtf50-$$arch.log 2>&1; \
-	  $(PY) -c "import json, sys; r = json.load(open(sys.argv[1])); print(json.dumps({'mission': r['mission'], 'arch': sys.argv[2], 'rtf_requested': r['rtf_requested'], 'rtf_achieved': r['rtf_achieved'], 'success': r['success']}))" runs/bench-rtf50-$$arch/report.json $$arch; \
+	  out=runs/bench-rtf50-$$arch-$$(date -u +%Y%m%dT%H%M%SZ); \
+	  $(VENV)/bin/sidewalk run --mission campus-tour --rtf 50 --arch $$arch --out $$out > $$out.log 2>&1; \
+	  rm -rf runs/bench-rtf50-$$arch; ln -s $$(basename $$out) runs/bench-rtf50-$$arch; \
+	  $(PY) -c "import json, os, sys; p = os.path.join(sys.argv[3], 'report.json'); r = json.load(open(p)) if os.path.exists(p) else None; \
+	    print(json.dumps({'mission': 'campus-tour', 'arch': sys.argv[1], 'rtf_requested': 50.0, 'rtf_achieved': None, 'success': False, 'reason': 'no report.json: see ' + sys.argv[2], 'run': sys.argv[3]} if r is None else \
+	      {'mission': r['mission'], 'arch': sys.argv[1], 'rtf_requested': r['rtf_requested'], 'rtf_achieved': r['rtf_achieved'], 'success': r['success'], 'reason': r['reason'], 'run': sys.argv[3]}))" $$arch $$out.log $$out; \
 	done
 
 clean:

@@ -161,7 +161,7 @@ class Simulator:
 
     def submit(self, command: DriveCommand) -> None:
         """Accept a drive command at the current sim time; raise `CommandRejected` (and log an event) if impossible."""
-        if command.turn_rate is not None and not self.limits.turns_in_place:
+        if not self.limits.turns_in_place and (command.turn_rate is not None or any(s.turn_rate is not None for s in command.then)):
             ev = SimEvent(stamp=self.t, kind="rejected", x=self.state.x, y=self.state.y,
                           detail=f"{self.limits.name} cannot turn in place: turn_rate must be omitted (seq {command.seq})")
             self._events.append(ev)

@@ -5,6 +5,7 @@ Rules (all times sim time [s]):
 * an `immediate` command replaces the executing one and clears the queue;
 * a `queued` command (always timed) runs after the queued ones; an open-ended command executing when
   it arrives is superseded at once (open-ended means "until the next command");
+* a command's steps (`DriveCommand.then`) are queued right behind it, in order;
 * a timed command holds for its `duration`, then the next queued one starts exactly at its end;
 * the watchdog: an open-ended command not refreshed within `timeout` is dropped and the vehicle is told
   to stop (`Supervision.tripped`); when timed commands run out the vehicle is told to stop as well
@@ -57,12 +58,15 @@ class CommandSupervisor:
         return self._last_rx
 
     def submit(self, command: DriveCommand, t: float) -> None:
-        """Accept `command` at sim time `t` [s]."""
+        """Accept `command` at sim time `t` [s] (and its steps behind it)."""
         self._last_rx = t
+        steps = [DriveCommand(speed=s.speed, curvature=s.curvature, turn_rate=s.turn_rate, duration=s.duration, mode="queued",
+                              seq=command.seq, sensed_at=command.sensed_at) for s in command.then]
         if command.mode == "immediate":
             self._queue.clear()
             self._current = command
             self._end = t + command.duration if command.duration is not None else None
+            self._queue.extend(steps)
             return
         if self._current is not None and self._end is None:
             # the open-ended command lasted "until the next one"
@@ -72,6 +76,7 @@ class CommandSupervisor:
             self._end = t + command.duration  # type: ignore[operator]
         else:
             self._queue.append(command)
+        self._queue.extend(steps)
 
     def clear(self) -> None:
         """Drop the executing command and the queue."""

@@ -19,6 +19,8 @@ from wire.health import Heartbeat
 
 __all__ = [
     "DriveCommand",
+    "DriveStep",
+    "MAX_DRIVE_STEPS",
     "Odometry",
     "TruthPose",
     "SimEvent",
@@ -38,6 +40,9 @@ __all__ = [
 #: Longest duration a single command may hold [s] (sim time).
 MAX_COMMAND_DURATION = 30.0
 
+#: Most timed steps one command may carry behind it (`DriveCommand.then`).
+MAX_DRIVE_STEPS = 64
+
 #: Kinds of simulator events.
 EVENT_KINDS = ("collision", "off-path", "on-path", "watchdog", "commands-exhausted", "rejected")
 
@@ -52,6 +57,17 @@ class DriveMessageError(PayloadError, ValueError):
 WireError = DriveMessageError
 
 
+class DriveStep(BaseModel):
+    """One timed step behind a command: `speed` [m/s], `curvature` [1/m], optional `turn_rate` [rad/s], `duration` [s] sim."""
+
+    model_config = _FROZEN
+
+    speed: float = Field(allow_inf_nan=False)
+    curvature: float = Field(default=0.0, allow_inf_nan=False)
+    turn_rate: float | None = Field(default=None, allow_inf_nan=False)
+    duration: float = Field(gt=0.0, le=MAX_COMMAND_DURATION, allow_inf_nan=False)
+
+
 class DriveCommand(BaseModel):
     """Drive the vehicle at `speed` [m/s] (negative = reverse) along `curvature` [1/m] (positive = left).
 
@@ -59,6 +75,9 @@ class DriveCommand(BaseModel):
     the commands already queued and needs a `duration` [s]. A command without a duration holds until
     the next command arrives and is guarded by the watchdog; a timed command holds for its duration
     (sim time) and then the next queued one starts (the vehicle stops when the queue runs out).
+    `then` (a timed command only) are steps that run behind it as if queued one by one: a driver's
+    prediction of its next commands along its plan, so a driver held up leaves the vehicle following
+    the plan for that long rather than holding one arc (at most `MAX_DRIVE_STEPS`).
     `turn_rate` [rad/s] overrides the curvature for skid-steer vehicles (the Terregator turns in
     place with `speed=0`); Ackermann vehicles reject it. `seq` is the sender's sequence number.
     `sensed_at` [s sim] is the capture stamp of the newest sensor data the command derives from (None:
@@ -74,11 +93,14 @@ class DriveCommand(BaseModel):
     turn_rate: float | None = Field(default=None, allow_inf_nan=False)
     seq: int = 0
     sensed_at: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
+    then: tuple[DriveStep, ...] = Field(default=(), max_length=MAX_DRIVE_STEPS)
 
     @model_validator(mode="after")
     def _queued_needs_duration(self) -> "DriveCommand":
         if self.mode == "queued" and self.duration is None:
             raise ValueError("a queued command needs a duration [s]")
+        if self.then and self.duration is None:
+            raise ValueError("steps behind a command (then) need the command to be timed: give it a duration [s]")
         return self
 
 

@@ -10,13 +10,14 @@ is kept.
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError
-from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry
+from modules.helm.tracker import Actuation, Lookahead, PathTracker, TrackCommand, TrackerConfig, TrackerError
+from wire.drive import MAX_COMMAND_DURATION, DriveCommand, DriveStep, Odometry
 
 from eddie.controller.arbiter import ClientArbiter
 from eddie.controller.nudge import NudgeSum
@@ -35,6 +36,9 @@ __all__ = ["IntegratedController", "ControllerConfig", "ARC_OVERSHOOT_RAD"]
 #: 16 runs with it, 9 of 16 without (docs/performance.md, session 20). The HELM's tracker leaves it
 #: unset: CODGER did no better with it (9 of 12 against 12 of 12).
 ARC_OVERSHOOT_RAD = 0.1
+
+#: what the tracker gives with no path: stand
+_STOP = TrackCommand(0.0, 0.0, 0.0, 0.0, True)
 
 
 @dataclass(frozen=True)
@@ -74,6 +78,7 @@ class IntegratedController:
     def __post_init__(self) -> None:
         tr = self.cfg.tracker
         self.tracker = PathTracker(tr)
+        self.lookahead = Lookahead(1.0 / self.cfg.control_hz, self.cfg.max_hold_s)
         self.velocity = VelocityRegulator(tr.max_accel, tr.max_decel)
         self.nudge = NudgeSum(self.cfg.nudge_tau_s)
         self.arbiter = ClientArbiter()
@@ -168,13 +173,28 @@ class IntegratedController:
 
     # ---- outputs -------------------------------------------------------------------------
 
+    def _shape(self, cmd: TrackCommand, dt: float, velocity: VelocityRegulator) -> Actuation:
+        """Return what is sent for the tracker's `cmd` after `dt` [s]: speed capped, then ramped by `velocity`."""
+        speed, turn_rate = cmd.speed, cmd.turn_rate
+        for cap in (self.speed_limit, self.mission_speed):
+            if cap is not None:
+                speed = max(-cap, min(cap, speed))
+        if turn_rate is not None:  # the tracker turns a skid-steer vehicle on the spot
+            velocity.reset(0.0)
+            speed = 0.0
+        return Actuation(velocity.step(speed, dt), cmd.curvature, turn_rate)
+
     def tick(self, now: float) -> DriveCommand:
-        """Return the drive command for sim time `now` [s] (a stop without odometry or a path)."""
+        """Return the drive command for sim time `now` [s] (a stop without odometry or a path).
+
+        While tracking, the commands of the next `max_hold_s` [s] along the path follow it (`then`,
+        `modules.helm.tracker.Lookahead`): a controller held up leaves the vehicle on its path.
+        """
         dt = 0.0 if self._last_tick is None else max(0.0, now - self._last_tick)
         self._last_tick = now
         tr = self.cfg.tracker
         od = self.odom
-        speed, curv, turn_rate, horizon = 0.0, 0.0, None, math.inf
+        cmd = _STOP
         if od is not None and self.path is not None:
             cmd = self.tracker.command(np.array([od.x, od.y, od.yaw]), dt)
             if cmd.done:
@@ -183,27 +203,33 @@ class IntegratedController:
                 self.tracker.clear()
                 self.mode = "idle"
                 self.path_changed = True
-            else:
-                speed, curv, turn_rate, horizon = cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon
-        for cap in (self.speed_limit, self.mission_speed):
-            if cap is not None:
-                speed = max(-cap, min(cap, speed))
-        if turn_rate is not None:  # the tracker turns a skid-steer vehicle on the spot
-            self.velocity.reset(0.0)
-            speed = 0.0
-        speed = self.velocity.step(speed, dt)
+                cmd = _STOP
+        act = self._shape(cmd, dt, self.velocity)
+        speed, curv, horizon = act.speed, act.curvature, cmd.horizon
         dv, dk = self.nudge.offsets(now)
-        if dv or dk:
+        nudged = bool(dv or dk)
+        if nudged:
             speed = max(-tr.max_speed, min(tr.max_speed, speed + dv))
             curv = max(-tr.max_curvature, min(tr.max_curvature, curv + dk))
             horizon = min(horizon, 1.0 / self.cfg.control_hz * 1.5)
+            act = Actuation(speed, curv, act.turn_rate)
         self.curvature = curv
-        moving = speed != 0.0 or (turn_rate is not None and turn_rate != 0.0)
+        moving = act.moving
         period = 1.0 / self.cfg.control_hz
         duration = float(min(self.cfg.max_hold_s, max(1.5 * period, horizon))) if moving else MAX_COMMAND_DURATION
+        then: tuple[DriveStep, ...] = ()
+        if moving and not nudged and od is not None and self.path is not None:
+            velocity = copy.copy(self.velocity)  # the look ahead ramps a copy of the speed
+            ahead = self.lookahead.steps(now, self.tracker, np.array([od.x, od.y, od.yaw]), act,
+                                         lambda c, step: self._shape(c, step, velocity))
+            if ahead:
+                duration = period
+                then = tuple(DriveStep(speed=a.speed, curvature=a.curvature, turn_rate=a.turn_rate, duration=d) for a, d in ahead)
+        else:
+            self.lookahead.reset()  # a nudge is summed in as it comes: only the command in hand carries it
         self._seq += 1
-        return DriveCommand(speed=speed, curvature=curv, mode="immediate", turn_rate=turn_rate if moving else None,
-                            seq=self._seq, duration=duration,
+        return DriveCommand(speed=speed, curvature=curv, mode="immediate", turn_rate=act.turn_rate if moving else None,
+                            seq=self._seq, duration=duration, then=then,
                             sensed_at=self.path.sensed_at if self.path is not None else None)
 
     def position(self) -> Position | None:

@@ -2,7 +2,8 @@
 
 Reads odometry (local←vehicle) from the simulator's drive interface and local path plans (frame
 `local`) from the blackboard; sends timed DriveCommands (speed [m/s], curvature [1/m], duration [s])
-on the drive key and posts `local←vehicle` poses at `pose_hz` (sim time), every one: the odometry of each
+on the drive key, each with the commands predicted for the next `max_hold_s` behind it (a HELM held up leaves the
+vehicle on its plan: `modules.helm.tracker.Lookahead`), and posts `local←vehicle` poses at `pose_hz` (sim time), every one: the odometry of each
 pose period is queued as it arrives and posted at the next control tick, so a HELM that fell behind (a
 loaded machine at a high RTF) leaves no holes in the pose history a delayed fix is propagated through,
 and the poses of one tick share a message. Whenever a new plan appears the old one is dropped (seed
@@ -22,12 +23,12 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from blackboard import Pose2D, Spec
 from blackboard.errors import BlackboardError
-from modules.helm.tracker import PathTracker, TrackerConfig, TrackerError, tracker_config_for
+from modules.helm.tracker import Actuation, Lookahead, PathTracker, TrackerConfig, TrackerError, tracker_config_for
 from modules.vocabulary import LocalPathPlan, ObstacleReport
 from wire.keys import root as keys_root
 from wire.ratelimit import warn_limited
 from wire.timemode import lockstep_enabled
-from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
+from wire.drive import MAX_COMMAND_DURATION, DriveCommand, DriveStep, Odometry, WireError, decode, encode
 
 __all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys", "MAX_POSES_IN_FLIGHT"]
 
@@ -35,6 +36,11 @@ log = logging.getLogger(__name__)
 
 #: Poses posted and not yet acknowledged, at most; beyond it (the blackboard away) odometry is not posted.
 MAX_POSES_IN_FLIGHT = 256
+
+
+def _as_sent(cmd, _dt: float) -> Actuation:
+    """Return what the HELM sends for a tracker command: the command as it is."""
+    return Actuation(cmd.speed, cmd.curvature, cmd.turn_rate)
 
 
 class DriveKeys(BaseModel):
@@ -86,6 +92,7 @@ class Helm:
         self.rt = rt
         self.cfg = cfg
         self.tracker = PathTracker(cfg.tracker)
+        self.lookahead = Lookahead(1.0 / cfg.control_hz, cfg.max_hold_s)
         self.cmd_key, self.odom_key = cfg.keys.resolve(rt.net.namespace)
         self.odom: Odometry | None = None
         self._odom_event = asyncio.Event()
@@ -181,11 +188,15 @@ class Helm:
         period = 1.0 / self.cfg.control_hz
         return float(min(self.cfg.max_hold_s, max(1.5 * period, horizon)))
 
-    def _send(self, speed: float, curvature: float, turn_rate: float | None = None, horizon: float = math.inf) -> None:
+    def _send(self, speed: float, curvature: float, turn_rate: float | None = None, horizon: float = math.inf,
+              then: list[tuple[Actuation, float]] | None = None) -> None:
+        """Send one drive command; `then`: the steps predicted behind it (`rollout`), the command then holds one period."""
         self._seq += 1
         moving = speed != 0.0 or (turn_rate is not None and turn_rate != 0.0)
+        steps = tuple(DriveStep(speed=a.speed, curvature=a.curvature, turn_rate=a.turn_rate, duration=d) for a, d in then or ())
+        duration = 1.0 / self.cfg.control_hz if moving and steps else self.command_duration(horizon, moving)
         cmd = DriveCommand(speed=speed, curvature=curvature, mode="immediate", turn_rate=turn_rate, seq=self._seq,
-                           duration=self.command_duration(horizon, moving), sensed_at=self.plan_sensed_at)
+                           duration=duration, sensed_at=self.plan_sensed_at, then=steps if moving else ())
         self.last_command = cmd
         self.rt.link.put(self.cmd_key, encode(cmd))
 
@@ -237,14 +248,19 @@ class Helm:
                 now = rt.clock.now()
                 dt = max(0.0, now - last_t)
                 last_t = now
-                cmd = self.tracker.command(np.array([od.x, od.y, od.yaw]), dt)
+                pose = np.array([od.x, od.y, od.yaw])
+                cmd = self.tracker.command(pose, dt)
                 if not cmd.done and self.obstacle_hold(now):
                     self.tracker.halt()
                     self._send(0.0, 0.0)
                 elif cmd.done:
                     self._send(0.0, 0.0)
                 else:
-                    self._send(cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon)
+                    # the commands of the next max_hold_s along the plan go behind this one: a HELM held up
+                    # (two loaded cores at RTF 50) leaves the vehicle following the plan, not holding one arc
+                    first = Actuation(cmd.speed, cmd.curvature, cmd.turn_rate)
+                    ahead = self.lookahead.steps(now, self.tracker, pose, first, _as_sent)
+                    self._send(cmd.speed, cmd.curvature, cmd.turn_rate, cmd.horizon, then=ahead)
                 # the poses go out without holding up control: the drive command never waits for the
                 # blackboard's acknowledgement (at a high RTF the watchdog would stop the vehicle)
                 self._post_poses()

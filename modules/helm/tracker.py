@@ -3,18 +3,27 @@
 The plan is a pose sequence (N,3) (x [m], y [m], yaw [rad]) with signed speeds (N,) [m/s]; the
 vehicle pose is local←vehicle from odometry. Each call returns a speed [m/s] and a curvature
 [1/m] for the drive interface, slowing so that the vehicle comes to rest at the plan's end.
+
+`rollout` looks ahead: it drives the tracker's own commands along their arcs, one control period
+each, and returns the commands it would send on the way. A driver sends them behind its command
+(`DriveCommand.then`), so when it is held up (two loaded cores at RTF 50 hold a control loop for
+seconds of sim) the vehicle goes on along the plan instead of holding one arc and weaving.
 """
 
 from __future__ import annotations
 
+import bisect
+import copy
 import math
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from modules.helm.errors import HelmError
 
-__all__ = ["TrackerConfig", "TrackCommand", "PathTracker", "TrackerError", "tracker_config_for"]
+__all__ = ["TrackerConfig", "TrackCommand", "PathTracker", "TrackerError", "tracker_config_for", "Actuation", "predict_pose", "rollout",
+           "Lookahead"]
 
 
 class TrackerError(HelmError, ValueError):
@@ -92,6 +101,7 @@ class PathTracker:
         self._poses: np.ndarray | None = None
         self._speeds: np.ndarray | None = None
         self._s: np.ndarray | None = None
+        self._a = self._d = self._ll = None
         self._idx = 0
         self._fresh = True
         self._last_speed = 0.0
@@ -114,23 +124,32 @@ class PathTracker:
         self._poses = poses
         self._speeds = speeds
         self._s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
+        # per segment, once: start (N-1, 2), direction (N-1, 2) [m], squared length (N-1,) [m²]
+        self._a = np.ascontiguousarray(poses[:-1, :2])
+        self._d = poses[1:, :2] - poses[:-1, :2]
+        self._ll = np.maximum(np.einsum("ij,ij->i", self._d, self._d), 1e-12)
+        # the same numbers as Python floats, for the scalar arithmetic of each command
+        self._s_list: list[float] = self._s.tolist()
+        self._xy_list: list[list[float]] = poses[:, :2].tolist()
+        self._speed_list: list[float] = speeds.tolist()
+        self._end = tuple(poses[-1].tolist())
         self._idx = 0
         self._fresh = True
 
     def clear(self) -> None:
         """Drop the plan (commands become stops)."""
-        self._poses = self._speeds = self._s = None
+        self._poses = self._speeds = self._s = self._a = self._d = self._ll = None
+
+    def fork(self) -> "PathTracker":
+        """Return a tracker on the same plan with its own progress and speed ramp (this one is left as it is)."""
+        return copy.copy(self)  # the plan's arrays are replaced, never changed in place: sharing them is safe
 
     def _nearest(self, p: np.ndarray) -> tuple[int, float, float]:
         """Return (segment index, fraction along it, signed cross-track [m], left +) of the closest point."""
-        poses = self._poses
-        n = len(poses)
+        n = len(self._poses)
         lo, hi = (0, n - 1) if self._fresh else (self._idx, min(n - 1, self._idx + self.cfg.search_window))
-        a = poses[lo:hi, :2]
-        b = poses[lo + 1 : hi + 1, :2]
-        d = b - a
-        ll = np.maximum(np.einsum("ij,ij->i", d, d), 1e-12)
-        t = np.clip(np.einsum("ij,ij->i", p - a, d) / ll, 0.0, 1.0)
+        a, d = self._a[lo:hi], self._d[lo:hi]
+        t = np.minimum(np.maximum(np.einsum("ij,ij->i", p - a, d) / self._ll[lo:hi], 0.0), 1.0)
         c = a + t[:, None] * d
         dist = np.hypot(*(p - c).T)
         k = int(np.argmin(dist))
@@ -151,18 +170,22 @@ class PathTracker:
         cfg = self.cfg
         pose = np.asarray(pose, dtype=np.float64).reshape(3)
         i, t, cross = self._nearest(pose[:2])
-        s_here = self._s[i] + t * (self._s[i + 1] - self._s[i])
-        remaining = float(self._s[-1] - s_here)
-        end = self._poses[-1]
+        px, py, pyaw = pose.tolist()
+        sl = self._s_list
+        s_here = sl[i] + t * (sl[i + 1] - sl[i])
+        remaining = sl[-1] - s_here
+        end = self._end
         # Past the end (projected beyond the last pose along its heading) counts as arrived.
-        beyond = (pose[0] - end[0]) * math.cos(end[2]) + (pose[1] - end[1]) * math.sin(end[2])
-        if remaining <= cfg.goal_tolerance or (i >= len(self._poses) - 2 and beyond >= 0.0):
+        beyond = (px - end[0]) * math.cos(end[2]) + (py - end[1]) * math.sin(end[2])
+        if remaining <= cfg.goal_tolerance or (i >= len(sl) - 2 and beyond >= 0.0):
             self._last_speed = 0.0
             return TrackCommand(0.0, 0.0, cross, max(0.0, remaining), True)
-        plan_v = float(self._speeds[min(i + 1, len(self._speeds) - 1)])
-        ahead = self._speeds[i : min(len(self._speeds), i + 8)]
-        v_ref = float(np.max(np.abs(ahead))) if plan_v != 0.0 or np.any(ahead != 0.0) else 0.0
-        reverse = (plan_v if plan_v != 0.0 else float(ahead[np.argmax(np.abs(ahead))])) < 0.0
+        speeds = self._speed_list
+        plan_v = speeds[min(i + 1, len(speeds) - 1)]
+        ahead = speeds[i : min(len(speeds), i + 8)]
+        v_far = max(ahead, key=abs)  # the first of the largest magnitude
+        v_ref = abs(v_far)  # 0 when every speed ahead is 0
+        reverse = (plan_v if plan_v != 0.0 else v_far) < 0.0
         # Brake for the end, counting the distance covered while the drive responds (speed lag).
         brake_room = max(0.0, remaining - cfg.goal_tolerance - self._last_speed * cfg.speed_lag)
         v_ref = min(v_ref, cfg.max_speed, math.sqrt(2.0 * cfg.max_decel * brake_room))
@@ -171,15 +194,16 @@ class PathTracker:
         # Lookahead point: walk along the plan; past the end, extend along the final heading.
         ld = min(cfg.lookahead_max, cfg.lookahead_base + cfg.lookahead_gain * abs(v_cmd))
         s_goal = s_here + ld
-        if s_goal <= self._s[-1]:
-            j = int(np.clip(np.searchsorted(self._s, s_goal) - 1, 0, len(self._s) - 2))
-            f = (s_goal - self._s[j]) / max(self._s[j + 1] - self._s[j], 1e-12)
-            target = self._poses[j, :2] + f * (self._poses[j + 1, :2] - self._poses[j, :2])
+        if s_goal <= sl[-1]:
+            j = min(max(bisect.bisect_left(sl, s_goal) - 1, 0), len(sl) - 2)
+            f = (s_goal - sl[j]) / max(sl[j + 1] - sl[j], 1e-12)
+            (ax, ay), (bx, by) = self._xy_list[j], self._xy_list[j + 1]
+            tx, ty = ax + f * (bx - ax), ay + f * (by - ay)
         else:
-            extra = s_goal - self._s[-1]
-            target = end[:2] + extra * np.array([math.cos(end[2]), math.sin(end[2])])
-        dx, dy = target[0] - pose[0], target[1] - pose[1]
-        c, s = math.cos(pose[2]), math.sin(pose[2])
+            extra = s_goal - sl[-1]
+            tx, ty = end[0] + extra * math.cos(end[2]), end[1] + extra * math.sin(end[2])
+        dx, dy = tx - px, ty - py
+        c, s = math.cos(pyaw), math.sin(pyaw)
         lx, ly = c * dx + s * dy, -s * dx + c * dy
         bearing = math.atan2(ly, lx if not reverse else -lx)
         if cfg.turn_in_place_angle is not None and abs(bearing) > cfg.turn_in_place_angle:
@@ -201,3 +225,113 @@ class PathTracker:
         if cfg.overshoot is not None and turn_rate > 1e-9:
             horizon = min(horizon, (abs(bearing) + cfg.overshoot) / turn_rate)
         return TrackCommand(-v_cmd if reverse else v_cmd, kappa, cross, remaining, False, horizon=horizon)
+
+
+@dataclass(frozen=True)
+class Actuation:
+    """What a driver sends for one control period: speed [m/s], curvature [1/m], turn rate [rad/s] (None: drive the arc)."""
+
+    speed: float
+    curvature: float
+    turn_rate: float | None = None
+
+    @property
+    def moving(self) -> bool:
+        """Return whether this moves the vehicle (drives or turns on the spot)."""
+        return self.speed != 0.0 or (self.turn_rate is not None and self.turn_rate != 0.0)
+
+
+def predict_pose(pose: np.ndarray, act: Actuation, dt: float) -> np.ndarray:
+    """Return the pose (3,) [m, m, rad] reached from `pose` after `dt` [s] of `act`, exactly along its arc (no lag)."""
+    x, y, yaw = (float(v) for v in pose)
+    if act.turn_rate is not None:
+        return np.array([x, y, yaw + act.turn_rate * dt])
+    ds = act.speed * dt
+    dyaw = act.curvature * ds
+    if abs(dyaw) < 1e-9:
+        return np.array([x + ds * math.cos(yaw), y + ds * math.sin(yaw), yaw])
+    r = ds / dyaw
+    return np.array([x + r * (math.sin(yaw + dyaw) - math.sin(yaw)), y - r * (math.cos(yaw + dyaw) - math.cos(yaw)), yaw + dyaw])
+
+
+def rollout(tracker: PathTracker, pose: np.ndarray, first: Actuation, shape: Callable[[TrackCommand, float], Actuation],
+            period: float, horizon: float) -> list[tuple[Actuation, float]]:
+    """Return the (actuation, duration [s]) a driver would send after `first` over the next `horizon` [s] sim.
+
+    From `pose` (local←vehicle) `first` is driven for one control `period` [s]; a fork of `tracker`
+    is then asked at each pose reached, and `shape` turns its command into what the driver sends (its
+    speed caps and ramp, which it must keep on copies). Stops at the plan's end or a stop; steps alike
+    to within 1 mm/s and 1e-4 1/m are merged into one longer step. `tracker` itself is left as it is.
+    """
+    fork = tracker.fork()
+    steps: list[tuple[Actuation, float]] = []
+    act, p = first, np.asarray(pose, dtype=np.float64)
+    for _ in range(max(0, int(round(horizon / period)))):
+        p = predict_pose(p, act, period)
+        cmd = fork.command(p, period)
+        if cmd.done:
+            break
+        act = shape(cmd, period)
+        if not act.moving:
+            break
+        if steps and _alike(steps[-1][0], act):
+            steps[-1] = (steps[-1][0], steps[-1][1] + period)
+        else:
+            steps.append((act, period))
+    return steps
+
+
+def _alike(a: Actuation, b: Actuation) -> bool:
+    if (a.turn_rate is None) != (b.turn_rate is None):
+        return False
+    if a.turn_rate is not None and abs(a.turn_rate - b.turn_rate) > 1e-4:  # type: ignore[operator]
+        return False
+    return abs(a.speed - b.speed) <= 1e-3 and abs(a.curvature - b.curvature) <= 1e-4
+
+
+class Lookahead:
+    """The steps a driver sends behind each command (`rollout`), predicted afresh only when needed.
+
+    A rollout costs some twenty tracker commands; a driver on time sends a command every `period`
+    [s] sim and would throw each prediction away. So a prediction is kept and its remainder sent
+    behind the next commands, and predicted again once it is `every` [s] sim old, for a new plan,
+    or when the command in hand differs from what was predicted for now (the vehicle went its own way).
+    Steps cover `horizon` [s] sim after the command when fresh, at least `horizon - every` later.
+    """
+
+    def __init__(self, period: float, horizon: float, every: float = 0.5) -> None:
+        self.period, self.horizon, self.every = period, horizon, every
+        self._plan: object = None
+        self._t0 = -math.inf
+        self._pred: list[tuple[Actuation, float, float]] = []  # (actuation, start, end) [s] sim
+        self.predictions = 0  # rollouts made (for tests and the curious)
+
+    def reset(self) -> None:
+        """Forget the prediction (a stop, a nudge)."""
+        self._pred = []
+        self._plan = None
+
+    def steps(self, now: float, tracker: PathTracker, pose: np.ndarray, first: Actuation,
+              shape: Callable[[TrackCommand, float], Actuation]) -> list[tuple[Actuation, float]]:
+        """Return the (actuation, duration [s]) to send behind `first`, sent at sim time `now` [s] from `pose`."""
+        start = now + self.period
+        if (tracker._poses is not self._plan or not now - self.every < self._t0 <= now
+                or not self._on_prediction(now, first)):
+            self._plan, self._t0 = tracker._poses, now
+            self._pred, t = [], start
+            for act, d in rollout(tracker, pose, first, shape, self.period, self.horizon):
+                self._pred.append((act, t, t + d))
+                t += d
+            self.predictions += 1
+        return [(act, e - max(b, start)) for act, b, e in self._pred if e - max(b, start) > 1e-6]
+
+    def _on_prediction(self, now: float, first: Actuation) -> bool:
+        """Return whether `first` is what the prediction has for `now` (within 5 cm/s, 0.05 1/m, 0.05 rad/s)."""
+        for act, b, e in self._pred:
+            if b - 1e-6 <= now < e:
+                if (act.turn_rate is None) != (first.turn_rate is None):
+                    return False
+                if act.turn_rate is not None and abs(act.turn_rate - first.turn_rate) > 0.05:  # type: ignore[operator]
+                    return False
+                return abs(act.speed - first.speed) <= 0.05 and abs(act.curvature - first.curvature) <= 0.05
+        return False

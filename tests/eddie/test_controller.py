@@ -133,3 +133,63 @@ def test_a_set_speed_trigger_caps_every_client_and_never_lifts_an_obstacle_hold(
         cmd = c.tick(t)
     assert cmd.speed == 0.0
     assert [e.kind for e in c.take_events()].count("set_speed") == 2
+
+
+def test_while_tracking_each_drive_command_carries_the_next_seconds_along_the_path():
+    c = _ctl("terregator")
+    c.odometry(_od(0.0, 0.0))
+    c.command(PathCommand(client="v", points=((0, 0), (20, 0)), speed=0.8), 0.0)
+    assert not c.tick(0.0).then  # the ramp starts: nothing moves yet
+    cmd = c.tick(0.1)
+    assert cmd.speed > 0.0 and cmd.duration == pytest.approx(0.1) and cmd.then
+    assert sum(s.duration for s in cmd.then) == pytest.approx(c.cfg.max_hold_s)
+    assert [s.speed for s in cmd.then] == sorted(s.speed for s in cmd.then)  # the predicted ramp up to speed
+    # a nudge is summed into the command in hand alone; a stop carries nothing
+    c.command(Nudge(source="joystick", dk=0.05), 0.2)
+    assert not c.tick(0.2).then
+    c.command(Stop(client="bumper", reason="test"), 0.3)
+    stopped = c.tick(0.3)
+    assert stopped.speed == 0.0 and not stopped.then
+
+
+def test_a_controller_held_up_leaves_the_vehicle_where_one_on_time_would_have_it():
+    """A new path 0.6 m to the right arrives; the controller sends one command and is then held up for 2 s sim
+    (two loaded cores at RTF 50): the steps it sent behind the command drive the simulated Terregator
+    (its own lags and limits) within a few centimetres and degrees of where a controller ticking every
+    period gets it. One arc held alone (the command without its steps) turns it across the path."""
+    from shapely.geometry import LineString, Point
+    from vehicle_sim.simulator import SimConfig, Simulator
+    from vehicle_sim.worldfile import load_world
+    from eddie.controller.integrated_controller import ARC_OVERSHOOT_RAD
+
+    world = load_world("campus")
+
+    def drive(held: bool, steps: bool = True) -> tuple[float, float, float]:
+        sim = Simulator(world, SimConfig(vehicle="terregator", seed=3, collisions_block=False), start=(0.0, -20.0, 0.0))
+        tr = tracker_config_for("terregator").model_copy(update={"overshoot": ARC_OVERSHOOT_RAD})
+        c = IntegratedController(ControllerConfig(tracker=tr, control_hz=10.0))
+
+        def tick() -> None:
+            o = sim.odom
+            c.odometry(Odometry(stamp=sim.t, x=o.x, y=o.y, yaw=o.yaw, v=sim.state.v, omega=0.0, distance=0.0))
+            cmd = c.tick(sim.t)
+            sim.submit(cmd if steps else cmd.model_copy(update={"then": (), "duration": 2.0}))
+
+        c.command(PathCommand(client="v", points=((0.0, 0.0), (30.0, 0.0)), speed=0.8), sim.t)
+        for _ in range(30):  # up to speed on the first path
+            tick()
+            sim.advance(0.1)
+        x0 = sim.odom.x
+        new = ((x0 - 1.0, -0.6), (x0 + 20.0, -0.6))
+        c.command(PathCommand(client="v", points=new, speed=0.8), sim.t)
+        for k in range(20):
+            if k == 0 or not held:
+                tick()
+            sim.advance(0.1)
+        p = Point(sim.odom.x, sim.odom.y)
+        return LineString(new).distance(p), sim.odom.x - x0, math.degrees(sim.odom.yaw)
+
+    on_time, held, one_arc = drive(False), drive(True), drive(True, steps=False)
+    assert held[1] > 1.5  # it kept driving all along
+    assert abs(held[0] - on_time[0]) < 0.06 and abs(held[1] - on_time[1]) < 0.06 and abs(held[2] - on_time[2]) < 4.0
+    assert abs(one_arc[2] - on_time[2]) > 8.0  # held alone, the arc turned the vehicle well past the on-time heading

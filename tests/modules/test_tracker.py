@@ -227,3 +227,90 @@ def test_a_late_arc_command_lapses_before_it_turns_the_vehicle_past_the_plan():
     assert cmd.horizon < reach_time
     assert abs(heading_after(cmd.horizon)) <= 0.1 + 0.02  # lapses about aligned with the plan
     assert command(None).horizon == pytest.approx(reach_time)  # unset: the arc holds to the lookahead point
+
+
+def test_predict_pose_drives_exactly_along_the_arc_or_turns_on_the_spot():
+    from modules.helm.tracker import Actuation, predict_pose
+
+    start = np.array([1.0, 2.0, 0.4])
+    for act in (Actuation(0.8, 0.0), Actuation(0.8, 0.5), Actuation(-0.5, -0.3)):
+        fine = start
+        for _ in range(200):  # the arc in 2,000 Euler steps
+            fine = _unicycle(fine, act.speed, act.curvature, 0.01)
+        np.testing.assert_allclose(predict_pose(start, act, 2.0), fine, atol=5e-4)  # Euler's error
+    np.testing.assert_allclose(predict_pose(start, Actuation(0.0, 0.0, 0.4), 0.5), [1.0, 2.0, 0.6])
+
+
+def test_rollout_gives_the_commands_an_on_time_tracker_would_send_and_leaves_the_tracker_as_it_was():
+    from modules.helm.tracker import Actuation, predict_pose, rollout
+
+    xs = np.linspace(0.0, 30.0, 121)
+    plan = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+    cfg = TrackerConfig(max_speed=1.0, max_accel=0.5, max_curvature=2.0, lookahead_base=1.0, lookahead_gain=0.8)
+    tr = PathTracker(cfg)
+    tr.set_plan(plan, np.full(len(xs), 1.0))
+    start = np.array([2.0, 0.6, 0.2])  # left of the plan, heading away from it
+    first = tr.command(start, 0.1)
+    before = tr.fork()
+    shape = lambda c, dt: Actuation(c.speed, c.curvature, c.turn_rate)  # noqa: E731 - the driver sends what the tracker says
+    steps = rollout(tr, start, Actuation(first.speed, first.curvature), shape, 0.1, 2.0)
+    assert sum(d for _, d in steps) == pytest.approx(2.0)  # the horizon, after the command in hand
+    # the same as a twin tracker asked every period at the pose its own commands drive to
+    twin = PathTracker(cfg)
+    twin.set_plan(plan, np.full(len(xs), 1.0))
+    cmd, p, sent = twin.command(start, 0.1), start, []
+    for _ in range(20):
+        p = predict_pose(p, Actuation(cmd.speed, cmd.curvature), 0.1)
+        cmd = twin.command(p, 0.1)
+        sent.append((cmd.speed, cmd.curvature))
+    merged = [(a.speed, a.curvature) for a, d in steps for _ in range(int(round(d / 0.1)))]
+    np.testing.assert_allclose(merged, sent, atol=2e-3)
+    assert p[1] < start[1] and p[2] < start[2]  # turning back towards the plan
+    # the tracker itself did not move on (progress, speed ramp): it answers as a copy taken before the rollout
+    again, ref = tr.command(start, 0.1), before.command(start, 0.1)
+    assert (again.speed, again.curvature, again.horizon) == (ref.speed, ref.curvature, ref.horizon)
+
+
+def test_rollout_stops_at_the_plans_end_and_at_a_stop():
+    from modules.helm.tracker import Actuation, rollout
+
+    xs = np.linspace(0.0, 1.0, 5)
+    plan = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+    tr = PathTracker(TrackerConfig(max_speed=1.0, max_accel=10.0))
+    tr.set_plan(plan, np.full(len(xs), 1.0))
+    shape = lambda c, dt: Actuation(c.speed, c.curvature, c.turn_rate)  # noqa: E731
+    steps = rollout(tr, np.zeros(3), Actuation(0.5, 0.0), shape, 0.1, 5.0)
+    assert 0.5 < sum(d for _, d in steps) < 3.0  # ends where the plan ends, not at the horizon
+    assert rollout(tr, np.zeros(3), Actuation(0.5, 0.0), lambda c, dt: Actuation(0.0, 0.0), 0.1, 5.0) == []
+
+
+def test_lookahead_sends_the_rest_of_its_prediction_and_predicts_again_when_old_off_or_on_a_new_plan():
+    from modules.helm.tracker import Actuation, Lookahead, predict_pose
+
+    xs = np.linspace(0.0, 40.0, 161)
+    plan = np.stack([xs, 0.5 * np.sin(xs / 4.0), np.zeros_like(xs)], axis=1)
+    plan[:, 2] = np.gradient(plan[:, 1], xs)
+    cfg = TrackerConfig(max_speed=1.0, max_accel=0.5, max_curvature=2.0, lookahead_base=1.0, lookahead_gain=0.8)
+    tr = PathTracker(cfg)
+    tr.set_plan(plan, np.full(len(xs), 1.0))
+    look = Lookahead(0.1, 2.0, every=0.5)
+    shape = lambda c, dt: Actuation(c.speed, c.curvature, c.turn_rate)  # noqa: E731
+    pose, t, sent = np.array([0.0, 0.0, 0.0]), 0.0, []
+    for _ in range(30):  # on time, the vehicle where the predictions put it: 3 s sim, 30 commands
+        c = tr.command(pose, 0.1)
+        first = Actuation(c.speed, c.curvature)
+        steps = look.steps(t, tr, pose, first, shape)
+        sent.append(sum(d for _, d in steps))
+        pose, t = predict_pose(pose, first, 0.1), t + 0.1
+    assert look.predictions == 6  # one each 0.5 s sim, not one a command
+    assert min(sent) >= 1.5 - 1e-6 and max(sent) == pytest.approx(2.0)  # at least the horizon less the reuse age
+    # the vehicle pushed off the predicted course: the command in hand differs from the prediction, which is made again
+    off = pose + np.array([0.0, 0.8, 0.4])
+    c = tr.command(off, 0.1)
+    look.steps(t + 0.1, tr, off, Actuation(c.speed, c.curvature), shape)
+    assert look.predictions == 7
+    # a new plan: predicted afresh at once
+    tr.set_plan(plan + np.array([0.0, 1.0, 0.0]), np.full(len(xs), 1.0))
+    c = tr.command(off, 0.1)
+    look.steps(t + 0.2, tr, off, Actuation(c.speed, c.curvature), shape)
+    assert look.predictions == 8

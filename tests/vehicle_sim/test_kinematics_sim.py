@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from wire.drive import DriveCommand
+from wire.drive import DriveCommand, DriveStep
 from vehicle_sim.simulator import CommandRejected, SimConfig, Simulator
 from vehicle_sim.worldfile import load_world
 
@@ -82,6 +82,11 @@ def test_navlab_rejects_turn_in_place(campus):
         sim.submit(DriveCommand(speed=0.0, turn_rate=0.3))
     (ev,) = sim.drain_events()
     assert ev.kind == "rejected"
+    # a turn on the spot among the steps behind a command is refused with the command: nothing of it runs
+    with pytest.raises(CommandRejected, match="cannot turn in place"):
+        sim.submit(DriveCommand(speed=1.0, duration=0.1, then=(DriveStep(speed=1.0, duration=0.5), DriveStep(speed=0.0, turn_rate=0.3, duration=0.5))))
+    sim.advance(0.5)
+    assert sim.state.v == 0.0
 
 
 def test_truth_has_ground_height(campus):

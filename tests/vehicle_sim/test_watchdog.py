@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from wire.drive import DriveCommand
+from wire.drive import MAX_DRIVE_STEPS, DriveCommand, DriveStep, decode, encode
 from vehicle_sim.simulator import SimConfig, Simulator
 from vehicle_sim.watchdog import STOP, CommandSupervisor
 from vehicle_sim.worldfile import load_world
@@ -66,6 +66,54 @@ def test_queued_after_open_ended_supersedes_it():
 def test_queued_needs_a_duration():
     with pytest.raises(ValueError, match="duration"):
         DriveCommand(speed=1.0, mode="queued")
+
+
+def _steps(*speeds, duration=0.5):
+    return tuple(DriveStep(speed=v, curvature=0.1 * v, duration=duration) for v in speeds)
+
+
+def test_steps_behind_an_immediate_command_run_in_order_then_the_vehicle_stops():
+    sup = CommandSupervisor(timeout=0.5)
+    sup.submit(DriveCommand(speed=1.0, duration=0.1, seq=7, sensed_at=3.0, then=_steps(2.0, 3.0)), t=10.0)
+    assert sup.queued == 2
+    assert sup.tick(10.05).command.speed == 1.0
+    second = sup.tick(10.1).command  # the first step starts exactly where the command ends
+    assert (second.speed, second.curvature, second.seq, second.sensed_at) == (2.0, 0.2, 7, 3.0)
+    assert sup.tick(10.59).command.speed == 2.0
+    assert sup.tick(10.6).command.speed == 3.0
+    assert sup.tick(11.09).command.speed == 3.0  # timed steps are not subject to the 0.5 s refresh
+    r = sup.tick(11.1)
+    assert r.exhausted and r.command == STOP
+
+
+def test_a_new_immediate_command_drops_the_steps_of_the_last():
+    sup = CommandSupervisor(timeout=0.5)
+    sup.submit(DriveCommand(speed=1.0, duration=0.1, then=_steps(2.0, 3.0, 4.0)), t=0.0)
+    sup.tick(0.3)
+    sup.submit(DriveCommand(speed=5.0, duration=0.1, then=_steps(6.0)), t=0.35)
+    assert sup.queued == 1
+    assert [sup.tick(t).command.speed for t in (0.4, 0.45, 0.9)] == [5.0, 6.0, 6.0]
+    assert sup.tick(0.95).exhausted
+
+
+def test_a_queued_command_brings_its_steps_behind_it():
+    sup = CommandSupervisor(timeout=0.5)
+    sup.submit(DriveCommand(speed=1.0, mode="queued", duration=1.0), t=0.0)
+    sup.submit(DriveCommand(speed=2.0, mode="queued", duration=1.0, then=_steps(3.0)), t=0.0)
+    sup.submit(DriveCommand(speed=4.0, mode="queued", duration=1.0), t=0.0)
+    assert [sup.tick(t).command.speed for t in (0.5, 1.5, 2.2, 2.7)] == [1.0, 2.0, 3.0, 4.0]
+
+
+def test_steps_need_a_timed_command_and_are_bounded():
+    with pytest.raises(ValueError, match="timed"):
+        DriveCommand(speed=1.0, then=_steps(1.0))
+    with pytest.raises(ValueError, match="at most"):
+        DriveCommand(speed=1.0, duration=0.1, then=_steps(*[1.0] * (MAX_DRIVE_STEPS + 1)))
+    with pytest.raises(ValueError, match="greater than 0"):
+        DriveStep(speed=1.0, duration=0.0)
+    cmd = DriveCommand(speed=1.0, duration=0.1, then=_steps(2.0, 3.0) + (DriveStep(speed=0.0, turn_rate=0.4, duration=1.0),))
+    assert decode(DriveCommand, encode(cmd)) == cmd
+    assert decode(DriveCommand, encode(cmd, as_json=True)) == cmd
 
 
 @pytest.mark.parametrize("vehicle, speed", [("terregator", 1.0), ("navlab", 5.0)])

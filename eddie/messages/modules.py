@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from eddie.toolkit.message import Message, message_type
 
@@ -36,12 +36,21 @@ class RouteQuery(Message):
 
 @message_type("modules.route")
 class MissionRoute(Message):
-    """The running mission's route: `points` (x, y) [m] in `world`, the speed [m/s] from each point on; empty: no mission."""
+    """The running mission's route: `points` (x, y) [m] in `world` (the roads' centre line), the speed [m/s] from each point
+    on, and where a step keeps to a side the offset [m] left (+) of the route of its lane at each point (empty: no offsets,
+    the centre line); empty: no mission."""
 
     mission_id: str = ""
     points: tuple[tuple[float, float], ...] = ()
     speeds: tuple[float, ...] = ()
+    offsets: tuple[float, ...] = ()
     state: Literal["none", "running", "finished"] = "none"
+
+    @model_validator(mode="after")
+    def _one_offset_per_point(self) -> "MissionRoute":
+        if self.offsets and len(self.offsets) != len(self.points):
+            raise ValueError(f"offsets: {len(self.offsets)} for {len(self.points)} points (one per point, or none)")
+        return self
 
 
 @message_type("modules.object_stopped")

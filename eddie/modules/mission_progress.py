@@ -20,17 +20,18 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from shapely.geometry import LineString, Point
 from pydantic import BaseModel, ConfigDict, Field
 
 from eddie.missions.destination import destination_object, destination_point
-from eddie.missions.lane import goal_lane_offset, lane_point
+from eddie.missions.lane import goal_kept_offset, goal_lane_offset, kept_lane_offset, lane_point, shift_into_lane
 from eddie.modules.errors import EddieModuleError
 from modules.captain.sequencer import MissionRun, Next
 from modules.map_navigator import MapData, RouteError, RouteOptions, select_route
-from modules.vocabulary import Mission, MissionStatus, MissionStep, StepResult
+from modules.vocabulary import Mission, MissionStatus, MissionStep, MissionStepSpec, StepResult
 
-__all__ = ["StepGoal", "MissionRouteError", "step_goals", "MissionProgress"]
+__all__ = ["StepGoal", "MissionRouteError", "step_goals", "mission_route", "MissionProgress"]
 
 #: inside the reach, a belief this much closer to the goal [m] counts as still closing on it
 CLOSING_M = 0.05
@@ -88,6 +89,43 @@ def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Missio
                             reach_m=step.tolerance, lane_offset_m=goal_lane_offset(map_data, goal, step.constraints.keep)))
         at = route.goal_xy
     return out
+
+
+def mission_route(map_data: MapData, goals: list[StepGoal], steps: list[MissionStepSpec], *, speed_mps: float, keep_offset_m: float,
+                  edge_keep_m: float, in_lane: bool = False) -> tuple[list[tuple[float, float]], list[float], list[float]]:
+    """Return the mission's whole route (x, y) [m] in `world`, the speed [m/s] from each point on, and the offset [m] left (+)
+    of the route at each point of the lane it is driven in.
+
+    The route is the roads' centre line, each step's after the other. A step kept to a side is driven in its lane
+    (`kept_lane_offset` of the nearest road's width at each vertex, at most `keep_offset_m` [m], leaving `edge_keep_m` [m]
+    inside the road's edge), as the PILOT plans it, and ends in its goal's lane (`goal_kept_offset`: where the truth
+    verdict judges it, a wide plaza's not a walk's); 0 elsewhere. A step's speed is its limit, at most `speed_mps`.
+    `in_lane`: the points moved by their offsets (`shift_into_lane`).
+    """
+    pts: list[tuple[float, float]] = []
+    speeds: list[float] = []
+    offsets: list[float] = []
+    edges = [(LineString(e.coords), e.width) for e in map_data.world.edges]
+    for g, step in zip(goals, steps):
+        v = min(g.speed_mps or speed_mps, speed_mps)
+        route = np.asarray(g.route, dtype=np.float64)
+        off = np.zeros(len(route))
+        keep = step.constraints.keep
+        if edges and keep in ("right", "left"):
+            widths = [min(edges, key=lambda le: le[0].distance(Point(p)))[1] for p in route]
+            off = np.array([kept_lane_offset(keep, w, keep_offset_m, edge_keep_m) for w in widths])
+            end = goal_kept_offset(g.lane_offset_m, edge_keep_m)
+            if abs(end) > abs(off[-1]):
+                off[-1] = end
+        for p, o in zip(route, off):
+            if pts and math.dist(pts[-1], p) < 0.05:
+                continue  # a step starts at the last one's goal: the goal keeps its lane
+            pts.append((float(p[0]), float(p[1])))
+            speeds.append(v)
+            offsets.append(float(o))
+    if in_lane and pts:
+        pts = [(float(x), float(y)) for x, y in shift_into_lane(np.asarray(pts), np.asarray(offsets))]
+    return pts, speeds, offsets
 
 
 class MissionProgress:

@@ -24,12 +24,11 @@ import sys
 from collections import deque
 
 import numpy as np
-from shapely.geometry import LineString, Point
 
 from eddie.messages.controller import PathCommand, Stop
-from eddie.missions.lane import KERB_MARGIN_M, kept_lane_offset, shift_into_lane
+from eddie.missions.lane import KERB_MARGIN_M
 from eddie.messages.modules import MissionRoute, ModuleSwitch
-from eddie.modules.mission_progress import MissionProgress, MissionRouteError, step_goals
+from eddie.modules.mission_progress import MissionProgress, MissionRouteError, mission_route, step_goals
 from eddie.modules.args import parse_pose
 from eddie.modules.sensing import Belief
 from eddie.toolkit.module import Incoming
@@ -82,37 +81,19 @@ class MissionService:
         p = self.belief.world()
         return None if p is None else (float(p[0]), float(p[1]))
 
-    def _route_points(self, prog: MissionProgress, *, in_lane: bool = False) -> tuple[list[tuple[float, float]], list[float]]:
-        """Return the mission's whole route (x, y) [m] in `world` and the speed [m/s] from each point on.
-
-        The route is the roads' centre line; `in_lane`: each step kept to a side moved into its lane
-        (`eddie.missions.lane.kept_lane_offset` of the nearest road's width at each vertex), as the PILOT
-        plans it and vision road following drives it.
-        """
-        pts: list[tuple[float, float]] = []
-        speeds: list[float] = []
-        edges = [(LineString(e.coords), e.width) for e in self.map.world.edges] if in_lane else []
-        for g, step in zip(prog.goals, prog.run.mission.steps):
-            v = min(g.speed_mps or self.speed_mps, self.speed_mps)
-            route = np.asarray(g.route, dtype=np.float64)
-            if edges and step.constraints.keep in ("right", "left"):
-                widths = [min(edges, key=lambda le: le[0].distance(Point(p)))[1] for p in route]
-                route = shift_into_lane(route, np.array([kept_lane_offset(step.constraints.keep, w, self.keep_offset_m, self.edge_keep_m)
-                                                         for w in widths]))
-            for p in route:
-                if pts and math.dist(pts[-1], p) < 0.05:
-                    continue
-                pts.append((float(p[0]), float(p[1])))
-                speeds.append(v)
-        return pts, speeds
+    def _route_points(self, prog: MissionProgress, *, in_lane: bool = False
+                      ) -> tuple[list[tuple[float, float]], list[float], list[float]]:
+        """Return the running mission's route, speeds and lane offsets (`mission_route`); `in_lane`: the points moved by them."""
+        return mission_route(self.map, prog.goals, prog.run.mission.steps, speed_mps=self.speed_mps, keep_offset_m=self.keep_offset_m,
+                             edge_keep_m=self.edge_keep_m, in_lane=in_lane)
 
     async def on_route(self, _inc: Incoming) -> MissionRoute:
         """Answer `route`: the running mission's route in `world` (vision road following plans along it)."""
         prog = self.running
         if prog is None:
             return MissionRoute()
-        pts, speeds = self._route_points(prog)
-        return MissionRoute(mission_id=prog.status.mission_id, points=tuple(pts), speeds=tuple(speeds),
+        pts, speeds, offsets = self._route_points(prog)
+        return MissionRoute(mission_id=prog.status.mission_id, points=tuple(pts), speeds=tuple(speeds), offsets=tuple(offsets),
                             state="finished" if prog.status.terminal else "running")
 
     # ---- the CAPTAIN's keys --------------------------------------------------------------
@@ -184,7 +165,7 @@ class MissionService:
 
     async def _drive(self, prog: MissionProgress) -> None:
         """Send the whole route, in `local`, to the controller (no vision: dead reckoning on the map)."""
-        pts, speeds = self._route_points(prog, in_lane=True)
+        pts, speeds, _ = self._route_points(prog, in_lane=True)
         local = transform_points(inverse(self.belief.world_from_local), np.asarray(pts))
         await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                     points=tuple((float(x), float(y)) for x, y in local),

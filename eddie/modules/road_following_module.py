@@ -155,10 +155,15 @@ class RoadFollowing:
         local_from_world = tuple(inverse(self.belief.world_from_local))
         route = route_to_local(np.asarray(self.route.points), local_from_world)
         routes = [route]
-        if self.keep != "centre":
-            # the route is the road's centre line: a step kept to a side is driven in its lane (a quarter of the
-            # width, at most the PILOT's keep offset: 1.5 m for the Navlab, 0.3 m for the Terregator on walks
-            # with benches beside them), as the PILOT does; where that does not fit the road seen, on the centre
+        if self.route.offsets:
+            if any(self.route.offsets):
+                # the route is the road's centre line: the mission service gives each step's lane (a quarter of the width,
+                # at most the PILOT's keep offset: 1.5 m for the Navlab, 0.3 m for the Terregator on walks with benches
+                # beside them) and its goal's lane; where that does not fit the road seen, on the centre
+                routes.insert(0, route_to_local(shift_into_lane(np.asarray(self.route.points), np.asarray(self.route.offsets)),
+                                                local_from_world))
+        elif self.keep != "centre":
+            # a route without offsets: the lane of the road where the vehicle is
             road = map_road_at(self.map.world.edges, (float(prior[0]), float(prior[1])), float(prior[2]))
             if road is not None:
                 off = kept_lane_offset(self.keep, road.width_m, self.keep_offset_m, self.edge_keep_m)

@@ -169,6 +169,35 @@ def test_the_dead_reckoned_route_keeps_to_the_steps_side_in_its_lane(campus) -> 
     assert out[:, 0] == pytest.approx([1.5, 1.5, 0.5]) and out[:, 1] == pytest.approx([0.0, 10.0, 20.0])
 
 
+def test_a_step_kept_right_ends_in_its_goals_lane_where_the_road_leaves_room(campus) -> None:
+    from eddie.missions.lane import KERB_MARGIN_M, lane_point
+    from eddie.modules.mission_progress import mission_route
+    from modules.pilot import pilot_config_for
+
+    mission = load_mission(WORLDS_DIR / "campus-tour.yaml").model_copy(update={"mission_id": "tour-lanes"})
+    goals = step_goals(campus, (campus.world.start.x, campus.world.start.y), mission)
+    nav = pilot_config_for("terregator").navigator
+    kw = dict(speed_mps=1.0, keep_offset_m=nav.keep_offset, edge_keep_m=nav.obstacle_clearance + KERB_MARGIN_M)
+    pts, speeds, offsets = mission_route(campus, goals, mission.steps, **kw)
+    assert len(pts) == len(speeds) == len(offsets)
+
+    def at(goal):
+        return int(np.argmin([math.dist(p, goal) for p in pts]))
+
+    # the plaza (6 m): its goal's lane, a quarter of the width, as far as 1.6 m inside the edge leaves (1.4 m right);
+    # the quad's and the library's walks (2 m, 3 m) leave a 2 m vehicle no room off their centre line
+    plaza = at(goals[2].goal)
+    assert goals[2].lane_offset_m == pytest.approx(-1.5)
+    assert offsets[plaza] == pytest.approx(-1.4)
+    assert offsets[at(goals[0].goal)] == 0.0 and offsets[at(goals[3].goal)] == 0.0
+    # in its lane the route turns north at the plaza 1.4 m inside the corner: where the truth verdict judges the kept
+    # side of a vehicle turning there (the goal moved 1.5 m to the right of its heading, half way round the turn)
+    lane_pts, _, _ = mission_route(campus, goals, mission.steps, in_lane=True, **kw)
+    turning = math.atan2(1.0, -1.0)  # west, then north: north-west half way
+    assert math.dist(lane_pts[plaza], lane_point(goals[2].goal, goals[2].lane_offset_m, turning)) < 0.3
+    assert math.dist(lane_pts[plaza], goals[2].goal) > 0.9
+
+
 def _heading_drive(points, step_m: float = 0.2):
     """Yield (x, y, yaw) every `step_m` [m] along a polyline, yaw [rad] the direction of travel."""
     pts = np.asarray(points, dtype=float)

@@ -196,6 +196,12 @@ def test_a_step_kept_right_ends_in_its_goals_lane_where_the_road_leaves_room(cam
     turning = math.atan2(1.0, -1.0)  # west, then north: north-west half way
     assert math.dist(lane_pts[plaza], lane_point(goals[2].goal, goals[2].lane_offset_m, turning)) < 0.3
     assert math.dist(lane_pts[plaza], goals[2].goal) > 0.9
+    # the route road following asks for carries them, one per point (or none: the centre line)
+    from eddie.messages.modules import MissionRoute
+
+    assert MissionRoute(mission_id="m", points=tuple(pts), speeds=tuple(speeds), offsets=tuple(offsets), state="running").offsets[plaza] == pytest.approx(-1.4)
+    with pytest.raises(ValueError, match="one per point"):
+        MissionRoute(mission_id="m", points=((0.0, 0.0), (1.0, 0.0)), offsets=(0.0,))
 
 
 def _heading_drive(points, step_m: float = 0.2):

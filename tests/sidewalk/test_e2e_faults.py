@@ -18,6 +18,7 @@ ALL = ("blackboard", "sim", "helm", "pilot", "map_navigator", "captain")
 
 async def _system(tmp_path: Path, mission: str, *, rtf: float = 25.0, ready_timeout: float = 60.0) -> tuple[SystemRun, str, RunConfig, RunSetup]:
     # a restarted PILOT may take long to come back on a loaded machine: the MAP NAVIGATOR waits for it
+    # perception off: a mission judged by truth here is the dead-reckoning short hop (2 m of room, see its file)
     cfg = RunConfig(world="campus", mission=mission, rtf=rtf, seed=5, out=tmp_path, perception=False, pilot_grace_s=120.0)
     setup = prepare_run(cfg)
     ns = f"fault{free_port()}"
@@ -35,7 +36,7 @@ async def _system(tmp_path: Path, mission: str, *, rtf: float = 25.0, ready_time
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 async def test_a_killed_pilot_is_restarted_resumes_and_the_mission_truly_arrives(tmp_path):
-    system, text, cfg, setup = await _system(tmp_path, str(DATA / "short-hop.yaml"))
+    system, text, cfg, setup = await _system(tmp_path, str(DATA / "short-hop-dead-reckoning.yaml"))
     try:
         mid = await system.submit(text)
         await system.wait_status(mid, lambda s: s.state == "running", timeout=60)

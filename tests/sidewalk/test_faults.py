@@ -28,7 +28,7 @@ MODULES = ("helm", "pilot", "map_navigator", "captain")
 @pytest.mark.timeout(400)
 async def test_node_restart_and_a_wedged_helm_are_survived_and_the_mission_truly_arrives(tmp_path, capsys):
     # at a lower RTF the sim-time bounds (the PILOT's stuck timer) leave a loaded machine more wall time
-    system, text, cfg, setup = await _system(tmp_path, str(DATA / "short-hop.yaml"), rtf=10.0,
+    system, text, cfg, setup = await _system(tmp_path, str(DATA / "short-hop-dead-reckoning.yaml"), rtf=10.0,
                                              ready_timeout=120.0)
     keys = ModuleKeys(system.ns)
     loop = asyncio.get_running_loop()

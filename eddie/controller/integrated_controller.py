@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from modules.helm.tracker import Actuation, Lookahead, PathTracker, TrackCommand, TrackerConfig, TrackerError
+from modules.helm.tracker import Actuation, Lookahead, PathTracker, TrackCommand, TrackerConfig, TrackerError, drive_steps
 from wire.drive import MAX_COMMAND_DURATION, DriveCommand, DriveStep, Odometry
 
 from eddie.controller.arbiter import ClientArbiter
@@ -224,7 +224,7 @@ class IntegratedController:
                                          lambda c, step: self._shape(c, step, velocity))
             if ahead:
                 duration = period
-                then = tuple(DriveStep(speed=a.speed, curvature=a.curvature, turn_rate=a.turn_rate, duration=d) for a, d in ahead)
+                then = drive_steps(ahead)
         else:
             self.lookahead.reset()  # a nudge is summed in as it comes: only the command in hand carries it
         self._seq += 1

@@ -23,12 +23,12 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from blackboard import Pose2D, Spec
 from blackboard.errors import BlackboardError
-from modules.helm.tracker import Actuation, Lookahead, PathTracker, TrackerConfig, TrackerError, tracker_config_for
+from modules.helm.tracker import Actuation, Lookahead, PathTracker, TrackerConfig, TrackerError, drive_steps, tracker_config_for
 from modules.vocabulary import LocalPathPlan, ObstacleReport
 from wire.keys import root as keys_root
 from wire.ratelimit import warn_limited
 from wire.timemode import lockstep_enabled
-from wire.drive import MAX_COMMAND_DURATION, DriveCommand, DriveStep, Odometry, WireError, decode, encode
+from wire.drive import MAX_COMMAND_DURATION, DriveCommand, Odometry, WireError, decode, encode
 
 __all__ = ["HelmConfig", "Helm", "helm_config_for", "DriveKeys", "MAX_POSES_IN_FLIGHT"]
 
@@ -192,8 +192,8 @@ class Helm:
               then: list[tuple[Actuation, float]] | None = None) -> None:
         """Send one drive command; `then`: the steps predicted behind it (`rollout`), the command then holds one period."""
         self._seq += 1
-        moving = speed != 0.0 or (turn_rate is not None and turn_rate != 0.0)
-        steps = tuple(DriveStep(speed=a.speed, curvature=a.curvature, turn_rate=a.turn_rate, duration=d) for a, d in then or ())
+        moving = Actuation(speed, curvature, turn_rate).moving
+        steps = drive_steps(then or [])
         duration = 1.0 / self.cfg.control_hz if moving and steps else self.command_duration(horizon, moving)
         cmd = DriveCommand(speed=speed, curvature=curvature, mode="immediate", turn_rate=turn_rate, seq=self._seq,
                            duration=duration, sensed_at=self.plan_sensed_at, then=steps if moving else ())

@@ -21,9 +21,10 @@ from typing import Callable
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 from modules.helm.errors import HelmError
+from wire.drive import DriveStep
 
 __all__ = ["TrackerConfig", "TrackCommand", "PathTracker", "TrackerError", "tracker_config_for", "Actuation", "predict_pose", "rollout",
-           "Lookahead"]
+           "Lookahead", "drive_steps"]
 
 
 class TrackerError(HelmError, ValueError):
@@ -274,19 +275,25 @@ def rollout(tracker: PathTracker, pose: np.ndarray, first: Actuation, shape: Cal
         act = shape(cmd, period)
         if not act.moving:
             break
-        if steps and _alike(steps[-1][0], act):
+        if steps and _close(steps[-1][0], act, 1e-3, 1e-4, 1e-4):
             steps[-1] = (steps[-1][0], steps[-1][1] + period)
         else:
             steps.append((act, period))
     return steps
 
 
-def _alike(a: Actuation, b: Actuation) -> bool:
+def _close(a: Actuation, b: Actuation, dv: float, dk: float, dw: float) -> bool:
+    """Return whether `a` and `b` agree within `dv` [m/s], `dk` [1/m] and `dw` [rad/s] (and both turn on the spot or neither)."""
     if (a.turn_rate is None) != (b.turn_rate is None):
         return False
-    if a.turn_rate is not None and abs(a.turn_rate - b.turn_rate) > 1e-4:  # type: ignore[operator]
+    if a.turn_rate is not None and abs(a.turn_rate - b.turn_rate) > dw:  # type: ignore[operator]
         return False
-    return abs(a.speed - b.speed) <= 1e-3 and abs(a.curvature - b.curvature) <= 1e-4
+    return abs(a.speed - b.speed) <= dv and abs(a.curvature - b.curvature) <= dk
+
+
+def drive_steps(ahead: list[tuple[Actuation, float]]) -> tuple[DriveStep, ...]:
+    """Return the (actuation, duration [s]) of a look ahead as the steps a drive command carries behind it (`then`)."""
+    return tuple(DriveStep(speed=a.speed, curvature=a.curvature, turn_rate=a.turn_rate, duration=d) for a, d in ahead)
 
 
 class Lookahead:
@@ -329,9 +336,5 @@ class Lookahead:
         """Return whether `first` is what the prediction has for `now` (within 5 cm/s, 0.05 1/m, 0.05 rad/s)."""
         for act, b, e in self._pred:
             if b - 1e-6 <= now < e:
-                if (act.turn_rate is None) != (first.turn_rate is None):
-                    return False
-                if act.turn_rate is not None and abs(act.turn_rate - first.turn_rate) > 0.05:  # type: ignore[operator]
-                    return False
-                return abs(act.speed - first.speed) <= 0.05 and abs(act.curvature - first.curvature) <= 0.05
+                return _close(act, first, 0.05, 0.05, 0.05)
         return False

@@ -37,8 +37,8 @@ class RouteQuery(Message):
 @message_type("modules.route")
 class MissionRoute(Message):
     """The running mission's route: `points` (x, y) [m] in `world` (the roads' centre line), the speed [m/s] from each point
-    on, and where a step keeps to a side the offset [m] left (+) of the route of its lane at each point (empty: no offsets,
-    the centre line); empty: no mission."""
+    on, and the offset [m] left (+) of the route of the lane driven at each point, where a step keeps to a side (empty:
+    none given; road following then keeps its own `keep` side on the road where the vehicle is); empty: no mission."""
 
     mission_id: str = ""
     points: tuple[tuple[float, float], ...] = ()

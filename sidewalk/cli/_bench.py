@@ -141,6 +141,16 @@ def bench_eddie(
     _emit(_measure(mod, samples=samples), as_json)
 
 
+@bench_app.command("cli")
+def bench_cli(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    runs: Annotated[int, typer.Option(min=3, help="Runs of each command measured")] = 20,
+) -> None:
+    """The command line's startup: `sidewalk --help` and a `status` that finds nothing (p50/p95 wall), and the slowest imports."""
+    mod = importlib.import_module("bench.cli")
+    _emit(_measure(mod, runs=runs), as_json)
+
+
 @bench_app.command("soak")
 def bench_soak(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

@@ -318,12 +318,8 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
     import json as _json
     import time as _time
 
-    from rich.console import Console
-    from rich.table import Table
-
-    from modules.captain.client import MissionClient
-    from modules.runtime import Link, ModuleKeys
-    from sidewalk.health import ModuleHealth, collect_heartbeats
+    from wire.aio import Link
+    from wire.keys import ModuleKeys
 
     keys = ModuleKeys(net.namespace)
     link = Link.open(net)
@@ -331,13 +327,22 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
         alive = await link.alive_keys(keys.alive_everything, timeout=timeout)
         names = sorted(k.rsplit("/", 1)[-1] for k in alive if "/bbclient/" not in k)
         clients = sum(1 for k in alive if "/bbclient/" in k)
-        beats = await collect_heartbeats(link, keys, set(names), heartbeat_wait) if heartbeat_wait > 0 else {}
-        now = _time.time()
-        health = [ModuleHealth.judge(n, beats.get(n), now, listened_s=heartbeat_wait) for n in names]
-        try:
-            sts = await MissionClient(link, keys, timeout=timeout).statuses() if names else []
-        except Exception:  # no CAPTAIN: nothing more to show
-            sts = []
+        health: list = []
+        sts: list = []
+        if names:
+            from sidewalk.health import ModuleHealth, collect_heartbeats
+
+            beats = await collect_heartbeats(link, keys, set(names), heartbeat_wait) if heartbeat_wait > 0 else {}
+            now = _time.time()
+            health = [ModuleHealth.judge(n, beats.get(n), now, listened_s=heartbeat_wait) for n in names]
+            try:
+                answers = [r for r in await link.get(keys.mission_status("*"), timeout=timeout) if r.ok]
+                if answers:  # the mission models (numpy, pydantic) only when a mission service answered
+                    from modules.vocabulary import MissionStatus
+
+                    sts = [MissionStatus.model_validate_json(r.payload) for r in answers]
+            except Exception:  # no CAPTAIN: nothing more to show
+                sts = []
         wedged = [h.name for h in health if h.state == "wedged"]
         no_node = [h.name for h in health if h.state == "no-node"]
         if as_json:
@@ -347,6 +352,9 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
                 "missions": [s.model_dump(mode="json") for s in sts],
             }))
         else:
+            from rich.console import Console
+            from rich.table import Table
+
             console = Console()
             table = Table("module", "state", "heartbeat age [s]", "blackboard", "monitors", "host", "pid",
                           title=f"live in namespace {net.namespace!r}")

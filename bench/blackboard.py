@@ -1,10 +1,13 @@
 """Blackboard benchmark: node and client in separate processes on loopback, beside the raw-Zenoh floor.
 
-Three processes: the blackboard node (`python -m blackboard`), a floor process (`python -m
+Four processes, as a system deploys them (`wire.flags`): the router (`sidewalk up router`), and as
+its clients the blackboard node (`python -m blackboard`), a floor process (`python -m
 bench.blackboard floor`) with a raw queryable that answers at once and a raw relay that re-puts
-every sample, and this client. Latencies are measured with the same asyncio client harness for
-the node and for the floor (reply/sample callback → `call_soon_threadsafe` → future), and the two
-are sampled interleaved so machine noise hits both alike. Figures in microseconds.
+every sample, and this client. Every message travels through the router, the floor's as the node's
+(before session 25 the node and the floor listened and the client was their peer: one hop less).
+Latencies are measured with the same asyncio client harness for the node and for the floor
+(reply/sample callback → `call_soon_threadsafe` → future), and the two are sampled interleaved so
+machine noise hits both alike. Figures in microseconds.
 
 Keys: notify_p50_us/p99 vs zenoh_relay_p50_us/p99 (post→monitor event through the node vs a raw
 put relayed by a third process), post_ack_p50_us/p99 vs zenoh_get_p50_us/p99, retrieve_100k_p50_us/p99
@@ -44,6 +47,7 @@ from blackboard import (
     token_type,
 )
 from blackboard.testing import start_node
+from bench.eddie import _spawn, _stop
 from wire.keys import Keys
 from wire.ports import free_port
 from wire.session import Query, open_session
@@ -78,9 +82,10 @@ def _pct(xs: list[float]) -> tuple[float, float]:
 
 # ---------------------------------------------------------------------- floor process
 def _floor_main(endpoint: str, ns: str) -> None:
-    """Serve the raw floors through wire's thinnest path (raw Zenoh-thread callbacks, no asyncio)."""
+    """Serve the raw floors through wire's thinnest path (raw Zenoh-thread callbacks, no asyncio), a client of the router at `endpoint`."""
     keys = Keys(ns)
-    s = open_session(NetworkConfig(namespace=ns, listen=(endpoint,)))
+    s = open_session(NetworkConfig(namespace=ns, mode="client", connect=(endpoint,)))
+    s.wait_connected(20.0, name="floor")
     pub = s.publisher(keys.bench("floor-out"))
 
     def on_query(q: Query) -> None:
@@ -109,8 +114,7 @@ def _floor_main(endpoint: str, ns: str) -> None:
     s.close()
 
 
-def _start_floor(ns: str) -> tuple[subprocess.Popen, str]:
-    ep = f"tcp/127.0.0.1:{free_port()}"
+def _start_floor(ns: str, ep: str) -> subprocess.Popen:
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = {**os.environ, "PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
     p = subprocess.Popen([sys.executable, "-m", "bench.blackboard", "floor", "--endpoint", ep, "--ns", ns],
@@ -121,7 +125,7 @@ def _start_floor(ns: str) -> tuple[subprocess.Popen, str]:
     if not line.startswith("floor ready"):
         p.kill()
         raise BenchError(f"floor process failed to start: {line!r}")
-    return p, ep
+    return p
 
 
 # ---------------------------------------------------------------------- measurements
@@ -154,9 +158,8 @@ class _Floor:
         await asyncio.wait_for(self.waiter, 10)
 
 
-async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, samples: int) -> dict:
+async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict:
     out: dict = {}
-    net = net.model_copy(update={"connect": net.connect + (floor_ep,)})
     async with BlackboardClient(net, source="bench", timeout=60) as bb:
         floor = _Floor(bb, ns)
         note_payload = {"op": "post", "type": "bench_note", "attrs": {"seq": 0}, "frame": "world", "stamp": 0.0,
@@ -307,11 +310,14 @@ def run(tokens: int = 100_000, samples: int = 2000, dispatch: str = "inline") ->
         raise ValueError("tokens must be ≥ 1 and samples ≥ 10")
     ns = f"bench{os.getpid()}"
     tmp = tempfile.mkdtemp(prefix="bb-bench-")
-    node = start_node(namespace=ns, types=("bench.blackboard",), db=os.path.join(tmp, "bench.sqlite"), dispatch=dispatch)
-    floor, floor_ep = None, ""
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    router = _spawn(["-m", "sidewalk", "up", "router", "--ns", ns, "--listen", ep], "router ready")
+    node = floor = None
     try:
-        floor, floor_ep = _start_floor(ns)
-        out = asyncio.run(_bench(node.client_net(), floor_ep, ns, tokens, samples))
+        node = start_node(namespace=ns, types=("bench.blackboard",), db=os.path.join(tmp, "bench.sqlite"), dispatch=dispatch,
+                          router=ep, timeout=60.0)
+        floor = _start_floor(ns, ep)
+        out = asyncio.run(_bench(node.client_net(), ns, tokens, samples))
         out["node_dispatch"] = dispatch
         out["node_db"] = "sqlite file, WAL, synchronous=NORMAL"
         return out
@@ -324,7 +330,9 @@ def run(tokens: int = 100_000, samples: int = 2000, dispatch: str = "inline") ->
                 floor.kill()
             if floor.stdout:
                 floor.stdout.close()
-        node.stop()
+        if node is not None:
+            node.stop()
+        _stop(router)
         shutil.rmtree(tmp, ignore_errors=True)
 
 

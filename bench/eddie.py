@@ -2,7 +2,8 @@
 
 Processes on loopback: the simulator (as the router), the controller (`python -m eddie.controller`)
 and a floor process (`python -m bench.eddie floor`) whose plain queryable answers at once, on the
-Zenoh thread, with as many bytes as a position reply. This process asks both through the same
+Zenoh thread, with as many bytes as a position reply; each a client of the router, as a system
+deploys them (`wire.flags`; before session 25 they were peers linked directly, one hop less). This process asks both through the same
 session and asyncio harness (`wire.aio.Link.get` under `eddie.toolkit.Module.request`), interleaved.
 
 Keys: position_query_p50_us/p99 vs zenoh_get_p50_us/p99, their ratio position_query_vs_zenoh_get,
@@ -49,7 +50,7 @@ def _pct(xs: list[float]) -> tuple[float, float]:
 
 def _floor_main(endpoint: str, ns: str, size: int) -> None:
     """Answer `bench/eddie-floor` with `size` bytes at once, on the Zenoh thread (no asyncio)."""
-    s = open_session(NetworkConfig(namespace=ns, connect=(endpoint,)))
+    s = open_session(NetworkConfig(namespace=ns, mode="client", connect=(endpoint,)))
     payload = b"x" * size
 
     def on_query(q) -> None:  # noqa: ANN001 - wire.session.Query
@@ -193,7 +194,7 @@ def measure_trigger_latency(net: NetworkConfig, samples: int) -> dict:
 
 
 async def _bench(ns: str, ep: str, samples: int) -> dict:
-    net = NetworkConfig(namespace=ns, connect=(ep,))
+    net = NetworkConfig(namespace=ns, mode="client", connect=(ep,))
     async with Module("bench", net) as me:
         await me.wait_connected(10.0)
         deadline = time.monotonic() + 30.0
@@ -246,7 +247,7 @@ def run(samples: int = 2000) -> dict:
         size = len(encode_envelope("controller", Position(stamp=1.0, x=1.0, y=1.0, yaw=1.0, v=1.0), 1.0))
         procs.append(_spawn(["-m", "bench.eddie", "floor", "--endpoint", ep, "--ns", ns, "--size", str(size)], FLOOR_READY))
         out = asyncio.run(_bench(ns, ep, samples))
-        out.update(measure_trigger_latency(NetworkConfig(namespace=ns, connect=(ep,)), samples))
+        out.update(measure_trigger_latency(NetworkConfig(namespace=ns, mode="client", connect=(ep,)), samples))
         return out
     finally:
         for p in reversed(procs):

@@ -27,9 +27,10 @@ from pydantic import BaseModel, ConfigDict, Field
 from eddie.missions.destination import destination_object, destination_point
 from eddie.missions.lane import goal_kept_offset, goal_lane_offset, kept_lane_offset, lane_point, shift_into_lane
 from eddie.modules.errors import EddieModuleError
+from modules.captain.progress import RouteProgress
 from modules.captain.sequencer import MissionRun, Next
 from modules.map_navigator import MapData, RouteError, RouteOptions, select_route
-from modules.vocabulary import Mission, MissionStatus, MissionStep, MissionStepSpec, StepResult
+from modules.vocabulary import Mission, MissionStatus, MissionStep, MissionStepSpec, StepProgress, StepResult, Waiting
 
 __all__ = ["StepGoal", "MissionRouteError", "step_goals", "mission_route", "MissionProgress"]
 
@@ -139,8 +140,7 @@ class MissionProgress:
         self.run = MissionRun(mission, submitted_at=submitted_at)
         self.goals = goals
         self.margin_m, self.stall_s, self.progress_m = margin_m, stall_s, progress_m
-        self._best = math.inf
-        self._best_at = 0.0
+        self._track: RouteProgress | None = None  # the current step's progress along its route
         self._closest, self._closest_at = math.inf, 0.0  # the nearest the belief came to the goal inside the reach [m], when [s]
         self._wait_until: float | None = None
         self._lines: dict[int, LineString] = {}
@@ -152,17 +152,27 @@ class MissionProgress:
 
     def start(self, now: float) -> MissionStep:
         """Start at sim time `now` [s]; return the first step."""
-        self._best, self._best_at = math.inf, now
+        step = self.run.start(now)
+        self._begin(step.step_index, now)
+        return step
+
+    def _begin(self, i: int, now: float) -> None:
+        self._track = RouteProgress(i, self.goals[i].route, now, progress_m=self.progress_m)
         self._closest, self._closest_at = math.inf, now
-        return self.run.start(now)
 
     def _apply(self, nxt: Next, now: float) -> bool:
         if nxt.kind == "wait":
             self._wait_until = nxt.until
         elif nxt.kind == "step":
-            self._best, self._best_at = math.inf, now
-            self._closest, self._closest_at = math.inf, now
+            assert nxt.step is not None
+            self._begin(nxt.step.step_index, now)
         return True
+
+    def progress(self, now: float, pose: tuple[float, float, float] | None, waiting: Waiting = "") -> StepProgress | None:
+        """Return where the running step is at sim time `now` [s] with the believed `pose` (`world`; None: unknown), else None."""
+        if self.run.finished or self.run.current_step is None or self._track is None:
+            return None
+        return self._track.report(now, pose, waiting)
 
     def update(self, now: float, world_xy: tuple[float, float] | None, yaw: float | None = None) -> bool:
         """Take the believed position (`world` [m], None: not known) and heading (`yaw` [rad], None: not known) at sim
@@ -182,7 +192,8 @@ class MissionProgress:
             heading_lane = None if yaw is None or not sg.lane_offset_m else lane_point(sg.goal, sg.lane_offset_m, yaw)
             d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (sg.goal, lane_goal, heading_lane) if g is not None)
             # progress is measured along the route: a route may lead away from its goal for a while
-            left = self._route_left(i, world_xy)
+            assert self._track is not None
+            left = self._track.left(world_xy)
             inside = d <= max(self.goals[i].reach_m - self.margin_m, 0.2)
             if inside and d < self._closest - CLOSING_M:
                 self._closest, self._closest_at = d, now
@@ -214,10 +225,11 @@ class MissionProgress:
                     return self._apply(self.run.step_finished(StepResult(
                         mission_id=mid, step_index=i, success=True,
                         reason=f"passed its goal onto the next step's route ({along:.1f} m along it, believed)"), now), now)
-            if left < self._best - self.progress_m:
-                self._best, self._best_at = left, now
-        if now - self._best_at > self.stall_s:
-            left = "" if math.isinf(self._best) else f"; {self._best:.1f} m of its route left"
+            self._track.note(now, left)
+        assert self._track is not None
+        if self._track.since(now) > self.stall_s:
+            best = self._track.best_left
+            left = "" if math.isinf(best) else f"; {best:.1f} m of its route left"
             why = f"no progress along the route for {self.stall_s:.0f} s (the believed position, navigator ∘ controller{left})"
             return self._apply(self.run.step_finished(StepResult(mission_id=mid, step_index=i, success=False, reason=why), now), now)
         return False
@@ -227,11 +239,6 @@ class MissionProgress:
         if line is None:
             line = self._lines[i] = LineString(self.goals[i].route)
         return line
-
-    def _route_left(self, i: int, world_xy: tuple[float, float]) -> float:
-        """Return how much of step `i`'s route [m] is left past the believed position's projection onto it."""
-        line = self._line(i)
-        return float(line.length - line.project(Point(world_xy)))
 
     def cancel(self, now: float, reason: str = "cancelled by request") -> None:
         """Cancel the mission at sim time `now` [s]."""

@@ -15,7 +15,7 @@ import math
 import numpy as np
 from shapely.geometry import Point, Polygon
 
-from eddie.messages.controller import ControllerState
+from eddie.messages.controller import ControllerMode, ControllerState
 from eddie.messages.navigator import WorldFromLocal
 from eddie.modules.errors import EddieModuleError
 from eddie.navigator.local_pose_buffer import LocalPoseBuffer
@@ -94,6 +94,10 @@ class Belief:
         self.local: np.ndarray | None = None
         self.local_stamp: float | None = None
         self.speed = 0.0
+        #: the controller's mode, the client holding it and its speed cap [m/s] (None: none), from its newest state
+        self.mode: ControllerMode = "idle"
+        self.client = ""
+        self.speed_limit: float | None = None
         self.fixes_used = 0
         self.history = LocalPoseBuffer(span_s=30.0)
         self._waiting: list[tuple[float, asyncio.Future[None]]] = []
@@ -102,6 +106,7 @@ class Belief:
 
     def _on_state(self, st: ControllerState) -> None:
         self.local, self.local_stamp, self.speed = np.array([st.x, st.y, st.yaw]), st.stamp, st.v
+        self.mode, self.client, self.speed_limit = st.mode, st.client, st.speed_limit
         for t, x, y, yaw in st.trail:  # the periods a held-up controller missed
             self.history.add(t, x, y, yaw)
         self.history.add(st.stamp, st.x, st.y, st.yaw)

@@ -8,6 +8,7 @@ import importlib as _importlib
 
 from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
 from modules.captain.missionfile import CONSTRAINT_NAMES, MissionFileError, MissionProblem, load_mission, parse_mission
+from modules.captain.progress import PROGRESS_M, RouteProgress
 from modules.captain.sequencer import MissionRun, Next, SequenceError
 from modules.captain.wire import CancelRequest, ProblemWire, Rejection, SubmitAccepted, WireError, new_mission_id
 
@@ -15,7 +16,7 @@ __all__ = [
     "CaptainUnavailableError", "MissionClient", "MissionRejected",
     "build_parser", "captain_main", "main",
     "CONSTRAINT_NAMES", "MissionFileError", "MissionProblem", "load_mission", "parse_mission",
-    "MissionRun", "Next", "SequenceError",
+    "MissionRun", "Next", "SequenceError", "PROGRESS_M", "RouteProgress",
     "Captain", "CaptainOptions", "new_mission_id",
     "CancelRequest", "ProblemWire", "Rejection", "SubmitAccepted", "WireError",
 ]

@@ -372,15 +372,28 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
             if not names:
                 console.print("[yellow]nothing alive: is the system running, and are --connect/--ns right?[/yellow]")
             if sts:
-                mt = Table("mission", "name", "state", "step", "reason", title="missions")
+                mt = Table("mission", "name", "state", "step", "sim [s]", "route done / left [m]", "pose x, y [m], yaw [°]",
+                           "no progress for [s]", "waiting", "reason", title="missions (where each is, as the robot believes)")
                 for s in sts:
-                    mt.add_row(s.mission_id, s.name, s.state, f"{(s.current_step or 0) + 1}/{s.step_count}", s.reason)
+                    mt.add_row(s.mission_id, s.name, s.state, f"{(s.current_step or 0) + 1}/{s.step_count}", *_progress_cells(s),
+                               s.reason)
                 console.print(mt)
         if not names:
             return 1
         return 4 if wedged or no_node else 0
     finally:
         link.close()
+
+
+def _progress_cells(st) -> tuple[str, str, str, str, str]:  # noqa: ANN001 - a MissionStatus
+    """Return a running mission's sim time, route done / left, pose, time without progress and waiting reason as table cells."""
+    p = st.progress
+    if p is None:
+        return ("-",) * 5
+    route = "-" if p.route_done_m is None else f"{p.route_done_m:.1f} / {p.route_left_m:.1f}"
+    pose = "-" if p.pose is None else f"{p.pose.x:.1f}, {p.pose.y:.1f}, {math.degrees(p.pose.yaw):.0f}"
+    since = "-" if p.since_progress_s is None else f"{p.since_progress_s:.1f}"
+    return f"{p.sim_time_s:.1f}", route, pose, since, p.waiting or "-"
 
 
 @with_network()

@@ -120,7 +120,7 @@ def _start_floor(ns: str, ep: str) -> subprocess.Popen:
     p = subprocess.Popen([sys.executable, "-m", "bench.blackboard", "floor", "--endpoint", ep, "--ns", ns],
                          stdout=subprocess.PIPE, text=True, env=env)
     assert p.stdout is not None
-    r, _, _ = select.select([p.stdout], [], [], 20)
+    r, _, _ = select.select([p.stdout], [], [], 60)  # a loaded machine starts Python slowly
     line = p.stdout.readline() if r else ""
     if not line.startswith("floor ready"):
         p.kill()

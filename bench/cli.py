@@ -8,7 +8,9 @@ Each figure is the wall time [s] of a fresh process (start to exit), `runs` runs
   the router alone, and waits for the router's heartbeat: up to one period, 1 s);
 - `status_no_wait_s`: the same with `--heartbeat-wait 0`: startup, the session and two queries.
 
-Beside them, from `python -X importtime` (one run each): `help_import_s` and `status_import_s`, the
+The same with `_cpu_s`: the processes' CPU time [s] (user + system), which a busy machine does not
+inflate as it does the wall time (`loadavg_1m` says how busy it was). Beside them, from
+`python -X importtime` (one run each): `help_import_s` and `status_import_s`, the
 time [s] spent importing, and `help_import_top` / `status_import_top`, the slowest top-level imports
 ([module, ms] including what each imported). Startup is the floor plus the imports.
 """
@@ -16,6 +18,7 @@ time [s] spent importing, and `help_import_top` / `status_import_top`, the slowe
 from __future__ import annotations
 
 import os
+import resource
 import subprocess
 import sys
 import time
@@ -39,17 +42,23 @@ def _sidewalk() -> list[str]:
     return [str(script)] if script.is_file() else [sys.executable, "-m", "sidewalk"]
 
 
-def _wall(cmd: list[str], runs: int, ok: tuple[int, ...] = (0,)) -> list[float]:
-    """Return the wall time [s] of each of `runs` runs of `cmd`; raise BenchError when one exits otherwise than `ok`."""
-    out = []
+def _wall(cmd: list[str], runs: int, ok: tuple[int, ...] = (0,)) -> tuple[list[float], list[float]]:
+    """Return the wall time [s] and the CPU time [s] (user + system) of each of `runs` runs of `cmd`.
+
+    Raise BenchError when one exits otherwise than `ok`. The CPU time is what a busy machine does not inflate.
+    """
+    walls, cpus = [], []
     env = dict(os.environ, COLUMNS="100")
     for _ in range(runs):
+        r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         p = subprocess.run(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-        out.append(time.perf_counter() - t0)
+        walls.append(time.perf_counter() - t0)
+        r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+        cpus.append((r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime))
         if p.returncode not in ok:
             raise BenchError(f"{' '.join(cmd[-6:])} exited {p.returncode}: {p.stderr.strip()[-300:]}")
-    return out
+    return walls, cpus
 
 
 def _p50_p95(xs: list[float]) -> dict[str, float]:
@@ -89,10 +98,10 @@ def run(runs: int = 20) -> dict:
     try:
         status = ["status", "--json", "--ns", NS, "--connect", endpoint]
         # the router alone is alive: status exits 0 (nothing wedged)
-        python = _wall([sys.executable, "-c", "pass"], runs)
-        helps = _wall([*sidewalk, "--help"], runs)
-        statuses = _wall([*sidewalk, *status], runs)
-        no_wait = _wall([*sidewalk, *status, "--heartbeat-wait", "0"], runs)
+        python, python_cpu = _wall([sys.executable, "-c", "pass"], runs)
+        helps, help_cpu = _wall([*sidewalk, "--help"], runs)
+        statuses, status_cpu = _wall([*sidewalk, *status], runs)
+        no_wait, no_wait_cpu = _wall([*sidewalk, *status, "--heartbeat-wait", "0"], runs)
         help_import, help_top = _imports(["--help"])
         status_import, status_top = _imports([*status, "--heartbeat-wait", "0"])
     finally:
@@ -101,6 +110,8 @@ def run(runs: int = 20) -> dict:
         "runs": runs, "command": " ".join(sidewalk),
         "python_s": _p50_p95(python), "help_s": _p50_p95(helps), "status_s": _p50_p95(statuses),
         "status_no_wait_s": _p50_p95(no_wait),
+        "python_cpu_s": _p50_p95(python_cpu), "help_cpu_s": _p50_p95(help_cpu), "status_cpu_s": _p50_p95(status_cpu),
+        "status_no_wait_cpu_s": _p50_p95(no_wait_cpu), "loadavg_1m": round(os.getloadavg()[0], 2),
         "help_import_s": help_import, "help_import_top": help_top,
         "status_import_s": status_import, "status_import_top": status_top,
     }

@@ -65,7 +65,7 @@ def start_node(
     db: str = ":memory:",
     sync: str = "normal",
     types: tuple[str, ...] = (),
-    timeout: float = 20.0,
+    timeout: float = 60.0,
     extra_env: dict[str, str] | None = None,
     dispatch: str = "inline",
     router: str | None = None,

@@ -11,7 +11,9 @@ stopping closing on it), or (as the PILOT judges arrival under CODGER: along its
 `progress_m` of the end) projected within `progress_m` of the step route's end while within 2·`reach_m`
 of the goal (within `reach_m` of it or its lane's goal for a step kept to a side), or past the route's
 end and along the next step's route within `reach_m` of it (the goal went by between two looks)
-→ succeeded; no progress for `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
+→ succeeded, at once for a step driven through and, for one the vehicle stops at (the last; a `stop` or
+`wait` trigger's with obstacle stop holding it there), once the vehicle is at rest
+(`modules.captain.arrival`, from the controller's odometry); no progress for `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
 onto the step's route, shrinking by `progress_m`). Routes come from the MAP NAVIGATOR's route selection on the robot's map,
 one step after the other from the previous goal, as the mission compiler lays them out.
 """
@@ -27,6 +29,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from eddie.missions.destination import destination_object, destination_point
 from eddie.missions.lane import goal_kept_offset, goal_lane_offset, kept_lane_offset, lane_point, shift_into_lane
 from eddie.modules.errors import EddieModuleError
+from modules.captain.arrival import REST_TIMEOUT_S, RestDetector
 from modules.captain.progress import RouteProgress
 from modules.captain.sequencer import MissionRun, Next
 from modules.map_navigator import MapData, RouteError, RouteOptions, select_route
@@ -133,13 +136,20 @@ class MissionProgress:
     """Sequence one mission's steps by the believed pose; pure (the caller publishes `status` when it changes)."""
 
     def __init__(self, mission: Mission, goals: list[StepGoal], *, submitted_at: float | None = None,
-                 margin_m: float = 0.3, stall_s: float = 60.0, progress_m: float = 0.5) -> None:
-        """Judge steps by `goals`: reached `margin_m` [m] inside a goal's reach (the robot's belief is not truth); failed after `stall_s` [s] sim without `progress_m` [m] of progress."""
+                 margin_m: float = 0.3, stall_s: float = 60.0, progress_m: float = 0.5, stops_at_steps: bool = True) -> None:
+        """Judge steps by `goals`: reached `margin_m` [m] inside a goal's reach (the robot's belief is not truth); failed after `stall_s` [s] sim without `progress_m` [m] of progress.
+
+        A step the vehicle stops at is claimed once it is at rest (`modules.captain.arrival`): the last step, and with
+        `stops_at_steps` (obstacle stop holds the vehicle at a `stop` or `wait` trigger's object) every such step.
+        """
         if len(goals) != len(mission.steps):
             raise ValueError(f"{len(goals)} goals for {len(mission.steps)} steps")
         self.run = MissionRun(mission, submitted_at=submitted_at)
         self.goals = goals
         self.margin_m, self.stall_s, self.progress_m = margin_m, stall_s, progress_m
+        self.stops_at_steps = stops_at_steps
+        self.rest = RestDetector()
+        self._arrived: tuple[str, float] | None = None  # a stopping step's arrival (reason, when [s sim]) awaiting rest
         self._track: RouteProgress | None = None  # the current step's progress along its route
         self._closest, self._closest_at = math.inf, 0.0  # the nearest the belief came to the goal inside the reach [m], when [s]
         self._wait_until: float | None = None
@@ -159,6 +169,37 @@ class MissionProgress:
     def _begin(self, i: int, now: float) -> None:
         self._track = RouteProgress(i, self.goals[i].route, now, progress_m=self.progress_m)
         self._closest, self._closest_at = math.inf, now
+        self._arrived = None
+
+    @property
+    def arrival(self) -> tuple[str, float] | None:
+        """Return the current step's arrival awaiting rest (why, when [s sim]), else None."""
+        return self._arrived
+
+    def _stops(self, i: int) -> bool:
+        """Return whether the vehicle comes to rest at step `i`'s goal (so that its arrival is claimed at rest)."""
+        return i == len(self.goals) - 1 or (self.stops_at_steps and self.run.mission.steps[i].trigger.action != "continue")
+
+    def _arrive(self, i: int, reason: str, now: float) -> bool:
+        """Step `i` reached its goal at sim time `now` [s]: end it, or, if the vehicle stops there, once it is at rest."""
+        if not self._stops(i):
+            return self._finish(i, reason, now)
+        if self._arrived is None:
+            self._arrived = (reason, now)
+        return self._settle(i, now)
+
+    def _settle(self, i: int, now: float) -> bool:
+        assert self._arrived is not None
+        reason, at = self._arrived
+        if self.rest.at_rest(now):
+            return self._finish(i, f"{reason}; at rest", now)
+        if now - at >= REST_TIMEOUT_S:
+            return self._finish(i, f"{reason}; not at rest {REST_TIMEOUT_S:.0f} s after (claimed anyway)", now)
+        return False
+
+    def _finish(self, i: int, reason: str, now: float) -> bool:
+        return self._apply(self.run.step_finished(StepResult(
+            mission_id=self.run.mission.mission_id, step_index=i, success=True, reason=reason), now), now)
 
     def _apply(self, nxt: Next, now: float) -> bool:
         if nxt.kind == "wait":
@@ -174,9 +215,18 @@ class MissionProgress:
             return None
         return self._track.report(now, pose, waiting)
 
-    def update(self, now: float, world_xy: tuple[float, float] | None, yaw: float | None = None) -> bool:
+    def update(self, now: float, world_xy: tuple[float, float] | None, yaw: float | None = None,
+               odometry: tuple[float, float, float, float] | None = None) -> bool:
         """Take the believed position (`world` [m], None: not known) and heading (`yaw` [rad], None: not known) at sim
-        time `now` [s]; return whether the status changed."""
+        time `now` [s]; return whether the status changed.
+
+        `odometry` (stamp [s sim], x, y [m], yaw [rad] in `local`) tells whether the vehicle is at rest; without it the
+        believed position does (a position fix moving it counts as motion).
+        """
+        if odometry is not None:
+            self.rest.feed(*odometry)
+        elif world_xy is not None:
+            self.rest.feed(now, world_xy[0], world_xy[1], yaw or 0.0)
         if self.run.finished or self.run.current_step is None:
             return False
         i = self.run.current_step
@@ -186,6 +236,8 @@ class MissionProgress:
                 return False
             self._wait_until = None
             return self._apply(self.run.wait_over(now), now)
+        if self._arrived is not None:  # arrived at a stop: claimed once at rest
+            return self._settle(i, now)
         if world_xy is not None:
             sg = self.goals[i]
             lane_goal = sg.lane_goal
@@ -202,18 +254,14 @@ class MissionProgress:
             # not at the reach's edge (the belief is not truth)
             if not math.isinf(self._closest) and (not inside or left <= self.progress_m or d > self._closest + PASSED_M
                                                   or now - self._closest_at >= SETTLE_S):
-                return self._apply(self.run.step_finished(StepResult(
-                    mission_id=mid, step_index=i, success=True,
-                    reason=f"reached within {min(d, self._closest):.2f} m of the goal"), now), now)
+                return self._arrive(i, f"reached within {min(d, self._closest):.2f} m of the goal", now)
             # a step kept to a side ends on that side: the other lane projects onto the route's end too, so
             # there the belief must be within the reach of the goal or its lane's goal
             near_end = d <= (sg.reach_m if lane_goal is not None else 2.0 * sg.reach_m)
             if left <= self.progress_m and near_end:
                 # the belief may be off across the route by more than the reach (a wide plaza gives vision
                 # no edges); driving to the route's end is arrival, as the PILOT's along-path test
-                return self._apply(self.run.step_finished(StepResult(
-                    mission_id=mid, step_index=i, success=True,
-                    reason=f"reached the end of its route ({d:.2f} m from the goal, believed)"), now), now)
+                return self._arrive(i, f"reached the end of its route ({d:.2f} m from the goal, believed)", now)
             if left <= self.progress_m and i + 1 < len(self.goals):
                 # the next step's route starts at this goal, and the vehicle drives on into it: a belief past this
                 # route's end, within the reach of the next route and along it, went through the goal between two
@@ -222,9 +270,7 @@ class MissionProgress:
                 p = Point(world_xy)
                 along = float(nxt.project(p))
                 if self.progress_m <= along and nxt.distance(p) <= self.goals[i].reach_m:
-                    return self._apply(self.run.step_finished(StepResult(
-                        mission_id=mid, step_index=i, success=True,
-                        reason=f"passed its goal onto the next step's route ({along:.1f} m along it, believed)"), now), now)
+                    return self._arrive(i, f"passed its goal onto the next step's route ({along:.1f} m along it, believed)", now)
             self._track.note(now, left)
         assert self._track is not None
         if self._track.since(now) > self.stall_s:

@@ -119,7 +119,7 @@ class MissionService:
             goals = step_goals(self.map, start, mission, vehicle=self.vehicle)
         except MissionRouteError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="no_route", message=str(exc)).to_bytes())
-        prog = MissionProgress(mission, goals, submitted_at=self._now())
+        prog = MissionProgress(mission, goals, submitted_at=self._now(), stops_at_steps=self.perception)
         ahead = len(self.queue) + sum(1 for p in self.missions.values() if p.status.state == "running")
         self.missions[mission.mission_id] = prog
         self.queue.append(mission.mission_id)
@@ -226,8 +226,11 @@ class MissionService:
             while not prog.status.terminal:
                 await self.m.clock.sleep(self.tick_s)
                 pose = self.belief.world()
+                b = self.belief
+                odom = None if b.local is None or b.local_stamp is None else (
+                    float(b.local_stamp), float(b.local[0]), float(b.local[1]), float(b.local[2]))
                 if prog.update(self._now(), None if pose is None else (float(pose[0]), float(pose[1])),
-                               None if pose is None else float(pose[2])):
+                               None if pose is None else float(pose[2]), odom):
                     self._publish(prog)
             await self._end(prog)
 

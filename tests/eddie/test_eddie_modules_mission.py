@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from eddie.modules.mission_progress import MissionProgress, MissionRouteError, step_goals
+from modules.captain.arrival import REST_HOLD_S
 from modules.captain.missionfile import load_mission, parse_mission
 from modules.map_navigator import load_map
 from vehicle_sim.worldfile import WORLDS_DIR
@@ -43,6 +44,11 @@ def test_a_drive_along_each_route_succeeds_step_by_step_with_the_trigger_wait(ca
             t += 0.5
             if prog.update(t, p):
                 changes.append((t, prog.status.current_step, prog.status.state))
+        if mission.steps[g.step_index].trigger.action != "continue":  # the vehicle stops there: claimed once at rest
+            for _ in range(4):
+                t += 0.5
+                if prog.update(t, g.route[-1]):
+                    changes.append((t, prog.status.current_step, prog.status.state))
     for _ in range(10):  # the wait of step 3 ("wait 2 s") ends in sim time, standing at the last goal
         t += 0.5
         prog.update(t, goals[-1].goal)
@@ -79,8 +85,13 @@ def test_progress_is_judged_along_the_route_even_where_it_leads_away_from_the_go
     for p in _along(route, 1.0):  # 1 m/s
         t += 1.0
         prog.update(t, p)
+    assert prog.arrival is not None and prog.status.state == "running"  # arrived, not yet at rest
+    arrived = prog.arrival[1]
+    for _ in range(2):  # then stands
+        t += 1.0
+        prog.update(t, route[-1])
     st = prog.status
-    assert st.state == "succeeded", st
+    assert st.state == "succeeded" and st.steps[0].finished_at == arrived + REST_HOLD_S, st
     # standing still on the way still fails, and says what it waited for
     prog = MissionProgress(mission, [StepGoal(step_index=0, route=route, goal=(10.0, 0.0), reach_m=1.5)], stall_s=20.0)
     prog.start(0.0)
@@ -118,12 +129,20 @@ def test_a_step_to_an_unknown_place_names_the_step(campus) -> None:
 
 
 def _where_it_ends(prog: MissionProgress, drive) -> tuple[float, float] | None:
-    """Drive the belief along `drive` at 1 m/s, one update every 0.1 m; return where the mission ended (None: it did not)."""
+    """Drive the belief along `drive` at 1 m/s, one update every 0.1 m; return where the step arrived (None: it did not).
+
+    The last step is claimed once the vehicle is at rest: standing where it arrived, it is.
+    """
     prog.start(0.0)
     t = 0.0
     for p in _along(drive, 0.1):
         t += 0.1
-        if prog.update(t, p) and prog.status.terminal:
+        prog.update(t, p)
+        if prog.arrival is not None or prog.status.terminal:
+            for _ in range(20):  # it stops there
+                t += 0.1
+                prog.update(t, p)
+            assert prog.status.state == "succeeded" and "; at rest" in prog.status.steps[0].reason, prog.status
             return p
     return None
 

@@ -33,6 +33,9 @@ def test_eddie_drives_a_short_mission_without_a_blackboard(tmp_path):
     assert report["success"], f"{report['reason']}\n{proc.stderr[-3000:]}"
     assert report["claimed_success"] and proc.returncode == 0
     assert report["collisions"] == 0 and report["goal_error_m"] < 1.5
+    # arrival claimed at rest (the mission service's rule from the controller's odometry): where it stayed
+    step = report["steps"][0]
+    assert abs(step["distance_at_claim_m"] - step["distance_m"]) <= 0.1 and "at rest" in step["reason"], step
     assert 50.0 < report["distance_m"] < 110.0  # dorm (0,-28) → hall (30,8) over the walks
     # no blackboard anywhere: no process, no database, no counters
     logs = {p.stem for p in (tmp_path / "logs").glob("*.log")}

@@ -29,3 +29,19 @@ def test_a_replan_is_a_baseline_not_progress():
     t.reroute([(5.0, 0.0), (5.0, 5.0), (20.0, 5.0)])  # a detour: 20 m left where 15 were
     assert not t.note(2.0, t.left((5.0, 0.0))) and t.since(3.0) == 2.0
     assert t.note(4.0, t.left((5.0, 4.0))) and t.since(4.0) == 0.0
+
+
+def test_at_rest_once_still_for_the_hold_time_turning_on_the_spot_is_not_rest():
+    from modules.captain.arrival import REST_HOLD_S, RestDetector
+
+    r = RestDetector()
+    for k in range(5):  # 0.5 m/s for 1 s, a pose every 0.25 s
+        r.feed(k * 0.25, 0.125 * k, 0.0, 0.0)
+    assert not r.at_rest(1.0)
+    r.feed(1.25, 0.5, 0.0, 0.0)  # stopped at 0.5 m since 1.0 s
+    r.feed(1.25, 0.5, 0.0, 0.0)  # the same period again: no new motion
+    assert r.still_since == 1.0 and not r.at_rest(1.0 + REST_HOLD_S - 0.01) and r.at_rest(1.0 + REST_HOLD_S)
+    r.feed(2.0, 0.5, 0.0, 0.1)  # turning on the spot (0.13 rad/s): moving again
+    assert r.still_since is None and not r.at_rest(5.0)
+    r.feed(2.5, 0.501, 0.0, 0.1)  # 2 mm/s creep counts as still
+    assert r.still_since == 2.0 and r.at_rest(3.0)

@@ -49,6 +49,8 @@ def test_short_mission_with_every_module_in_its_own_process(tmp_path):
     assert report["collisions"] == 0
     assert [s["success"] for s in report["steps"]] == [True]
     assert report["steps"][0]["distance_m"] <= report["steps"][0]["tolerance_m"] == 1.5
+    # arrival claimed at rest (the PILOT's rule from its odometry): where it claimed is where it stayed
+    assert abs(report["steps"][0]["distance_at_claim_m"] - report["steps"][0]["distance_m"]) <= 0.1, report["steps"][0]
     # step times are spans from the submission, within the mission's span
     assert 0.0 <= report["steps"][0]["started_s"] < report["steps"][0]["finished_s"] <= report["sim_time_s"]
     assert report["map_error"]["requested_m"] is None and report["map_error"]["path_max_m"] > 0

@@ -29,12 +29,13 @@ from sidewalk.compare.faults import FaultSpec, inject_fault  # issue 10: fault i
 from modules.captain.missionfile import MissionFileError, load_mission
 from modules.vocabulary import Destination, Mission, MissionStepSpec
 from sidewalk.map_error import MapErrorSummary, measure_map_error
+from sidewalk.missions import mission_path
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
 from sidewalk.run_record import FaultEvent, RecordedPlan, RunRecord, save_record
 from sidewalk.supervisor import ProcessPlan, ProcessStartError, RestartPolicy
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
-from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
+from vehicle_sim.worldfile import World, load_world, world_path
 from wire.timemode import LOCKSTEP_ENV, lockstep_env
 from wire.ports import free_port
 
@@ -124,20 +125,6 @@ class Progress:
     state: str = "starting"
     namespace: str = ""
     endpoint: str = ""
-
-
-def mission_path(name_or_path: str | Path) -> Path:
-    """Resolve a mission name ("campus-tour") to worlds/<name>.yaml, or return an existing file path."""
-    p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml", ".json") or p.exists():
-        if not p.exists():
-            raise FileNotFoundError(f"mission file {p} does not exist")
-        return p
-    candidate = WORLDS_DIR / f"{name_or_path}.yaml"
-    if not candidate.exists():
-        known = sorted(q.stem for q in WORLDS_DIR.glob("*.yaml"))
-        raise FileNotFoundError(f"no mission named {str(name_or_path)!r} (looked for {candidate}); known: {known}")
-    return candidate
 
 
 class RunSetup(BaseModel):

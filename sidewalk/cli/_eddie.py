@@ -48,7 +48,7 @@ def annotate(
     from eddie.annotated_map import save_annotations
     from eddie.messages.map_manager import open_trigger_data
     from eddie.missions import MissionCompileError, compile_mission_files
-    from sidewalk.launcher import mission_path
+    from sidewalk.missions import mission_path
 
     if vehicle is not None and vehicle not in ("terregator", "navlab"):
         raise _fail(f"--vehicle: {vehicle!r}: expected terregator or navlab")

@@ -23,7 +23,7 @@ def mapbuild(
 ) -> None:
     """Drive a route with the map's objects withheld, track what the laser sees, write a map a later run can use (--map)."""
     from modules.captain.missionfile import MissionFileError, load_mission
-    from sidewalk.launcher import mission_path
+    from sidewalk.missions import mission_path
     from sidewalk.mapbuild import MapBuildReport, build_map, route_polyline, score_map, write_map
     from vehicle_sim.actors import ActorError, ActorSet, load_actors
     from vehicle_sim.worldfile import load_world, world_path

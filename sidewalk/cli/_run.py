@@ -249,7 +249,7 @@ def submit(
 ) -> None:
     """Send a mission to the CAPTAIN over Zenoh and follow its progress."""
     from modules.captain.missionfile import MissionFileError, load_mission
-    from sidewalk.launcher import mission_path
+    from sidewalk.missions import mission_path
 
     try:
         path = mission_path(file)
@@ -437,7 +437,7 @@ def register(app: typer.Typer) -> None:
 def _mission_world(mission: str) -> str | None:
     """Return the world the mission file names (None: it names none, or it cannot be read; preflight says why)."""
     from modules.captain.missionfile import MissionFileError, load_mission
-    from sidewalk.launcher import mission_path
+    from sidewalk.missions import mission_path
 
     try:
         return load_mission(mission_path(mission)).world

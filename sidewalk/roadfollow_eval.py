@@ -28,6 +28,7 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 
 from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
+from wire.summary import percentile
 
 __all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
            "centre_at_origin", "score_frame", "evaluate", "summarise"]
@@ -214,19 +215,16 @@ def summarise(scores: list[FrameScore]) -> dict:
     fails = sum(1 for s in scores if not s.found or not math.isfinite(s.lateral_err_m) or s.lateral_err_m > FAIL_LATERAL_M
                 or s.heading_err_deg > FAIL_HEADING_DEG)
 
-    def pct(vals: list[float], q: float) -> float | None:
-        return round(float(np.percentile(vals, q)), 4) if vals else None
-
     lat = [s.lateral_err_m for s in ok]
     hd = [s.heading_err_deg for s in ok]
     return {
         "frames": n,
         "frames_with_road": len(ok),
-        "lateral_error_m_p50": pct(lat, 50),
-        "lateral_error_m_p95": pct(lat, 95),
-        "heading_error_deg_p50": pct(hd, 50),
-        "heading_error_deg_p95": pct(hd, 95),
+        "lateral_error_m_p50": percentile(lat, 50, digits=4),
+        "lateral_error_m_p95": percentile(lat, 95, digits=4),
+        "heading_error_deg_p50": percentile(hd, 50, digits=4),
+        "heading_error_deg_p95": percentile(hd, 95, digits=4),
         "failure_rate": round(fails / n, 4) if n else None,
-        "ms_per_frame_p50": pct([s.wall_ms for s in scores], 50),
-        "cpu_ms_per_frame_p50": pct([s.cpu_ms for s in scores], 50),
+        "ms_per_frame_p50": percentile([s.wall_ms for s in scores], 50, digits=4),
+        "cpu_ms_per_frame_p50": percentile([s.cpu_ms for s in scores], 50, digits=4),
     }

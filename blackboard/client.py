@@ -48,7 +48,6 @@ from wire.session import Reply as ZReply, Session as ZSession, open_session
 from blackboard.codec import decode, encode
 from blackboard.errors import BadRequestError, BlackboardError, NodeUnavailableError, error_from_wire
 from blackboard.frame_cache import FrameCache
-from blackboard.frames import apply_se2
 from blackboard.geometry import Point, Polygon, Polyline, Pose2D
 from wire.keys import BlackboardKeys
 from wire.network import NetworkConfig
@@ -69,6 +68,7 @@ from blackboard.replies import FrameListing, NodeStats
 from blackboard.spec import Spec, parse_spec
 from blackboard.token import MonitorEvent, Token, _geom_from_wire, _trusted, make_token, token_from_owned_wire
 from wire.ratelimit import warn_limited
+from wire.se2 import transform_points
 
 __all__ = ["BlackboardClient", "MonitorStream", "MAX_WRITES_PER_MESSAGE"]
 
@@ -854,12 +854,12 @@ class BlackboardClient:
 
         Queued when called, like `post`; await the returned future for the ack.
         """
-        return self._write(PoseOp.trusted({"op": "pose", "parent": parent, "child": child, "pose": (pose.x, pose.y, pose.yaw),
+        return self._write(PoseOp.trusted({"op": "pose", "parent": parent, "child": child, "pose": pose.as_tuple(),
                                            "stamp": stamp, "hold": hold}))
 
     def set_static_frame(self, *, parent: str, child: str, pose: Pose2D) -> "asyncio.Future[None]":
         """Fix `child` in `parent` for all times (e.g. a sensor on the vehicle); await the ack."""
-        return self._write(StaticOp.trusted({"op": "static", "parent": parent, "child": child, "pose": (pose.x, pose.y, pose.yaw)}))
+        return self._write(StaticOp.trusted({"op": "static", "parent": parent, "child": child, "pose": pose.as_tuple()}))
 
     async def lookup(self, target: str, target_stamp: float | None, source: str, source_stamp: float | None) -> Pose2D:
         """Return T_{target@target_stamp ← source@source_stamp} (None stamp: newest).
@@ -898,8 +898,8 @@ class BlackboardClient:
         if self.frame_cache is not None:
             T3 = self.frame_cache.lookup(dst_frame, dst_at, src_frame, src_stamp)
             if T3 is not None:
-                return apply_se2(T3, points)
-        return apply_se2(await self._node_lookup(dst_frame, dst_at, src_frame, src_stamp), points)
+                return transform_points(T3, points)
+        return transform_points(await self._node_lookup(dst_frame, dst_at, src_frame, src_stamp), points)
 
     async def frames(self) -> FrameListing:
         """Return the node's frame tree (edges; oldest and newest stamps [s] of moving ones)."""

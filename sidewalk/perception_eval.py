@@ -24,6 +24,7 @@ from modules.perception.pipeline import PerceptionPipeline, PipelineOutput
 from modules.perception.results import build_result
 from modules.perception.sensor_frame import SensorFrame, colored_range_image
 from modules.vocabulary import DrivingUnitDescription, MapObject
+from wire.se2 import wrap_angle
 from wire.summary import percentile
 
 __all__ = [
@@ -179,10 +180,6 @@ def _iou_dict(acc: IouAccumulator, names: tuple[str, ...], keep: Iterable[str]) 
     return {n: round(float(iou[names.index(n)]), 4) for n in keep if n in names and not np.isnan(iou[names.index(n)])}
 
 
-def _angle(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
 def fix_errors(out: PipelineOutput, truth: tuple[float, float, float], prior: tuple[float, float, float]) -> FixErrors | None:
     """Compare a pipeline's fix with the true pose."""
     cal = out.calibration
@@ -190,13 +187,13 @@ def fix_errors(out: PipelineOutput, truth: tuple[float, float, float], prior: tu
         return None
     d = np.array(cal.pose[:2]) - np.array(truth[:2])
     prior_t = float(math.hypot(prior[0] - truth[0], prior[1] - truth[1]))
-    prior_h = _angle(prior[2] - truth[2])
+    prior_h = wrap_angle(prior[2] - truth[2])
     if cal.kind == "line":
         n = np.array([-math.sin(cal.line_direction), math.cos(cal.line_direction)])
         trans = float(abs(d @ n))
     else:
         trans = float(np.linalg.norm(d))
-    heading = _angle(cal.pose[2] - truth[2]) if cal.yaw_known else None
+    heading = wrap_angle(cal.pose[2] - truth[2]) if cal.yaw_known else None
     return FixErrors(cal.kind, trans, heading, prior_t, prior_h)
 
 

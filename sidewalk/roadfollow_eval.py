@@ -28,6 +28,7 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 
 from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
+from wire.se2 import wrap_angle
 from wire.summary import percentile
 
 __all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
@@ -161,7 +162,7 @@ def _ahead_at(centre_v: np.ndarray, dist: float) -> np.ndarray | None:
 
 
 def _angle_deg(a: float) -> float:
-    return math.degrees(math.remainder(a, 2.0 * math.pi))
+    return math.degrees(wrap_angle(a))
 
 
 def score_frame(obs: RoadObservation, centre_v: np.ndarray, cpu_ms: float) -> FrameScore | None:
@@ -198,7 +199,7 @@ def evaluate(frames: Iterable[EvalFrame], make_follower: Callable[[EvalFrame], R
         else:
             d = to_vehicle(np.array([[p.x, p.y]]), prev.pose)[0]
             motion = VehicleMotion(dx=float(d[0] + rng.normal(0.0, odometry_noise[0])), dy=float(d[1] + rng.normal(0.0, odometry_noise[0])),
-                                   dyaw=float(math.remainder(p.yaw - prev.pose.yaw, 2 * math.pi) + rng.normal(0.0, odometry_noise[1])))
+                                   dyaw=float(wrap_angle(p.yaw - prev.pose.yaw) + rng.normal(0.0, odometry_noise[1])))
         c0 = time.thread_time()
         obs = follower.observe(fr.image, stamp=p.stamp, motion=motion)
         cpu = (time.thread_time() - c0) * 1e3

@@ -28,7 +28,7 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 
 from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
-from wire.se2 import wrap_angle
+from wire.se2 import PoseFields, wrap_angle
 from wire.summary import percentile
 
 __all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
@@ -39,7 +39,7 @@ FAIL_HEADING_DEG = 10.0
 
 
 @dataclass(frozen=True)
-class DrivePose:
+class DrivePose(PoseFields):
     """A true pose on the drive: leg index, world pose (x [m], y [m], yaw [rad]), sim time [s]."""
 
     leg: int
@@ -113,9 +113,7 @@ def plan_drive(legs: list[np.ndarray], frames: int, rng: np.random.Generator, *,
 
 def to_vehicle(xy: np.ndarray, pose: DrivePose) -> np.ndarray:
     """Map world points (N, 2) [m] into the `vehicle` frame of `pose`."""
-    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
-    d = np.asarray(xy, float) - (pose.x, pose.y)
-    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+    return pose.to_pose2d().apply_inverse(xy)
 
 
 def centre_at_origin(centre_v: np.ndarray) -> tuple[float, float] | None:

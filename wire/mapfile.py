@@ -29,6 +29,7 @@ from typing import Annotated, Any, Callable, Iterable, Literal, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 from wire.errors import WireError
+from wire.se2 import Pose2D, PoseFields
 
 __all__ = [
     "KINDS",
@@ -441,7 +442,7 @@ class Sun(BaseModel):
         return np.array([math.sin(az) * math.cos(el), math.cos(az) * math.cos(el), math.sin(el)])
 
 
-class StartPose(BaseModel):
+class StartPose(PoseFields, BaseModel):
     """The vehicle's start pose in the world frame: x, y [m], yaw [deg] CCW from +x; optional graph node."""
 
     model_config = _FROZEN
@@ -454,6 +455,12 @@ class StartPose(BaseModel):
     def yaw(self) -> float:
         """Return the start yaw [rad]."""
         return math.radians(self.yaw_deg)
+
+    @classmethod
+    def from_pose2d(cls, pose: Pose2D | Any, **fields: Any) -> "StartPose":
+        """Return the start at `pose` (a Pose2D, or (x [m], y [m], yaw [rad])), its yaw kept in degrees; `fields`: `node`."""
+        p = pose if isinstance(pose, Pose2D) else Pose2D.from_array(pose)
+        return cls(x=p.x, y=p.y, yaw_deg=math.degrees(p.yaw), **fields)
 
 
 # --------------------------------------------------------------------------------------------

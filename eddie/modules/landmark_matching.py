@@ -60,7 +60,7 @@ def calibration_fix(out: PipelineOutput, stamp: float) -> LandmarkFix | None:
 
 def fix_message(fix: LandmarkFix, local: tuple[float, float, float], source: str) -> PointFixMessage | LineFixMessage:
     """Return the navigator's fix message for `fix`, with the controller's `local` pose (x, y [m], yaw [rad]) at its capture."""
-    at = LocalPose(x=float(local[0]), y=float(local[1]), yaw=float(local[2]))
+    at = LocalPose.from_pose2d(local)
     sx = math.sqrt(max(fix.covariance[0], fix.covariance[4], 1e-4))
     syaw = math.sqrt(max(fix.covariance[8], 1e-6))
     if fix.kind == "point":

@@ -223,6 +223,6 @@ def road_line_fix(obs: RoadObservation, road: MapRoad, at_capture_local: tuple[f
         return None
     th = road.direction_rad
     d = -obs.lateral_offset_m * math.cos(obs.heading_rad)
-    at = LocalPose(x=float(at_capture_local[0]), y=float(at_capture_local[1]), yaw=float(at_capture_local[2]))
+    at = LocalPose.from_pose2d(at_capture_local)
     return LineFixMessage(stamp=stamp, x=road.x - d * math.sin(th), y=road.y + d * math.cos(th), angle=th, sigma_cross=sigma_cross_m,
                           yaw=float(wrap_angle(th - obs.heading_rad)), sigma_yaw=sigma_yaw_rad, local=at, source=source)

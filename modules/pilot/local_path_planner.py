@@ -63,7 +63,7 @@ class LocalPathPlanning:
         yaw = path.poses[:, 2] + local_world[2]
         self.seq += 1
         poses = tuple(
-            PlanPose(x=float(px), y=float(py), yaw=float(wrap_angle(a)), speed=float(sp))
+            PlanPose.from_pose2d((px, py, wrap_angle(a)), speed=float(sp))
             for (px, py), a, sp in zip(xy, yaw, v)
         )
         plan = LocalPathPlan(seq=self.seq, segment_id=seg.segment_id, unit_ids=unit_ids, frame="local", poses=poses,

@@ -48,3 +48,15 @@ def test_an_empty_sample_gives_the_stated_empty_value() -> None:
 def test_an_unknown_method_is_refused() -> None:
     with pytest.raises(ValueError, match="neither 'linear' nor 'rank'"):
         percentile([1.0], 50, method="nearest")  # type: ignore[arg-type]
+
+
+def test_no_source_file_takes_a_percentile_but_the_helper() -> None:
+    import re
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[2]
+    own = re.compile(r"np\.(percentile|quantile|nanpercentile)\(|statistics\.quantiles\(")
+    found = sorted(f"{p.relative_to(repo).as_posix()}:{i}" for pkg in ("wire", "blackboard", "modules", "vehicle_sim", "eddie", "sidewalk", "bench")
+                   for p in (repo / pkg).rglob("*.py") if p.relative_to(repo).as_posix() != "wire/summary.py"
+                   for i, line in enumerate(p.read_text().splitlines(), 1) if own.search(line))
+    assert found == []

@@ -141,6 +141,7 @@ class _Monitors:
         return len(self._monitors)
 
     def _on_events(self, mid: str, evs: list) -> None:
+        """Queue the node's events for monitor `mid` (one whose token this client cannot decode is skipped, with a warning)."""
         mon = self._monitors.get(mid)
         if mon is None:
             return

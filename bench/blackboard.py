@@ -51,6 +51,7 @@ from bench.eddie import _spawn, _stop
 from wire.keys import Keys
 from wire.ports import free_port
 from wire.session import Query, open_session
+from wire.summary import percentiles
 
 __all__ = ["run", "BenchItem", "BenchNote"]
 
@@ -73,11 +74,6 @@ class BenchNote(BaseModel):
 
 
 _WORLD = 1000.0  # side of the square the 100k points are spread over [m]
-
-
-def _pct(xs: list[float]) -> tuple[float, float]:
-    a = np.asarray(xs) * 1e6
-    return float(np.percentile(a, 50)), float(np.percentile(a, 99))
 
 
 # ---------------------------------------------------------------------- floor process
@@ -186,8 +182,8 @@ async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict
             t2 = pc()
             pa.append(t1 - t0)
             zg.append(t2 - t1)
-        out["post_ack_p50_us"], out["post_ack_p99_us"] = _pct(pa)
-        out["zenoh_get_p50_us"], out["zenoh_get_p99_us"] = _pct(zg)
+        out["post_ack_p50_us"], out["post_ack_p99_us"] = percentiles(pa, (50, 99), scale=1e6)
+        out["zenoh_get_p50_us"], out["zenoh_get_p99_us"] = percentiles(zg, (50, 99), scale=1e6)
         out["post_vs_zenoh_get"] = out["post_ack_p50_us"] / out["zenoh_get_p50_us"]
 
         # --- notify vs relay (interleaved)
@@ -207,8 +203,8 @@ async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict
                 t3 = pc()
                 nt.append(t1 - t0)
                 zr.append(t3 - t2)
-        out["notify_p50_us"], out["notify_p99_us"] = _pct(nt)
-        out["zenoh_relay_p50_us"], out["zenoh_relay_p99_us"] = _pct(zr)
+        out["notify_p50_us"], out["notify_p99_us"] = percentiles(nt, (50, 99), scale=1e6)
+        out["zenoh_relay_p50_us"], out["zenoh_relay_p99_us"] = percentiles(zr, (50, 99), scale=1e6)
         out["notify_vs_zenoh_relay"] = out["notify_p50_us"] / out["zenoh_relay_p50_us"]
 
         # --- throughput: pipelined, acknowledged posts (the client coalesces them into messages of at most
@@ -263,7 +259,7 @@ async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict
             t1 = pc()
             rt.append(t1 - t0)
             counts.append(len(got))
-        out["retrieve_100k_p50_us"], out["retrieve_100k_p99_us"] = _pct(rt)
+        out["retrieve_100k_p50_us"], out["retrieve_100k_p99_us"] = percentiles(rt, (50, 99), scale=1e6)
         out["retrieve_tokens_in_store"] = tokens
         out["retrieve_mean_matches"] = float(np.mean(counts))
         out["retrieve_vs_zenoh_get"] = out["retrieve_100k_p50_us"] / out["zenoh_get_p50_us"]
@@ -285,14 +281,14 @@ async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict
 
         tt, res = await transforms(bb)
         assert res.shape == (10_000, 2)
-        out["transform_10k_points_node_us"], out["transform_10k_points_node_p99_us"] = _pct(tt)
+        out["transform_10k_points_node_us"], out["transform_10k_points_node_p99_us"] = percentiles(tt, (50, 99), scale=1e6)
         # the same with the client's frame cache (blackboard.frame_cache): the node's tree kept here, no round trip
         async with BlackboardClient(net, source="bench-frames", timeout=60, frame_cache=True) as cached:
             tt, got = await transforms(cached)
             np.testing.assert_array_equal(got, res)  # the node's answer, to the bit
             fc = cached.frame_cache.stats
             out["transform_cache_hits"], out["transform_cache_misses"] = fc.hits, fc.misses
-        out["transform_10k_points_us"], out["transform_10k_points_p99_us"] = _pct(tt)
+        out["transform_10k_points_us"], out["transform_10k_points_p99_us"] = percentiles(tt, (50, 99), scale=1e6)
         out["transform_10k_points_p50_us"] = out["transform_10k_points_us"]
 
         st = await bb.stats()

@@ -24,13 +24,12 @@ import threading
 import time
 from pathlib import Path
 
-import numpy as np
-
 from bench.errors import BenchError
 from wire.keys import Keys
 from wire.network import NetworkConfig
 from wire.ports import free_port
 from wire.session import open_session
+from wire.summary import percentiles
 
 from eddie.messages.controller import Position, PositionQuery
 from eddie.toolkit import Module
@@ -41,11 +40,6 @@ __all__ = ["run", "measure_trigger_latency", "FLOOR_READY"]
 ROOT = Path(__file__).resolve().parents[1]
 #: The floor process's ready line.
 FLOOR_READY = "floor ready"
-
-
-def _pct(xs: list[float]) -> tuple[float, float]:
-    a = np.asarray(xs)
-    return float(np.percentile(a, 50)), float(np.percentile(a, 99))
 
 
 def _floor_main(endpoint: str, ns: str, size: int) -> None:
@@ -158,8 +152,8 @@ async def _trigger_bench(net: NetworkConfig, path: Path, n: int) -> dict:
                 raise BenchError(f"expected the trigger of gate {k - 1}, got {msg!r}")
             from_manager.append((t_arr - msg.crossed_wall) * 1e3)
             from_state.append((t_arr - t_pub) * 1e3)
-    m50, m99 = _pct(from_manager)
-    s50, _ = _pct(from_state)
+    m50, m99 = percentiles(from_manager, (50, 99))
+    s50, _ = percentiles(from_state, (50, 99))
     return {"trigger_latency_p50_ms": m50, "trigger_latency_p99_ms": m99, "trigger_latency_from_state_p50_ms": s50,
             "trigger_samples": n - 1}
 
@@ -224,8 +218,8 @@ async def _bench(ns: str, ep: str, samples: int) -> dict:
                 raise BenchError("the floor process did not answer")
             pos_us.append((t1 - t0) * 1e6)
             floor_us.append((t2 - t1) * 1e6)
-    p50, p99 = _pct(pos_us)
-    f50, f99 = _pct(floor_us)
+    p50, p99 = percentiles(pos_us, (50, 99))
+    f50, f99 = percentiles(floor_us, (50, 99))
     return {
         "position_query_p50_us": p50, "position_query_p99_us": p99,
         "zenoh_get_p50_us": f50, "zenoh_get_p99_us": f99,

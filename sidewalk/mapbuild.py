@@ -30,6 +30,7 @@ from pydantic import BaseModel, ConfigDict
 from modules.perception.landmarks import LandmarkConfig, landmark_observations
 from modules.perception.object_tracker import ObjectTracker, TrackedObject, TrackerConfig, WorldObservation
 from modules.perception.obstacles import LaserScan, detect_obstacles
+from wire.se2 import wrap_angle
 
 __all__ = ["MapBuildReport", "BuiltMap", "DISCRETE_KINDS", "END_SHORT_M", "route_polyline", "build_map", "score_map",
            "write_map", "turn_anchors", "end_anchor", "anchored_distance"]
@@ -284,7 +285,7 @@ def _road_matched(cum: np.ndarray, lane: np.ndarray, s: float, straight: float =
     p, yaw = at(s)
     _, ya = at(s - straight)
     _, yb = at(s + straight)
-    turn = max(abs((ya - yaw + math.pi) % (2 * math.pi) - math.pi), abs((yb - yaw + math.pi) % (2 * math.pi) - math.pi))
+    turn = max(abs(wrap_angle(ya - yaw)), abs(wrap_angle(yb - yaw)))
     if turn > max_turn:
         return None
     return float(p[0]), float(p[1]), yaw

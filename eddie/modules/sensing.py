@@ -105,7 +105,7 @@ class Belief:
         m.subscribe("navigator", "world_from_local", WorldFromLocal, self._on_transform)
 
     def _on_state(self, st: ControllerState) -> None:
-        self.local, self.local_stamp, self.speed = np.array([st.x, st.y, st.yaw]), st.stamp, st.v
+        self.local, self.local_stamp, self.speed = st.to_pose2d().as_array(), st.stamp, st.v
         self.mode, self.client, self.speed_limit = st.mode, st.client, st.speed_limit
         for t, x, y, yaw in st.trail:  # the periods a held-up controller missed
             self.history.add(t, x, y, yaw)
@@ -139,7 +139,7 @@ class Belief:
             self._waiting = [w for w in self._waiting if w[1] is not fut]
 
     def _on_transform(self, t: WorldFromLocal) -> None:
-        self.world_from_local, self.fixes_used = np.array([t.x, t.y, t.yaw]), t.fixes_used
+        self.world_from_local, self.fixes_used = t.to_pose2d().as_array(), t.fixes_used
 
     def world(self) -> np.ndarray | None:
         """Return the believed pose (3,) in `world` (None before the controller spoke)."""

@@ -2,7 +2,7 @@
 driving unit navigator and local path planner, pipelined as in the paper's Figure 6.
 
 Pure cores (no network, no blackboard; EDDIE reuses them as libraries): `driving_units`, `kalman`,
-`navigator`, `planner`, `speed_profile`, `segment`, exported here. The PILOT's five parts on the
+`local_path_constraints`, `planner`, `speed_profile`, `segment`, exported here. The PILOT's five parts on the
 blackboard, one file each: `driving_monitor.DrivingMonitor`, `driving_unit_finder.DrivingUnitFinder`,
 `position_estimator.PositionEstimator`, `driving_unit_navigator.DrivingUnitNavigator`,
 `local_path_planner.LocalPathPlanning`; the process that wires them: `modules.pilot.pilot.Pilot`,
@@ -13,7 +13,7 @@ from modules.pilot.config import PilotConfig, pilot_config_for
 from modules.pilot.errors import PilotError
 from modules.pilot.driving_units import DrivingUnitConfig, DrivingUnitSpan, ExpectedObject, split_segment
 from modules.pilot.kalman import EstimatorError, LineFix, OdometryNoise, PointFix, PoseFilter
-from modules.pilot.navigator import ConstraintError, LocalConstraints, NavigatorConfig, local_constraints
+from modules.pilot.local_path_constraints import ConstraintError, LocalConstraints, NavigatorConfig, local_constraints
 from modules.pilot.planner import LocalPathPlanner, PlannedPath, PlannerConfig, PlanningError, path_curvature, seed_ompl
 from modules.pilot.polyline import PathLine, PolylineError
 from modules.pilot.segment import SegmentDriver, SegmentGeometry, map_region

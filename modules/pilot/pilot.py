@@ -25,7 +25,7 @@ from modules.pilot.driving_monitor import DrivingMonitor
 from modules.pilot.driving_unit_finder import DrivingUnitFinder
 from modules.pilot.driving_unit_navigator import DrivingUnitNavigator, UnitConstraints
 from modules.pilot.local_path_planner import LocalPathPlanning
-from modules.pilot.navigator import ConstraintError
+from modules.pilot.local_path_constraints import ConstraintError
 from modules.pilot.planner import PlannedPath, PlanningError
 from modules.pilot.polyline import PolylineError
 from modules.pilot.position_estimator import PositionEstimator

@@ -252,6 +252,7 @@ def train_cmd(
 ) -> None:
     """Train ALVINN's net on the data set, each image also shifted and rotated with the corrected steering."""
     from modules.road_following import AlvinnNet, AlvinnShape, CameraGeometry, decode_steering, steering_targets, training_views
+    from wire.summary import percentile
 
     path = data / "dataset.npz" if data.is_dir() else data
     try:
@@ -283,6 +284,6 @@ def train_cmd(
     typer.echo(json.dumps({
         "model": str(written), "images": int(len(images)), "samples": int(len(x_tr)), "final_mse": round(losses[-1], 5),
         "val_curvature_err_p50": round(float(np.median(np.abs(pred - k_val))), 5),
-        "val_curvature_err_p95": round(float(np.percentile(np.abs(pred - k_val), 95)), 5),
+        "val_curvature_err_p95": percentile(np.abs(pred - k_val), 95, digits=5),
         "train_s": round(time.perf_counter() - t0, 2),
     }))

@@ -198,8 +198,7 @@ class MissionService:
             while not prog.status.terminal:
                 await self.m.clock.sleep(self.tick_s)
                 pose = self.belief.world()
-                if prog.update(self._now(), None if pose is None else (float(pose[0]), float(pose[1])),
-                               None if pose is None else float(pose[2])):
+                if prog.update(self._now(), None if pose is None else (float(pose[0]), float(pose[1]))):
                     self._publish(prog)
             await self._end(prog)
 

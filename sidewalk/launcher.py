@@ -30,12 +30,13 @@ from modules.captain.missionfile import MissionFileError, load_mission
 from modules.vocabulary import Destination, Mission
 from sidewalk.lane_goal import judged_goals
 from sidewalk.map_error import MapErrorSummary, measure_map_error
+from sidewalk.robot_map import map_beside
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
 from sidewalk.run_record import FaultEvent, RecordedPlan, RunRecord, save_record
 from sidewalk.supervisor import ProcessPlan, ProcessStartError, RestartPolicy
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
-from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
+from vehicle_sim.worldfile import WORLDS_DIR, World, WorldFileError, load_world
 from wire.timemode import LOCKSTEP_ENV, lockstep_env
 from wire.ports import free_port
 
@@ -186,8 +187,8 @@ def _map(world: World, cfg: RunConfig, out: Path) -> tuple[Path, World]:
         except (FileNotFoundError, ValueError) as exc:
             raise LaunchError(f"--map {cfg.map_file}: {exc}") from None
     if cfg.map_error_m is None:
-        path = world_path(cfg.world, kind="map")
         try:
+            path = map_beside(cfg.world)
             return path, load_world(path, kind="map")
         except (FileNotFoundError, ValueError) as exc:
             raise LaunchError(str(exc)) from None
@@ -225,12 +226,27 @@ def _object_outlines(world: World) -> list[tuple[str, np.ndarray]]:
     return out
 
 
+def _one_line(exc: Exception) -> str:
+    """Return a file error in one line: the problems of a world or map file joined (the first three)."""
+    if isinstance(exc, WorldFileError):
+        more = f"; and {len(exc.problems) - 3} more" if len(exc.problems) > 3 else ""
+        return "; ".join(str(p) for p in exc.problems[:3]) + more
+    return str(exc)
+
+
 def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
     """Load and check the world and the mission before anything starts; raise LaunchError."""
     try:
         world = load_world(cfg.world)
+        if cfg.map_file is None and cfg.map_error_m is None:  # the robot's map: beside the world, never the world
+            map_beside(cfg.world)
     except (FileNotFoundError, ValueError) as exc:
         raise LaunchError(str(exc)) from None
+    if cfg.map_file is not None:
+        try:
+            load_world(cfg.map_file, kind="map")
+        except (FileNotFoundError, ValueError) as exc:
+            raise LaunchError(f"--map {cfg.map_file}: {_one_line(exc)}") from None
     try:
         mpath = mission_path(cfg.mission)
         mission = load_mission(mpath)

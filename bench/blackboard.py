@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import gc
-import json
 import math
 import os
 import select
@@ -342,7 +341,9 @@ def _main(argv: list[str] | None = None) -> int:
     if a.cmd == "floor":
         _floor_main(a.endpoint, a.ns)
     else:
-        print(json.dumps(run(a.tokens, a.samples, a.dispatch), sort_keys=True))
+        from sidewalk.json_out import dumps
+
+        print(dumps(run(a.tokens, a.samples, a.dispatch), sort_keys=True))
     return 0
 
 

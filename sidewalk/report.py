@@ -11,7 +11,6 @@ counts), replans separately: their number, and the error against the plan in for
 
 from __future__ import annotations
 
-import json
 import math
 from collections import Counter
 from pathlib import Path
@@ -21,6 +20,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from modules.vocabulary import MissionStatus, StepOutcome
+from sidewalk.json_out import dumps
 from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
 from sidewalk.run_record import FaultEvent, FiredTrigger, RunRecord
@@ -397,7 +397,7 @@ def write_report(report: RunReport, out_dir: Path) -> Path:
     """Write `report.json` into out_dir and return its path."""
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "report.json"
-    path.write_text(json.dumps(report.model_dump(mode="json"), indent=2, sort_keys=False) + "\n")
+    path.write_text(dumps(report.model_dump(mode="json"), indent=2, sort_keys=False) + "\n")
     return path
 
 

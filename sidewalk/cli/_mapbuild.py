@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
 import typer
+
+from sidewalk.json_out import dumps
 
 __all__ = ["register"]
 
@@ -55,7 +56,7 @@ def mapbuild(
                          dropped_moving=built.dropped_moving, dropped_spurious=built.dropped_spurious,
                          odometry_error_final_m=round(built.odometry_error_final_m, 3), map_file=str(path), **sc)
     if as_json:
-        typer.echo(json.dumps(rep.model_dump(), sort_keys=True))
+        typer.echo(dumps(rep.model_dump(mode="json"), sort_keys=True))
     else:
         typer.echo(rep.model_dump_json(indent=2))
 

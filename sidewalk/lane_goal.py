@@ -23,7 +23,7 @@ from shapely import LineString, Point
 from modules.vocabulary import Destination, MissionStepSpec, StepConstraints
 from wire.mapfile import MapFile, PathEdge
 
-__all__ = ["JudgedGoal", "judged_goals", "arrival"]
+__all__ = ["JudgedGoal", "Arrival", "judged_goals", "arrival"]
 
 
 class JudgedGoal(BaseModel):
@@ -36,7 +36,7 @@ class JudgedGoal(BaseModel):
     heading: Optional[float] = None
 
 
-class _Arrival(BaseModel):
+class Arrival(BaseModel):
     """The last stretch of a route: the edge arrived on and the travel heading [rad] at the destination."""
 
     model_config = ConfigDict(frozen=True)
@@ -79,7 +79,7 @@ def _attach(world: MapFile, edges: Sequence[PathEdge], xy: tuple[float, float]) 
 
 
 def arrival(world: MapFile, start_xy: tuple[float, float], dest: Destination, constraints: StepConstraints, *,
-            vehicle: str) -> Optional[_Arrival]:
+            vehicle: str) -> Optional[Arrival]:
     """Return the edge a route from `start_xy` to `dest` arrives on and the heading there (None: no route, or no travel)."""
     edges = [e for e in world.edges if _usable(e, world, constraints, vehicle)]
     if not edges:
@@ -122,7 +122,7 @@ def arrival(world: MapFile, start_xy: tuple[float, float], dest: Destination, co
     if target not in came:
         return None
     eid, s, fwd = came[target]
-    return _Arrival(edge=eid, heading=_heading(np.asarray(world.edge(eid).coords, float), s, fwd))
+    return Arrival(edge=eid, heading=_heading(np.asarray(world.edge(eid).coords, float), s, fwd))
 
 
 def judged_goals(world: MapFile, steps: Sequence[MissionStepSpec], destinations: Sequence[Optional[tuple[float, float]]],

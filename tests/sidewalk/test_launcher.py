@@ -104,6 +104,12 @@ def test_a_step_keeping_to_a_side_is_judged_in_its_lane_of_the_route_arriving(tm
     assert setup.goal_points[1] == pytest.approx((-240.0 + 1.5, 90.0))  # still south-bound, its left lane
     assert setup.goal_points[2] == pytest.approx(east)  # north-bound
     assert setup.goal_points[3] == pytest.approx((node.x, node.y))  # no side: the destination
+    # the campus tour's plaza step comes up the 4 m slope westwards, avoiding the 6 m stairs: judged 1 m north of
+    # stairs_top (a quarter of the slope's width, right of west), not on the stairs' lane
+    tour = prepare_run(RunConfig(mission="campus-tour", out=tmp_path / "tour"))
+    top = load_world("campus").place("stairs_top")
+    assert tour.lane_offsets[2] == pytest.approx(-1.0)
+    assert tour.goal_points[2] == pytest.approx((top.x, top.y + 1.0), abs=0.05)
 
 
 def test_lockstep_plans_give_the_simulator_its_flag_and_the_deciders_the_switch(tmp_path):

@@ -10,10 +10,13 @@ Latencies are measured with the same asyncio client harness for the node and for
 machine noise hits both alike. Figures in microseconds.
 
 Keys: notify_p50_us/p99 vs zenoh_relay_p50_us/p99 (post→monitor event through the node vs a raw
-put relayed by a third process), post_ack_p50_us/p99 vs zenoh_get_p50_us/p99, retrieve_100k_p50_us/p99
-(within-polygon spec returning about 50 of `tokens`), post_throughput_per_s (pipelined,
-acknowledged), transform_10k_points_us p50/p99 (vehicle@t → world by a client keeping a frame cache,
-`blackboard.frame_cache`; beside it transform_10k_points_node_us, each lookup asked of the node).
+put relayed by a third process); post_ack_p50_us/p99 against both floors, sampled interleaved with it:
+zenoh_get_p50_us (a raw get: `post_vs_zenoh_get`) and post_ack_zenoh_relay_p50_us (a put answered by
+a put, as a post and its acknowledgement travel: `post_ack_vs_zenoh_relay`, the matching floor);
+retrieve_100k_p50_us/p99 (within-polygon spec returning about 50 of `tokens`), post_throughput_per_s
+(pipelined, acknowledged), transform_10k_points_us p50/p99 (vehicle@t → world as the modules do it:
+`BlackboardClient.transform`, each lookup asked of the node; beside it transform_10k_points_cache_us,
+a client keeping a frame cache, `blackboard.frame_cache`, which no module uses).
 """
 
 from __future__ import annotations
@@ -21,7 +24,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import gc
-import json
 import math
 import os
 import select
@@ -171,8 +173,8 @@ async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict
 
         gc.collect()
         gc.freeze()
-        # --- post ack vs raw get (interleaved)
-        pa, zg = [], []
+        # --- post ack vs a raw get and a raw relay (interleaved): a post is a put answered by a put
+        pa, zg, zp = [], [], []
         pc = time.perf_counter
         for i in range(samples):
             t0 = pc()
@@ -180,11 +182,16 @@ async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict
             t1 = pc()
             await floor.get(floor_payload)
             t2 = pc()
+            await floor.relay(floor_payload)
+            t3 = pc()
             pa.append(t1 - t0)
             zg.append(t2 - t1)
+            zp.append(t3 - t2)
         out["post_ack_p50_us"], out["post_ack_p99_us"] = percentiles(pa, (50, 99), scale=1e6)
         out["zenoh_get_p50_us"], out["zenoh_get_p99_us"] = percentiles(zg, (50, 99), scale=1e6)
+        out["post_ack_zenoh_relay_p50_us"], out["post_ack_zenoh_relay_p99_us"] = percentiles(zp, (50, 99), scale=1e6)
         out["post_vs_zenoh_get"] = out["post_ack_p50_us"] / out["zenoh_get_p50_us"]
+        out["post_ack_vs_zenoh_relay"] = out["post_ack_p50_us"] / out["post_ack_zenoh_relay_p50_us"]
 
         # --- notify vs relay (interleaved)
         nt, zr = [], []
@@ -279,17 +286,17 @@ async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict
                 tt.append(pc() - t0)
             return tt, res
 
+        # the modules' path (the PILOT, PERCEPTION): each lookup asked of the node
         tt, res = await transforms(bb)
         assert res.shape == (10_000, 2)
-        out["transform_10k_points_node_us"], out["transform_10k_points_node_p99_us"] = percentiles(tt, (50, 99), scale=1e6)
-        # the same with the client's frame cache (blackboard.frame_cache): the node's tree kept here, no round trip
+        out["transform_10k_points_us"], out["transform_10k_points_p99_us"] = percentiles(tt, (50, 99), scale=1e6)
+        # the same with the client's frame cache (blackboard.frame_cache; the monitor's): the node's tree kept here
         async with BlackboardClient(net, source="bench-frames", timeout=60, frame_cache=True) as cached:
             tt, got = await transforms(cached)
             np.testing.assert_array_equal(got, res)  # the node's answer, to the bit
             fc = cached.frame_cache.stats
             out["transform_cache_hits"], out["transform_cache_misses"] = fc.hits, fc.misses
-        out["transform_10k_points_us"], out["transform_10k_points_p99_us"] = percentiles(tt, (50, 99), scale=1e6)
-        out["transform_10k_points_p50_us"] = out["transform_10k_points_us"]
+        out["transform_10k_points_cache_us"], out["transform_10k_points_cache_p99_us"] = percentiles(tt, (50, 99), scale=1e6)
 
         st = await bb.stats()
         out.update({f"node_{k}": v for k, v in st.model_dump().items()})
@@ -346,7 +353,9 @@ def _main(argv: list[str] | None = None) -> int:
     if a.cmd == "floor":
         _floor_main(a.endpoint, a.ns)
     else:
-        print(json.dumps(run(a.tokens, a.samples, a.dispatch), sort_keys=True))
+        from sidewalk.json_out import dumps
+
+        print(dumps(run(a.tokens, a.samples, a.dispatch), sort_keys=True))
     return 0
 
 

@@ -121,6 +121,6 @@ def run(rtf: float = 50.0, seconds: float = 4.0, nap_s: float = 0.2) -> dict:
 
 
 if __name__ == "__main__":
-    import json
+    from sidewalk.json_out import dumps
 
-    print(json.dumps(run(*(float(a) for a in sys.argv[1:3])), sort_keys=True))
+    print(dumps(run(*(float(a) for a in sys.argv[1:3])), sort_keys=True))

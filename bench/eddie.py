@@ -260,9 +260,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.what == "floor":
         _floor_main(args.endpoint, args.ns, args.size)
         return 0
-    import json
+    from sidewalk.json_out import dumps
 
-    print(json.dumps(run(args.samples), sort_keys=True))
+    print(dumps(run(args.samples), sort_keys=True))
     return 0
 
 

@@ -12,7 +12,6 @@ Run: `sidewalk bench secure --json` (or `python -m bench.secure`).
 from __future__ import annotations
 
 import asyncio
-import json
 import os
 import sys
 import tempfile
@@ -93,4 +92,6 @@ def run(samples: int = 1000) -> dict:
 
 
 if __name__ == "__main__":
-    print(json.dumps(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1000), sort_keys=True))
+    from sidewalk.json_out import dumps
+
+    print(dumps(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1000), sort_keys=True))

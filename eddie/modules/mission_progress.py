@@ -5,15 +5,16 @@ drives the route the triggers shape. The mission service only keeps the mission'
 CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit` reads the same
 states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
 controller `local` pose): reached within `reach_m` less a margin of the step's goal (or, for a step kept
-to a side, of the goal moved into the lane of the route's last direction or of the believed heading, as
-the truth verdict judges it), at the closest approach (the route's end, or the belief passing the goal or
-stopping closing on it), or (as the PILOT judges arrival under CODGER: along its path, within
-`progress_m` of the end) projected within `progress_m` of the step route's end while within 2·`reach_m`
-of the goal (within `reach_m` of it or its lane's goal for a step kept to a side), or past the route's
-end and along the next step's route within `reach_m` of it (the goal went by between two looks)
-→ succeeded, at once for a step driven through and, for one the vehicle stops at (the last; a `stop` or
-`wait` trigger's with obstacle stop holding it there), once the vehicle is at rest
-(`modules.captain.arrival`, from the controller's odometry); no progress for `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
+to a side, of the goal moved into the lane of the road the route arrives on, on the kept side of the
+route's last direction: the mission read on the robot's map, `eddie.missions.lane`), at the closest
+approach (the route's end, or the belief passing the goal or stopping closing on it), or (as the PILOT
+judges arrival under CODGER: along its path, within `progress_m` of the end) projected within
+`progress_m` of the step route's end while within 2·`reach_m` of the goal (within `reach_m` of it or
+its lane's goal for a step kept to a side), or on the next step's route, within `reach_m` of it and
+`progress_m` along it, while within 2·`reach_m` of the goal or past the route's end (the goal went by
+between two looks, or the vehicle turned onto the next route at a corner) → succeeded, at once for a step driven
+through and, for one the vehicle stops at (the last; a `stop` or `wait` trigger's with obstacle stop holding it
+there), once the vehicle is at rest (`modules.captain.arrival`, from the controller's odometry); no progress for `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
 onto the step's route, shrinking by `progress_m`). Routes come from the MAP NAVIGATOR's route selection on the robot's map,
 one step after the other from the previous goal, as the mission compiler lays them out.
 """
@@ -60,10 +61,8 @@ class StepGoal(BaseModel):
     speed_mps: float | None = None
     #: how close [m] to the goal counts as reached (the step's tolerance)
     reach_m: float = Field(1.0, gt=0.0)
-    #: the offset [m] left (+) of the heading of the lane the step keeps to (a quarter of the road's width; None: no
-    #: side): a road follower drives in the lane (issue 13), and the truth verdict judges the kept side from the
-    #: heading at each moment, so a vehicle that turns onto the next step's route short of the goal (a corner cut)
-    #: is in its lane on the side it now faces
+    #: the offset [m] left (+) of the route's last direction of the lane the step keeps to (a quarter of the width of
+    #: the road the route arrives on; None: no side): a road follower drives in the lane (issue 13), and ends in it
     lane_offset_m: float | None = None
 
     @property
@@ -90,7 +89,7 @@ def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Missio
         _obj, obj_xy = destination_object(map_data, step.destination.place, route.goal_xy)
         goal = destination_point(route.goal_xy, obj_xy, line)  # beside its object, if any
         out.append(StepGoal(step_index=i, route=tuple(line), goal=goal, speed_mps=step.constraints.speed_limit,
-                            reach_m=step.tolerance, lane_offset_m=goal_lane_offset(map_data, goal, step.constraints.keep)))
+                            reach_m=step.tolerance, lane_offset_m=goal_lane_offset(route, step.constraints.keep)))
         at = route.goal_xy
     return out
 
@@ -102,8 +101,8 @@ def mission_route(map_data: MapData, goals: list[StepGoal], steps: list[MissionS
 
     The route is the roads' centre line, each step's after the other. A step kept to a side is driven in its lane
     (`kept_lane_offset` of the nearest road's width at each vertex, at most `keep_offset_m` [m], leaving `edge_keep_m` [m]
-    inside the road's edge), as the PILOT plans it, and ends in its goal's lane (`goal_kept_offset`: where the truth
-    verdict judges it, a wide plaza's not a walk's); 0 elsewhere. A step's speed is its limit, at most `speed_mps`.
+    inside the road's edge), as the PILOT plans it, and ends in its goal's lane (`goal_kept_offset`: a wide plaza's,
+    not a walk's); 0 elsewhere. A step's speed is its limit, at most `speed_mps`.
     `in_lane`: the points moved by their offsets (`shift_into_lane`).
     """
     pts: list[tuple[float, float]] = []
@@ -241,8 +240,7 @@ class MissionProgress:
         if world_xy is not None:
             sg = self.goals[i]
             lane_goal = sg.lane_goal
-            heading_lane = None if yaw is None or not sg.lane_offset_m else lane_point(sg.goal, sg.lane_offset_m, yaw)
-            d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (sg.goal, lane_goal, heading_lane) if g is not None)
+            d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (sg.goal, lane_goal) if g is not None)
             # progress is measured along the route: a route may lead away from its goal for a while
             assert self._track is not None
             left = self._track.left(world_xy)
@@ -262,14 +260,16 @@ class MissionProgress:
                 # the belief may be off across the route by more than the reach (a wide plaza gives vision
                 # no edges); driving to the route's end is arrival, as the PILOT's along-path test
                 return self._arrive(i, f"reached the end of its route ({d:.2f} m from the goal, believed)", now)
-            if left <= self.progress_m and i + 1 < len(self.goals):
+            if (left <= self.progress_m or d <= 2.0 * sg.reach_m) and i + 1 < len(self.goals):
                 # the next step's route starts at this goal, and the vehicle drives on into it: a belief past this
                 # route's end, within the reach of the next route and along it, went through the goal between two
-                # looks (at RTF 50 a look can come seconds of sim apart, and a pass-by takes a few)
+                # looks (at RTF 50 a look can come seconds of sim apart, and a pass-by takes a few); one near the
+                # goal and near the next route's start turned onto it short of the corner
                 nxt = self._line(i + 1)
                 p = Point(world_xy)
                 along = float(nxt.project(p))
-                if self.progress_m <= along and nxt.distance(p) <= self.goals[i].reach_m:
+                went_by = left <= self.progress_m or along <= 2.0 * sg.reach_m
+                if self.progress_m <= along and went_by and nxt.distance(p) <= sg.reach_m:
                     return self._arrive(i, f"passed its goal onto the next step's route ({along:.1f} m along it, believed)", now)
             self._track.note(now, left)
         assert self._track is not None

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import importlib
-import json
 import os
 from types import ModuleType
 from typing import Annotated, Any
 
 import typer
+
+from sidewalk.json_out import dumps
 
 __all__ = ["bench_app"]
 
@@ -35,7 +36,7 @@ def _measure(mod: ModuleType, **kw: Any) -> dict:
 
 def _emit(result: dict, as_json: bool) -> None:
     if as_json:
-        typer.echo(json.dumps(result, sort_keys=True))
+        typer.echo(dumps(result, sort_keys=True))
         return
     from rich.console import Console
     from rich.table import Table

@@ -74,7 +74,7 @@ def _monitor_preflight(cfg, console) -> Optional[str]:  # noqa: ANN001 - RunConf
 
 
 def run(
-    world: Annotated[Optional[str], typer.Option(help="World name (worlds/<name>.world.geojson) or file (default: the mission's world, else campus)")] = None,
+    world: Annotated[Optional[str], typer.Option(help="World name (worlds/<name>.world.geojson) or file (default: the mission's world, else campus); the robot gets its map (NAME.map.geojson beside it), never the world")] = None,
     mission: Annotated[str, typer.Option(help="Mission name (worlds/<name>.yaml) or file")] = "campus-tour",
     vehicle: Annotated[Optional[str], typer.Option(help="terregator or navlab (default: the mission's, else terregator)")] = None,
     rtf: Annotated[float, typer.Option(help="Real-time factor of the simulator")] = 20.0,
@@ -315,7 +315,7 @@ def status(
 
 
 async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_json: bool) -> int:
-    import json as _json
+    from sidewalk.json_out import dumps
     import time as _time
 
     from wire.aio import Link
@@ -346,7 +346,7 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
         wedged = [h.name for h in health if h.state == "wedged"]
         no_node = [h.name for h in health if h.state == "no-node"]
         if as_json:
-            print(_json.dumps({
+            print(dumps({
                 "namespace": net.namespace, "modules": [h.model_dump(mode="json") for h in health],
                 "blackboard_clients": clients, "wedged": wedged, "no_node": no_node,
                 "missions": [s.model_dump(mode="json") for s in sts],

@@ -29,7 +29,7 @@ from wire.mapfile.appearance import (
 from wire.mapfile.collection import MapFile
 from wire.mapfile.features import PathEdge, PathNode, StartPose, WorldObject
 from wire.mapfile.kinds import EDGE_MODES, KIND_PRIORITY, KINDS, NODE_KINDS, OBJECT_KINDS, ROLES, SHAPES_BY_KIND, EdgeMode
-from wire.mapfile.parse import WORLDS_DIR, load_map_file, parse_map_file, world_path
+from wire.mapfile.parse import WORLD_ONLY_FIELDS, WORLDS_DIR, load_map_file, parse_map_file, world_path
 from wire.mapfile.problems import Problem, WorldFileError
 from wire.mapfile.references import EDGE_END_TOLERANCE
 from wire.mapfile.shapes import FlatShape, PostShape, PrismShape, Shape, SlopeShape, StairsShape, TreeShape
@@ -68,6 +68,7 @@ __all__ = [
     "MapFile",
     "load_map_file",
     "parse_map_file",
+    "WORLD_ONLY_FIELDS",
     "world_path",
     "WORLDS_DIR",
     "EDGE_END_TOLERANCE",

@@ -23,7 +23,7 @@ from wire.mapfile.problems import Problem, WorldFileError
 from wire.mapfile.references import cross_check
 from wire.mapfile.shapes import FlatShape, PostShape, Shape, SlopeShape, StairsShape, TreeShape
 
-__all__ = ["WORLDS_DIR", "world_path", "load_map_file", "parse_map_file"]
+__all__ = ["WORLDS_DIR", "WORLD_ONLY_FIELDS", "world_path", "load_map_file", "parse_map_file"]
 
 #: Directory holding the shipped world and map files.
 WORLDS_DIR = Path(__file__).resolve().parents[2] / "worlds"
@@ -97,13 +97,39 @@ def load_map_file(path: str | Path, *, kind: Literal["world", "map"] = "map", fa
         text = p.read_text()
     except OSError as exc:
         raise WorldFileError(str(p), [Problem(message=f"cannot read file: {exc}")]) from None
-    return parse_map_file(text, source=str(p), factory=factory)
+    return parse_map_file(text, source=str(p), factory=factory, kind=kind)
 
 
-def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Callable[..., Any] | None = None) -> Any:
+#: What only a world says (how things look, what moves, the weather): a map file holding one is refused.
+WORLD_ONLY_FIELDS = ("weather", "actors", "properties.appearance", "properties.markings")
+
+
+def _world_only(data: dict) -> list[Problem]:
+    """Return one problem naming the world-only fields of a decoded file (`WORLD_ONLY_FIELDS`) and where the first is."""
+    found = [k for k in ("weather", "actors") if k in data]
+    first: tuple[int, str | None, str] | None = None
+    for k in ("appearance", "markings"):
+        n = 0
+        for i, f in enumerate(data.get("features") or []):
+            props = f.get("properties") if isinstance(f, dict) else None
+            if isinstance(props, dict) and k in props:
+                n += 1
+                if first is None or i < first[0]:
+                    first = (i, props.get("id") if isinstance(props.get("id"), str) else None, f"properties.{k}")
+        if n:
+            found.append(f"{k} ({n} features)")
+    if not found:
+        return []
+    where = dict(index=first[0], feature_id=first[1], field=first[2]) if first and not data.keys() & {"weather", "actors"} else {}
+    return [Problem(**where, message=f"world-only fields, which a map never states: {', '.join(found)}; is this a world file?")]
+
+
+def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Callable[..., Any] | None = None,
+                   kind: Literal["world", "map"] = "world") -> Any:
     """Parse and validate GeoJSON text (or an already-decoded dict); raise `WorldFileError`.
 
-    `factory` builds the result from the parsed parts (default `MapFile`).
+    `factory` builds the result from the parsed parts (default `MapFile`); a `kind="map"` file holding
+    a world-only field (`WORLD_ONLY_FIELDS`) is refused.
     """
     if isinstance(text, dict):
         data = text
@@ -118,6 +144,8 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
     feats = data.get("features")
     if not isinstance(feats, list):
         raise WorldFileError(source, [Problem(field="features", message="must be a list of Feature objects")])
+    if kind == "map" and (world_only := _world_only(data)):
+        raise WorldFileError(source, world_only)
     name = data.get("name")
     if not isinstance(name, str) or not name:
         problems.append(Problem(field="name", message="collection needs a non-empty string \"name\""))

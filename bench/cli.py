@@ -24,11 +24,10 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 from bench.eddie import ROOT, _spawn, _stop
 from bench.errors import BenchError
 from wire.ports import free_port
+from wire.summary import percentiles
 
 __all__ = ["run", "import_times"]
 
@@ -62,8 +61,8 @@ def _wall(cmd: list[str], runs: int, ok: tuple[int, ...] = (0,)) -> tuple[list[f
 
 
 def _p50_p95(xs: list[float]) -> dict[str, float]:
-    a = np.asarray(xs)
-    return {"p50": round(float(np.percentile(a, 50)), 4), "p95": round(float(np.percentile(a, 95)), 4)}
+    p50, p95 = percentiles(xs, (50, 95), digits=4)
+    return {"p50": p50, "p95": p95}
 
 
 def import_times(stderr: str) -> tuple[float, list[tuple[str, float]]]:

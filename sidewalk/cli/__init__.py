@@ -52,7 +52,7 @@ COMMANDS: tuple[LazyCommand, ...] = (
     LazyCommand("record", "sidewalk.cli._monitor", "register",
                 "Record every message of a live system into an MCAP file until Ctrl-C (what every `sidewalk run` does)."),
     LazyCommand("mapbuild", "sidewalk.cli._mapbuild", "register",
-                "Drive a route with the map's objects withheld, track what the laser sees, write a map a later run can use (--map)."),
+                "Drive a route by the robot's own estimate from the map's start, track what the laser sees, write a map a later run can use (--map)."),
     LazyCommand("compare", "sidewalk.cli._compare", "register",
                 "Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables "
                 "and plots."),

@@ -97,7 +97,7 @@ def run(
     obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors or actors in the world file)")] = None,
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
     # ---- issue 10: faults and the speed cap ----
-    fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-perception, position-jump, kill-central, wedge; repeatable")] = None,
+    fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-central, kill-service, kill-perception, wedge-driver, wedge-planner, position-jump; repeatable")] = None,
     max_speed: Annotated[Optional[float], typer.Option("--max-speed", help="Cap the speed (m/s): CODGER the PILOT's for every segment, EDDIE the route's and the controller's")] = None,
     # ---- issue 13: road following as the Navlab did it ----
     road_method: Annotated[str, typer.Option("--road-method", help="How the road is found: perception (colored-range segmentation), scarf, yarf or alvinn — PERCEPTION's method (codger), vision road following's (eddie)")] = "perception",

@@ -9,7 +9,7 @@ import numpy as np
 
 from sidewalk.compare.comparison import FAULT_AT, SPEED_CAPPED, Comparison
 from sidewalk.compare.fault_outcome import BEFORE_S, HELD_S, SLOWER, WORSE_M
-from sidewalk.compare.faults import JUMP_M, WEDGE_S
+from sidewalk.compare.faults import JUMP_M, ROLES, TARGETS, WEDGE_S
 from sidewalk.compare.glue import TRANSPORT
 from sidewalk.compare.measures import MEASURES, OBSERVERS
 from sidewalk.compare.summary import Spread
@@ -114,11 +114,14 @@ def render_markdown(c: Comparison, command: str = "") -> str:
     if cfg.faults:
         out += ["## Faults", "",
                 f"Each fault once per mission and architecture (seed {cfg.seeds[0]}), at {FAULT_AT:.0%} of the mission's median "
-                f"baseline time. kill-perception / kill-central: SIGKILL, then started again; wedge: SIGSTOP for {WEDGE_S:g} s sim; "
+                f"baseline time. kill-*: SIGKILL, then started again; wedge-*: SIGSTOP for {WEDGE_S:g} s sim; "
                 f"position-jump: the estimate moved {JUMP_M:g} m. Degraded: succeeded, but slower than {SLOWER:g}× the baseline, "
                 f"a position error peak over {WORSE_M:g} m above it, longer off the path, or a collision. Recovery: from the "
                 f"injection until the vehicle drove at ≥ half its speed of the {BEFORE_S:g} s before for {HELD_S:g} s with its "
                 "position error under max(1 m, 2× the error at injection) [s sim].", ""]
+        hits = [[f, ROLES[f], *(TARGETS.get(a, {}).get(f) or "— (no such part)" for a in archs)] for f in cfg.faults if f in ROLES]
+        out += ["Each fault takes away the same role in each architecture:", ""]
+        out += _table(["fault", "role", *archs], hits) + [""]
         rows = [[f.fault, f.architecture, f.mission, f"{f.at_s:.0f}" if f.at_s is not None else "–", f.verdict,
                  _num(f.recovery_s) if f.recovery_s is not None else ("never" if f.injected else "–"), f.how[:120]] for f in c.faults]
         out += _table(["fault", "arch", "mission", "at [s sim]", "verdict", "recovery [s sim]", "how / why"], rows) + [""]

@@ -38,7 +38,7 @@ from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import EddieKeys, ModuleKeys
 from wire.network import NetworkConfig, check_chunk
 from wire.lockstep import Participant, lockstep_enabled, participant_name
-from wire.session import session_stats, traffic
+from wire.session import session_stats, barrier_traffic, traffic
 
 from eddie.errors import BadMessage, LinkError, LinkTimeout, NoSuchModule, ServiceError
 from eddie.toolkit.message import (
@@ -317,7 +317,7 @@ class Module:
         hb = Heartbeat(module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(),
                        period_s=self.heartbeat_period, pid=os.getpid(), host=self._host,
                        state=state or ("ready" if self._ready else "starting"), zenoh_sessions=session_stats()["open"],
-                       usage=process_usage(traffic()))
+                       usage=process_usage(traffic(), barrier_traffic()))
         self._seq += 1
         self._link.put(self.module_keys.heartbeat(self.name), encode_heartbeat(hb))
 

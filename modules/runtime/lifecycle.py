@@ -15,7 +15,7 @@ from wire.network import NetworkConfig
 from wire.aio import Link
 from wire.health import process_usage
 from wire.lockstep import Participant, lockstep_enabled, participant_name
-from wire.session import session_stats, traffic
+from wire.session import session_stats, barrier_traffic, traffic
 from modules.runtime.clock import SimClock
 from modules.runtime.heartbeat import ClockPayloadError, decode_clock, encode_heartbeat
 from wire.keys import ModuleKeys
@@ -101,7 +101,7 @@ class ModuleRuntime:
             module=self.name, seq=self._seq, sim_time=self.clock.now() if self.clock.running else None,
             wall_time=time.time(), period_s=self.heartbeat_period, pid=os.getpid(), host=self._host,
             state=state or ("ready" if self._ready else "starting"), zenoh_sessions=session_stats()["open"],
-            usage=process_usage(traffic()),
+            usage=process_usage(traffic(), barrier_traffic()),
             **self._blackboard_health(),
         )
         self._seq += 1

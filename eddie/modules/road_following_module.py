@@ -11,7 +11,8 @@ mission, it asks for that mission's route. Awake, each cycle: capture a frame (l
 truth), note the controller's `local` pose then, segment with PERCEPTION's pipeline on the map
 objects in view, send the position the road edges give to the navigator (as PERCEPTION's fixes reach
 the PILOT under CODGER), move the road into `local`, plan with the PILOT's planner along the mission's
-route (asked from the mission service) and send the path `immediate` with `sensed_at` = the capture stamp.
+route (asked from the mission service) and send the path `immediate` with `sensed_at` = the capture stamp (a path
+dead-reckoned along the route when vision found no road carries none: no frame's content produced it, as under CODGER).
 
 With `--road-method scarf|yarf|alvinn` (issue 13) the camera image goes to that road follower
 instead: SCARF's or YARF's road centre, moved to the route's lane and into `local` by the pose at
@@ -189,7 +190,7 @@ class RoadFollowing:
                 return f"{exc}; at the route's end"
             await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                         points=tuple((float(x), float(y)) for x, y in ahead),
-                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
+                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=None))  # dead reckoned: no frame made it
             return f"{exc}; dead reckoning along the route"
         if self.switch.taken != taken or not self.switch.awake:
             return "a trigger came while perceiving: this path is not sent"  # it may have put vision to sleep
@@ -256,7 +257,7 @@ class RoadFollowing:
                 return f"{exc}; at the route's end"
             await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                         points=tuple((float(x), float(y)) for x, y in ahead),
-                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
+                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=None))  # dead reckoned: no frame made it
             return f"{exc}; dead reckoning along the route"
         if self.switch.taken != taken or not self.switch.awake:
             return "a trigger came while following: this path is not sent"

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from modules.terrain.constraints import Constraint
+from modules.terrain.constraints import ADMISSIBLE, MIXED, Constraint
 from modules.terrain.cross_country_planner import CrossCountryPlan, CrossCountryPlanner, CrossCountrySettings
 from modules.terrain.elevation_grid import ElevationGrid
 from modules.terrain.errors import InadmissibleGoal, InadmissibleStart, NoAdmissiblePath
@@ -127,3 +127,22 @@ def test_only_the_skid_steered_terregator_turns_round_in_a_dead_end():
     assert np.isinf(plan.curvature).any()  # it turned in place
     assert math.hypot(plan.poses[-1, 0] - goal[0], plan.poses[-1, 1] - goal[1]) <= 1.0
     _held_to_brute_force(grid, TERREGATOR_TERRAIN, plan)
+
+
+def test_a_heading_slice_of_the_voxels_shows_admissible_squares_that_are_so_cell_by_cell():
+    grid = _boulder_wall(3)
+    planner = CrossCountryPlanner(TerrainPyramid(grid), NAVLAB_TERRAIN)
+    planner.plan((5.0, 8.0, 0.0), (35.0, 8.0, 0.0))
+    hier = planner.hierarchy
+    width = 2.0 * math.pi / hier.headings
+    sliced = hier.heading_slice(0.5 * width)  # Figure 2.16: one heading interval of the voxels the plan classified
+    side = hier.voxel_size(0)
+    assert sliced.shape == tuple(int(d) for d in planner.pyramid.dims[hier.leaf_level])
+    assert (sliced == ADMISSIBLE).sum() > 50 and (sliced == MIXED).any()
+    disc = discontinuity(grid.z)
+    rng = np.random.default_rng(0)
+    rows, cols = np.nonzero(sliced == ADMISSIBLE)
+    for k in rng.choice(len(rows), 40, replace=False):
+        x, y = (cols[k] + rng.uniform(0.0, 1.0)) * side, (rows[k] + rng.uniform(0.0, 1.0)) * side
+        th = rng.uniform(0.0, width)
+        assert not violations(grid, disc, NAVLAB_TERRAIN, x, y, th), (x, y, th)

@@ -178,6 +178,7 @@ class CrossCountryPlanner:
         named = tuple(c for c in Constraint if c in why)
         raise InadmissibleGoal(f"no configuration at the goal ({gx:.2f}, {gy:.2f}) is admissible: {_names(named)}", named)
 
+
 def _names(constraints: tuple[Constraint, ...]) -> str:
     return ", ".join(c.value for c in constraints) or "undecided"
 

@@ -14,7 +14,7 @@ from modules.terrain.pyramid import TerrainPyramid
 from modules.terrain.vehicle_model import NAVLAB_TERRAIN, TERREGATOR_TERRAIN, TerrainVehicle
 from tests.modules._terrain_check import discontinuity, violations
 
-pytestmark = pytest.mark.timeout(180)  # quiet run ~5 s each after the first compile (~40 s)
+pytestmark = pytest.mark.timeout(180)  # runs ≤ 12 s each (busy machine) with numba's cache warm; compiling the bounds ~40 s
 
 RES = 0.1
 

@@ -96,6 +96,24 @@ def bench_perception(
     _emit(result, as_json)
 
 
+@bench_app.command("terrain-planner")
+def bench_terrain_planner(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    vehicle: Annotated[str, typer.Option(help="navlab or terregator")] = "navlab",
+    seeds: Annotated[str, typer.Option(help="Comma-separated seeds of the generated scenes")] = "1,2,3",
+    repeats: Annotated[int, typer.Option(min=1, help="Plans per scene")] = 5,
+) -> None:
+    """A 50 m cross-country plan on 150k-cell generated maps: p50 ms, terrain queries, voxels per level; pyramid build ms."""
+    if vehicle not in ("navlab", "terregator"):
+        raise typer.BadParameter(f"must be navlab or terregator, got {vehicle!r}", param_hint="--vehicle")
+    try:
+        seed_list = tuple(int(s) for s in seeds.split(","))
+    except ValueError:
+        raise typer.BadParameter(f"must be comma-separated integers, got {seeds!r}", param_hint="--seeds") from None
+    mod = importlib.import_module("bench.terrain_planner")
+    _emit(_measure(mod, vehicle=vehicle, seeds=seed_list, repeats=repeats), as_json)
+
+
 @bench_app.command("secure")
 def bench_secure(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

@@ -29,11 +29,13 @@ import time
 
 import numpy as np
 
+from wire.summary import percentile
+
 __all__ = ["run"]
 
 
 def _p(values: list[float], q: float) -> float | None:
-    return round(float(np.percentile(values, q)), 3) if values else None
+    return percentile(values, q, digits=3)
 
 
 def run(vehicle: str = "navlab", seeds: tuple[int, ...] = (1, 2, 3), repeats: int = 5) -> dict:

@@ -37,6 +37,7 @@ from modules.terrain.errors import InadmissibleGoal, InadmissibleStart, NoAdmiss
 from modules.terrain.pyramid import TerrainPyramid
 from modules.terrain.resolution_hierarchy import LevelCounts, ResolutionHierarchy, classify_pose
 from modules.terrain.vehicle_model import TerrainVehicle
+from wire.se2 import wrap_angle
 
 __all__ = ["CrossCountrySettings", "CrossCountryPlan", "CrossCountryPlanner"]
 
@@ -157,7 +158,7 @@ class CrossCountryPlanner:
                          hier.margins, hier.scratch, hier.counts)
         poses[:, 0] += p.origin_x
         poses[:, 1] += p.origin_y
-        poses[:, 2] = (poses[:, 2] + math.pi) % (2.0 * math.pi) - math.pi
+        poses[:, 2] = wrap_angle(poses[:, 2])
         length = float(np.hypot(*np.diff(poses[:, :2], axis=0).T).sum())
         ny, nx = p.shape
         return CrossCountryPlan(poses, curv, levels, length, queries, reads, voxels, ny * nx * s.headings,

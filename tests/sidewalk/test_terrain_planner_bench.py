@@ -14,10 +14,10 @@ def _strict(text: str) -> dict:
     return json.loads(text, parse_constant=no_constant)
 
 
-@pytest.mark.timeout(180)  # quiet run ~3 s with numba's cache warm, ~35 s compiling from cold (busy machine)
+@pytest.mark.timeout(600)  # quiet run ~3 s with numba's cache warm, ~35 s compiling from cold (busy machine), ~200 s at a load of 20
 def test_terrain_planner_bench_prints_plans_queries_and_the_pyramid():
     p = subprocess.run([sys.executable, "-m", "sidewalk", "bench", "terrain-planner", "--seeds", "2", "--repeats", "1",
-                        "--vehicle", "terregator", "--json"], capture_output=True, text=True, timeout=170)
+                        "--vehicle", "terregator", "--json"], capture_output=True, text=True, timeout=560)
     assert p.returncode == 0, p.stderr[-2000:]
     r = _strict(p.stdout.splitlines()[0])
     assert r["vehicle"] == "terregator" and r["seeds"] == [2] and r["cells"] == 387 * 387

@@ -15,11 +15,14 @@ Errors per frame, in `vehicle`:
   the same look-ahead (the steering direction error).
 
 A frame fails when the follower reports no road, or its lateral error exceeds `FAIL_LATERAL_M` or
-its heading error `FAIL_HEADING_DEG`. Percentiles are over the frames that reported a road.
+its heading error `FAIL_HEADING_DEG`. Percentiles are over the frames that reported a road. Frames
+whose road in view lies at least `SHADOW_SHARE` in shadow (the composition root measures it from
+truth) are also summarised apart: where shadows cross the road.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -29,11 +32,13 @@ import numpy as np
 
 from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
 
-__all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
+__all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "SHADOW_SHARE", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
            "centre_at_origin", "score_frame", "evaluate", "summarise"]
 
 FAIL_LATERAL_M = 1.0
 FAIL_HEADING_DEG = 10.0
+#: A frame shows shadows across the road when at least this share of the road in view lies in shadow.
+SHADOW_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -49,22 +54,24 @@ class DrivePose:
 
 @dataclass(frozen=True)
 class EvalFrame:
-    """One frame: the pose, the camera image (H, W, 3) uint8, and the route centre line (N, 2) [m] in `world`."""
+    """One frame: the pose, the camera image (H, W, 3) uint8, the route centre line (N, 2) [m] in `world`, the road's shaded share."""
 
     pose: DrivePose
     image: np.ndarray
     centre_world: np.ndarray
+    road_shadow: float | None = None  # share (0–1) of the road 5–20 m ahead in shadow (truth); None: not measured
 
 
 @dataclass(frozen=True)
 class FrameScore:
-    """One frame's outcome: reported a road, lateral error [m], heading error [deg], wall and CPU time [ms]."""
+    """One frame's outcome: reported a road, lateral error [m], heading error [deg], wall and CPU time [ms], shadow across the road."""
 
     found: bool
     lateral_err_m: float
     heading_err_deg: float
     wall_ms: float
     cpu_ms: float
+    shadow: bool = False
 
 
 def _resample(poly: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -204,11 +211,11 @@ def evaluate(frames: Iterable[EvalFrame], make_follower: Callable[[EvalFrame], R
         prev = fr
         sc = score_frame(obs, to_vehicle(fr.centre_world, p), cpu)
         if sc is not None:
-            yield sc
+            yield dataclasses.replace(sc, shadow=fr.road_shadow is not None and fr.road_shadow >= SHADOW_SHARE)
 
 
-def summarise(scores: list[FrameScore]) -> dict:
-    """Return the figures: lateral / heading error p50 and p95, failure rate, ms per frame (wall and CPU) p50."""
+def _figures(scores: list[FrameScore]) -> dict:
+    """Return the figures of some frames: lateral / heading error p50 and p95, failure rate."""
     n = len(scores)
     ok = [s for s in scores if s.found and math.isfinite(s.lateral_err_m)]
     fails = sum(1 for s in scores if not s.found or not math.isfinite(s.lateral_err_m) or s.lateral_err_m > FAIL_LATERAL_M
@@ -227,6 +234,17 @@ def summarise(scores: list[FrameScore]) -> dict:
         "heading_error_deg_p50": pct(hd, 50),
         "heading_error_deg_p95": pct(hd, 95),
         "failure_rate": round(fails / n, 4) if n else None,
-        "ms_per_frame_p50": pct([s.wall_ms for s in scores], 50),
-        "cpu_ms_per_frame_p50": pct([s.cpu_ms for s in scores], 50),
     }
+
+
+def summarise(scores: list[FrameScore]) -> dict:
+    """Return the figures (see `_figures`) of all frames, ms per frame (wall and CPU) p50, and those of the frames with shadows across the road."""
+
+    def pct(vals: list[float], q: float) -> float | None:
+        return round(float(np.percentile(vals, q)), 4) if vals else None
+
+    out = _figures(scores)
+    out["ms_per_frame_p50"] = pct([s.wall_ms for s in scores], 50)
+    out["cpu_ms_per_frame_p50"] = pct([s.cpu_ms for s in scores], 50)
+    out.update({f"shadow_{k}": v for k, v in _figures([s for s in scores if s.shadow]).items()})
+    return out

@@ -103,6 +103,23 @@ class RouteFrames:
         self.legs, self.centres = mission_legs(self.world)
         if not self.legs:
             raise ValueError(f"world {self.world.name!r} has no shipped mission with a follow-road leg (worlds/*.yaml)")
+        import shapely
+
+        roads = [shapely.Polygon(o.polygon) for o in self.world.objects if o.kind in ("road", "intersection") and o.polygon is not None]
+        self.roads = shapely.union_all(roads) if roads else shapely.Polygon()
+        shapely.prepare(self.roads)
+
+    def road_shadow(self, pose, near_m: float = 5.0, far_m: float = 20.0, step_m: float = 0.5) -> float | None:
+        """Return the share (0–1) of the road ground `near_m`–`far_m` [m] ahead of `pose` that lies in shadow (truth); None: no road there."""
+        import shapely
+
+        xs, ys = np.meshgrid(np.arange(near_m, far_m, step_m), np.arange(-far_m / 2.0, far_m / 2.0, step_m))
+        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        wx, wy = pose.x + c * xs - s * ys, pose.y + s * xs + c * ys
+        on = shapely.contains_xy(self.roads, wx, wy)
+        if not on.any():
+            return None
+        return float(np.mean(self.scene.sunlit_at(wx[on], wy[on]) < 0.5))
 
     def capture(self, pose, rng: np.random.Generator):
         """Return the capture (camera image and calibration) at a `DrivePose`."""
@@ -116,7 +133,7 @@ class RouteFrames:
 
         for p in poses:
             cap = self.capture(p, rng)
-            yield EvalFrame(pose=p, image=cap.camera_image, centre_world=self.centres[p.leg]), cap
+            yield EvalFrame(pose=p, image=cap.camera_image, centre_world=self.centres[p.leg], road_shadow=self.road_shadow(p)), cap
 
 
 def _world_or_exit(world: str, seed: int, **kw) -> RouteFrames:
@@ -137,6 +154,9 @@ def eval_cmd(
     seed: Annotated[int, typer.Option(help="Seed for the drive, sensor noise and odometry noise")] = 0,
     model: Annotated[str, typer.Option(help="ALVINN weights (.npz from `sidewalk roadfollow train`)")] = "",
     intersections: Annotated[bool, typer.Option("--intersections", help="SCARF: also search for branch roads")] = False,
+    texture: Annotated[bool, typer.Option("--texture", help="SCARF: feed the texture operator's image (blue pyramid) to the classifier")] = False,
+    colour_model: Annotated[str, typer.Option("--colour-model", help="SCARF: how the colour classes are made: nearest_mean (default) or isodata (the paper's generator)")] = "nearest_mean",
+    vision_workers: Annotated[int, typer.Option("--vision-workers", min=1, max=64, help="SCARF: processes its per-pixel stages run on in row stripes (1: this process alone)")] = 1,
     lane_offset: Annotated[Optional[float], typer.Option("--lane-offset", help="Where the vehicle drives, left of the road centre [m] (negative: right; default: the world's lane); ALVINN is scored against that lane")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
 ) -> None:
@@ -147,6 +167,8 @@ def eval_cmd(
 
     if method not in DEFAULT_WORLD:
         raise typer.BadParameter(f"--method: expected scarf, yarf or alvinn, got {method!r}")
+    if colour_model not in ("nearest_mean", "isodata"):
+        raise typer.BadParameter(f"--colour-model: expected nearest_mean or isodata, got {colour_model!r}")
     world = world or DEFAULT_WORLD[method]
     net = None
     if method == "alvinn":
@@ -166,7 +188,7 @@ def eval_cmd(
     def make(fr):
         cam = CameraGeometry.from_capture(last[0])
         if method == "scarf":
-            return Scarf(cam, ScarfConfig(intersections=intersections))
+            return Scarf(cam, ScarfConfig(intersections=intersections, texture=texture, colour_model=colour_model), pool=pool)
         if method == "yarf":
             return Yarf(cam, prior=Spine(offset=-lane))
         return Alvinn(cam, net)  # type: ignore[arg-type]
@@ -177,10 +199,15 @@ def eval_cmd(
             # ALVINN steers to the lane it was trained on: its road point is scored against that lane's centre
             yield lane_frame(fr, lane) if method == "alvinn" else fr
 
+    from modules.parallel import VisionPool
+
     t0 = time.perf_counter()
-    scores = list(evaluate(stream(), make, rng=rng))
+    with VisionPool(vision_workers, warm=("modules.road_following",)) as pool:
+        scores = list(evaluate(stream(), make, rng=rng))
     report = {"method": method, "world": src.world.name, "seed": seed, **summarise(scores),
               "wall_s": round(time.perf_counter() - t0, 2)}
+    if method == "scarf":
+        report.update(texture=texture, colour_model=colour_model, vision_workers=vision_workers)
     if as_json:
         typer.echo(json.dumps(report, sort_keys=True))
         return

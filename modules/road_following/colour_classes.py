@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict
 
-__all__ = ["ColourClass", "ColourClasses", "Classified", "classify", "log_likelihoods", "estimate_classes", "attach_texture", "MIN_VAR"]
+__all__ = ["ColourClass", "ColourClasses", "Classified", "classify", "log_likelihoods", "estimate_classes", "classes_of", "attach_texture", "MIN_VAR"]
 
 _FROZEN = ConfigDict(frozen=True, extra="forbid")
 MIN_VAR = 4.0  # [DN²] floor on each class's variance, so a flat patch does not make a needle
@@ -101,13 +101,18 @@ def _clusters(x: np.ndarray, k: int, seeds: np.ndarray | None, iters: int, road:
             if m.any():
                 means[j] = x[m].mean(axis=0)
     lab = np.argmin(((x[:, None, :] - means[None]) ** 2).sum(-1), axis=1)
+    return classes_of(x, lab, k, road, len(x))
+
+
+def classes_of(x: np.ndarray, labels: np.ndarray, k: int, road: bool, total: int) -> list[ColourClass]:
+    """Return a class per label in [0, k) of the pixels `x` (N, 3) with at least 4 of them: mean, covariance (floored by MIN_VAR), prior n / `total`."""
     out = []
     for j in range(k):
-        pts = x[lab == j]
+        pts = x[labels == j]
         if len(pts) < 4:
             continue
         cov = np.cov(pts.T) + np.eye(3) * MIN_VAR
-        out.append(ColourClass(mean=tuple(pts.mean(axis=0)), cov=tuple(map(tuple, cov)), weight=len(pts) / len(x), road=road))
+        out.append(ColourClass(mean=tuple(pts.mean(axis=0)), cov=tuple(map(tuple, cov)), weight=len(pts) / total, road=road))
     return out
 
 

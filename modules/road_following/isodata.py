@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from modules.road_following.colour_classes import MIN_VAR, ColourClass, ColourClasses, log_likelihoods
+from modules.road_following.colour_classes import ColourClass, ColourClasses, classes_of, log_likelihoods
 
 __all__ = ["ISODATA_ITERATIONS", "sample", "adjust", "isodata", "isodata_classes"]
 
@@ -89,18 +89,6 @@ def _start(x: np.ndarray, k: int) -> np.ndarray:
     return lab
 
 
-def _side_classes(x: np.ndarray, labels: np.ndarray, k: int, road: bool, total: int) -> list[ColourClass]:
-    """The last Sample: each class's mean, covariance (floored by MIN_VAR) and prior N_j / N over both sides."""
-    out = []
-    for j in range(k):
-        pts = x[labels == j]
-        if len(pts) < 4:
-            continue
-        cov = np.cov(pts.T) + np.eye(3) * MIN_VAR
-        out.append(ColourClass(mean=tuple(pts.mean(axis=0)), cov=tuple(map(tuple, cov)), weight=len(pts) / total, road=road))
-    return out
-
-
 def isodata_classes(rgb: np.ndarray, road: np.ndarray, offroad: np.ndarray, previous: ColourClasses | None = None,
                     k: int = 4, iterations: int = ISODATA_ITERATIONS) -> ColourClasses | None:
     """Return the new colour model from the training sets `road` and `offroad` (H, W) bool of `rgb` (H, W, 3).
@@ -121,7 +109,7 @@ def isodata_classes(rgb: np.ndarray, road: np.ndarray, offroad: np.ndarray, prev
             labels = np.argmax(ll, axis=0)
         else:
             labels = _start(xs, k)
-        got = _side_classes(xs, isodata(xs, labels, k, iterations), k, is_road, total)
+        got = classes_of(xs, isodata(xs, labels, k, iterations), k, is_road, total)  # the last Sample
         if not got:
             return None
         out += got

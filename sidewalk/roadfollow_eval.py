@@ -33,7 +33,8 @@ import numpy as np
 from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
 
 __all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "SHADOW_SHARE", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
-           "centre_at_origin", "score_frame", "evaluate", "summarise"]
+           "centre_at_origin", "score_frame", "evaluate", "summarise",
+           "LOCK_LATERAL_M", "LOCK_HEADING_DEG", "plan_starts", "LockOn", "lock_on", "evaluate_starts", "summarise_starts"]
 
 FAIL_LATERAL_M = 1.0
 FAIL_HEADING_DEG = 10.0
@@ -248,3 +249,94 @@ def summarise(scores: list[FrameScore]) -> dict:
     out["cpu_ms_per_frame_p50"] = pct([s.cpu_ms for s in scores], 50)
     out.update({f"shadow_{k}": v for k, v in _figures([s for s in scores if s.shadow]).items()})
     return out
+
+
+# ---- issue 41: lock-on from no prior (YARF's bootstrap, Navlab 1990 §5.5) ----------------------------------------
+
+#: A follower has locked on when its road is within these of the truth (YARF tracks at 0.08 m and 1.8° p95).
+LOCK_LATERAL_M = 0.3
+LOCK_HEADING_DEG = 3.0
+
+
+def plan_starts(legs: list[np.ndarray], starts: int, frames: int, rng: np.random.Generator, *, step_m: float = 3.0,
+                lane_offset_m: float = 0.0, max_offset_m: float = 2.0, max_heading_deg: float = 10.0,
+                speed_mps: float = 4.2) -> list[list[DrivePose]]:
+    """Return `starts` runs of `frames` poses `step_m` apart at random places on the legs, each off its lane by up to
+    ±`max_offset_m` [m] and ±`max_heading_deg` [deg] (uniform), held for the run: the hardest view of each start kept.
+
+    Each run's `leg` is its leg's index; a run needs `frames × step_m` of its leg (legs too short are skipped).
+    """
+    need = frames * step_m
+    usable = [i for i, p in enumerate(legs) if float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) > need]
+    if not usable:
+        return []
+    out = []
+    for _ in range(starts):
+        li = usable[int(rng.integers(len(usable)))]
+        pts, s, hd = _resample(legs[li], step_m)
+        k0 = int(rng.integers(0, len(pts) - frames + 1))
+        off = lane_offset_m + float(rng.uniform(-max_offset_m, max_offset_m))
+        dpsi = math.radians(float(rng.uniform(-max_heading_deg, max_heading_deg)))
+        run = []
+        for k in range(k0, k0 + frames):
+            p, h = pts[k], float(hd[k])
+            run.append(DrivePose(leg=li, x=float(p[0] - off * math.sin(h)), y=float(p[1] + off * math.cos(h)), yaw=h + dpsi,
+                                 stamp=float(s[k]) / speed_mps))
+        out.append(run)
+    return out
+
+
+@dataclass(frozen=True)
+class LockOn:
+    """One start: the frame (1-based) from which the follower stayed locked to the end, None if it never did; frames run."""
+
+    frame: int | None
+    frames: int
+
+
+def lock_on(scores: list[FrameScore | None]) -> LockOn:
+    """Return when a start's follower locked on for good: found, within LOCK_LATERAL_M and LOCK_HEADING_DEG from there to the end."""
+    locked = [s is not None and s.found and s.lateral_err_m <= LOCK_LATERAL_M and s.heading_err_deg <= LOCK_HEADING_DEG for s in scores]
+    first = None
+    for i in range(len(locked) - 1, -1, -1):
+        if not locked[i]:
+            break
+        first = i + 1
+    return LockOn(first, len(scores))
+
+
+def evaluate_starts(runs: Iterable[list[EvalFrame]], make_follower: Callable[[EvalFrame], RoadFollower], *,
+                    rng: np.random.Generator, odometry_noise: tuple[float, float] = (0.01, math.radians(0.1))) -> Iterator[LockOn]:
+    """Run a fresh follower over each start's frames (no prior: the follower's own bootstrap) and yield when it locked on."""
+    for frames in runs:
+        follower = None
+        prev: EvalFrame | None = None
+        scores: list[FrameScore | None] = []
+        for fr in frames:
+            motion = None
+            if follower is None:
+                follower = make_follower(fr)
+            elif prev is not None:
+                d = to_vehicle(np.array([[fr.pose.x, fr.pose.y]]), prev.pose)[0]
+                motion = VehicleMotion(dx=float(d[0] + rng.normal(0.0, odometry_noise[0])), dy=float(d[1] + rng.normal(0.0, odometry_noise[0])),
+                                       dyaw=float(math.remainder(fr.pose.yaw - prev.pose.yaw, 2 * math.pi) + rng.normal(0.0, odometry_noise[1])))
+            obs = follower.observe(fr.image, stamp=fr.pose.stamp, motion=motion)
+            scores.append(score_frame(obs, to_vehicle(fr.centre_world, fr.pose), 0.0))
+            prev = fr
+        yield lock_on(scores)
+
+
+def summarise_starts(locks: list[LockOn], within: int = 5) -> dict:
+    """Return the lock-on figures: starts, the share locked within `within` frames and at all, frames to lock p50 / p95 / max."""
+    n = len(locks)
+    got = [lk.frame for lk in locks if lk.frame is not None]
+    return {
+        "starts": n,
+        f"lock_rate_within_{within}": round(sum(1 for f in got if f <= within) / n, 4) if n else None,
+        "lock_rate": round(len(got) / n, 4) if n else None,
+        "frames_to_lock_p50": float(np.percentile(got, 50)) if got else None,
+        "frames_to_lock_p95": float(np.percentile(got, 95)) if got else None,
+        "frames_to_lock_max": max(got) if got else None,
+        "lock_lateral_m": LOCK_LATERAL_M,
+        "lock_heading_deg": LOCK_HEADING_DEG,
+    }

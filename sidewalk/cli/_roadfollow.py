@@ -157,6 +157,9 @@ def eval_cmd(
     texture: Annotated[bool, typer.Option("--texture", help="SCARF: feed the texture operator's image (blue pyramid) to the classifier")] = False,
     colour_model: Annotated[str, typer.Option("--colour-model", help="SCARF: how the colour classes are made: nearest_mean (default) or isodata (the paper's generator)")] = "nearest_mean",
     vision_workers: Annotated[int, typer.Option("--vision-workers", min=1, max=64, help="SCARF: processes its per-pixel stages run on in row stripes (1: this process alone)")] = 1,
+    bootstrap: Annotated[bool, typer.Option("--bootstrap", help="YARF: lock-on from no prior (the vanishing-point Hough): --starts runs of --start-frames frames, each off its lane by up to ±2 m and ±10°")] = False,
+    starts: Annotated[int, typer.Option(min=1, help="With --bootstrap: how many starts")] = 40,
+    start_frames: Annotated[int, typer.Option("--start-frames", min=1, help="With --bootstrap: frames per start")] = 8,
     lane_offset: Annotated[Optional[float], typer.Option("--lane-offset", help="Where the vehicle drives, left of the road centre [m] (negative: right; default: the world's lane); ALVINN is scored against that lane")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
 ) -> None:
@@ -167,6 +170,8 @@ def eval_cmd(
 
     if method not in DEFAULT_WORLD:
         raise typer.BadParameter(f"--method: expected scarf, yarf or alvinn, got {method!r}")
+    if bootstrap and method != "yarf":
+        raise typer.BadParameter(f"--bootstrap: only YARF locates the road without a prior (the vanishing-point Hough), not {method}")
     if colour_model not in ("nearest_mean", "isodata"):
         raise typer.BadParameter(f"--colour-model: expected nearest_mean or isodata, got {colour_model!r}")
     world = world or DEFAULT_WORLD[method]
@@ -181,6 +186,9 @@ def eval_cmd(
     src = _world_or_exit(world, seed)
     rng = np.random.default_rng(seed)
     lane = LANE_OFFSET.get(src.world.name, 0.0) if lane_offset is None else lane_offset
+    if bootstrap:
+        _bootstrap_eval(src, rng, seed, lane, step, starts, start_frames, as_json)
+        return
     poses = plan_drive(src.legs, frames, rng, step_m=step, lane_offset_m=lane)
 
     last: list = [None]  # the capture of the frame being scored: its camera model builds a fresh follower
@@ -208,6 +216,33 @@ def eval_cmd(
               "wall_s": round(time.perf_counter() - t0, 2)}
     if method == "scarf":
         report.update(texture=texture, colour_model=colour_model, vision_workers=vision_workers)
+    if as_json:
+        typer.echo(json.dumps(report, sort_keys=True))
+        return
+    for k, v in report.items():
+        typer.echo(f"{k:>24}: {v}")
+
+
+def _bootstrap_eval(src: RouteFrames, rng: np.random.Generator, seed: int, lane: float, step: float, starts: int, frames: int,
+                    as_json: bool) -> None:
+    """Run `roadfollow eval --method yarf --bootstrap`: lock-on from no prior at random starts off the lane."""
+    from modules.road_following import CameraGeometry, Yarf
+    from sidewalk.roadfollow_eval import evaluate_starts, plan_starts, summarise_starts
+
+    runs = plan_starts(src.legs, starts, frames, rng, step_m=step, lane_offset_m=lane)
+    if not runs:
+        raise typer.BadParameter(f"--start-frames: no leg of {src.world.name!r} is {frames * step:g} m long")
+    last: list = [None]
+
+    def frames_of(run):
+        for fr, cap in src.frames(run, rng):
+            last[0] = cap
+            yield fr
+
+    t0 = time.perf_counter()
+    locks = list(evaluate_starts((list(frames_of(r)) for r in runs), lambda fr: Yarf(CameraGeometry.from_capture(last[0]), prior=None), rng=rng))
+    report = {"method": "yarf", "bootstrap": True, "world": src.world.name, "seed": seed, "start_frames": frames, "step_m": step,
+              **summarise_starts(locks), "wall_s": round(time.perf_counter() - t0, 2)}
     if as_json:
         typer.echo(json.dumps(report, sort_keys=True))
         return

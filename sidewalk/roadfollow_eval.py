@@ -253,7 +253,8 @@ def summarise(scores: list[FrameScore]) -> dict:
 
 # ---- issue 41: lock-on from no prior (YARF's bootstrap, Navlab 1990 §5.5) ----------------------------------------
 
-#: A follower has locked on when its road is within these of the truth (YARF tracks at 0.08 m and 1.8° p95).
+#: A follower has locked on when its road is within these of the truth (YARF tracks at 0.08 m and 1.8° p95) and it
+#: holds the road from then on (no frame without it, none off by the failure bounds).
 LOCK_LATERAL_M = 0.3
 LOCK_HEADING_DEG = 3.0
 
@@ -295,13 +296,20 @@ class LockOn:
 
 
 def lock_on(scores: list[FrameScore | None]) -> LockOn:
-    """Return when a start's follower locked on for good: found, within LOCK_LATERAL_M and LOCK_HEADING_DEG from there to the end."""
-    locked = [s is not None and s.found and s.lateral_err_m <= LOCK_LATERAL_M and s.heading_err_deg <= LOCK_HEADING_DEG for s in scores]
+    """Return when a start's follower locked on: the first frame found within LOCK_LATERAL_M and LOCK_HEADING_DEG of the
+    truth after which every frame is found and no failure (within FAIL_LATERAL_M and FAIL_HEADING_DEG)."""
+    def near(s: FrameScore | None) -> bool:
+        return s is not None and s.found and s.lateral_err_m <= LOCK_LATERAL_M and s.heading_err_deg <= LOCK_HEADING_DEG
+
+    def held(s: FrameScore | None) -> bool:
+        return s is not None and s.found and s.lateral_err_m <= FAIL_LATERAL_M and s.heading_err_deg <= FAIL_HEADING_DEG
+
     first = None
-    for i in range(len(locked) - 1, -1, -1):
-        if not locked[i]:
+    for i in range(len(scores) - 1, -1, -1):
+        if not held(scores[i]):
             break
-        first = i + 1
+        if near(scores[i]):
+            first = i + 1
     return LockOn(first, len(scores))
 
 

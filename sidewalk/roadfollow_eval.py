@@ -34,7 +34,8 @@ from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
 
 __all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "SHADOW_SHARE", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
            "centre_at_origin", "score_frame", "evaluate", "summarise",
-           "LOCK_LATERAL_M", "LOCK_HEADING_DEG", "plan_starts", "LockOn", "lock_on", "evaluate_starts", "summarise_starts"]
+           "LOCK_LATERAL_M", "LOCK_HEADING_DEG", "plan_starts", "LockOn", "lock_on", "evaluate_starts", "summarise_starts",
+           "IntersectionTruth", "IntersectionScore", "score_intersection", "summarise_intersection"]
 
 FAIL_LATERAL_M = 1.0
 FAIL_HEADING_DEG = 10.0
@@ -347,4 +348,98 @@ def summarise_starts(locks: list[LockOn], within: int = 5) -> dict:
         "frames_to_lock_max": max(got) if got else None,
         "lock_lateral_m": LOCK_LATERAL_M,
         "lock_heading_deg": LOCK_HEADING_DEG,
+    }
+
+
+# ---- issue 41: YARF through an intersection (Navlab 1990 §5.6) ---------------------------------------------------
+
+@dataclass(frozen=True)
+class IntersectionTruth:
+    """The truth of one frame near an intersection: distance [m] along the route to its near edge (negative: past it), the
+    branch's centre line and the lane to turn into, each as a point and a unit direction in `world`."""
+
+    distance_m: float
+    branch_point: tuple[float, float]
+    branch_dir: tuple[float, float]
+    lane_point: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class IntersectionScore:
+    """One frame's intersection figures (NaN where the navigator has no answer yet)."""
+
+    distance_m: float
+    detected: bool
+    approach_err_m: float
+    junction_err_m: float  # the branch's origin from the true branch centre line [m]
+    angle_err_deg: float
+    path_end_err_m: float  # the path's end from the true lane's centre line [m]
+    path_heading_err_deg: float
+
+
+def _line_distance(p: np.ndarray, point: np.ndarray, direction: np.ndarray) -> float:
+    d = p - point
+    return float(abs(d[0] * direction[1] - d[1] * direction[0]))
+
+
+def score_intersection(view, pose: DrivePose, truth: IntersectionTruth) -> IntersectionScore:
+    """Score an `IntersectionView` (vehicle frame) against the truth (world frame)."""
+    nan = math.nan
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+
+    def world(p):
+        return np.array([pose.x + c * p[0] - s * p[1], pose.y + s * p[0] + c * p[1]])
+
+    bp, bd, lp = (np.asarray(v, float) for v in (truth.branch_point, truth.branch_dir, truth.lane_point))
+    if view.approach_m is None:
+        return IntersectionScore(truth.distance_m, False, nan, nan, nan, nan, nan)
+    approach = abs(view.approach_m - truth.distance_m)
+    if view.branch is None:
+        return IntersectionScore(truth.distance_m, True, approach, nan, nan, nan, nan)
+    b = view.branch
+    origin = world((b.along_m, 0.0))  # the branch leaves the road's centre at along_m on the vehicle's axis: its junction point
+    ang = abs(_angle_deg(b.angle_rad + pose.yaw - math.atan2(bd[1], bd[0])))
+    junction = _line_distance(origin, bp, bd)
+    end_err = hd_err = nan
+    if len(view.path) >= 2:
+        p = np.array([world(q) for q in view.path[-2:]])
+        end_err = _line_distance(p[-1], lp, bd)
+        hd_err = abs(_angle_deg(math.atan2(*(p[-1] - p[-2])[::-1]) - math.atan2(bd[1], bd[0])))
+    return IntersectionScore(truth.distance_m, True, approach, junction, ang, end_err, hd_err)
+
+
+def summarise_intersection(runs: list[list[IntersectionScore]]) -> dict:
+    """Return the figures over runs: detection distance, false alarms, approach error, and the branch and the path at entry.
+
+    A false alarm is a detection on the approach more than 5 m off the true distance (past the near edge the vehicle turns
+    and its distance along its own axis is no longer the route's). "At entry" is the last frame before the near edge.
+    """
+    def pct(vals: list[float], q: float) -> float | None:
+        vals = [v for v in vals if math.isfinite(v)]
+        return round(float(np.percentile(vals, q)), 3) if vals else None
+
+    first, false, approach, entry = [], 0, [], []
+    for sc in runs:
+        det = [x for x in sc if x.detected]
+        first.append(det[0].distance_m if det else math.nan)
+        false += sum(1 for x in det if x.distance_m > 0 and x.approach_err_m > 5.0)
+        approach += [x.approach_err_m for x in det if x.distance_m > 0]
+        before = [x for x in sc if x.distance_m > 0]
+        if before:
+            entry.append(before[-1])
+    return {
+        "runs": len(runs),
+        "detected_runs": sum(1 for f in first if math.isfinite(f)),
+        "detection_distance_m_min": pct(first, 0),
+        "detection_distance_m_p50": pct(first, 50),
+        "false_alarm_frames": false,
+        "approach_error_m_p50": pct(approach, 50),
+        "approach_error_m_p95": pct(approach, 95),
+        "junction_error_m_at_entry_p50": pct([e.junction_err_m for e in entry], 50),
+        "junction_error_m_at_entry_max": pct([e.junction_err_m for e in entry], 100),
+        "branch_angle_error_deg_at_entry_p50": pct([e.angle_err_deg for e in entry], 50),
+        "branch_angle_error_deg_at_entry_max": pct([e.angle_err_deg for e in entry], 100),
+        "path_end_error_m_at_entry_p50": pct([e.path_end_err_m for e in entry], 50),
+        "path_end_error_m_at_entry_max": pct([e.path_end_err_m for e in entry], 100),
+        "path_heading_error_deg_at_entry_max": pct([e.path_heading_err_deg for e in entry], 100),
     }

@@ -50,6 +50,7 @@ bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench sim --json
 	$(VENV)/bin/sidewalk bench clock --json
 	$(VENV)/bin/sidewalk bench perception --json
+	$(VENV)/bin/sidewalk bench parallel --json
 	$(VENV)/bin/sidewalk bench record --json
 	$(VENV)/bin/sidewalk bench eddie --json
 	$(VENV)/bin/sidewalk bench cli --json

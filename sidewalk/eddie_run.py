@@ -67,7 +67,7 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
     `actors`: objects not on the map the simulator places (an actors file or preset, issue 12).
     `max_speed` [m/s]: `sidewalk run --max-speed`, EDDIE's counterpart of the PILOT's cap — the mission
     service's route speed and the controller's top speed (so no trigger or client drives faster).
-    `road_method`: flags for vision road following (`--road-method M [--alvinn-weights F]`, issue 13).
+    `road_method`: flags for vision road following (`--road-method M [--alvinn-weights F]`, issue 13; `--vision-workers N`, issue 41).
     """
     cap = () if max_speed is None else ("--max-speed", str(max_speed))
     sec = () if secure is None else ("--secure", str(secure))  # issue 14

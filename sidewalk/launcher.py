@@ -103,6 +103,8 @@ class RunConfig(BaseModel):
     road_method: Literal["perception", "scarf", "yarf", "alvinn"] = "perception"
     alvinn_weights: Optional[Path] = None  # ALVINN's weights (.npz), needed with road_method alvinn
     # ---- end issue 13 ----
+    #: issue 41: processes the vision of PERCEPTION (CODGER) or vision road following (EDDIE) runs on (1: its own)
+    vision_workers: int = Field(default=1, ge=1, le=64)
     #: issue 14: how the supervisor keeps the modules running (crashed: restarted with back-off; wedged: reported, restarted)
     supervise: RestartPolicy = RestartPolicy()
     #: lock-step (`wire.lockstep`): the simulator steps only once every process handled its inputs; `rtf` is then unused
@@ -312,7 +314,7 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
         plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", "--map", str(setup.map_file), *zflags)))
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags,
-                                                *road_method_flags(cfg))))  # issue 13
+                                                *road_method_flags(cfg), *vision_flags(cfg))))  # issues 13, 41
     plans += [
         ProcessPlan("pilot", ("-m", "sidewalk", "up", "pilot", "--vehicle", vehicle,
                               "--perception", "on" if cfg.perception else "off",
@@ -353,6 +355,11 @@ def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[
         return keep
     weights = () if cfg.alvinn_weights is None else ("--alvinn-weights", str(Path(cfg.alvinn_weights).resolve()))
     return ("--road-method", cfg.road_method, *weights, *keep)
+
+
+def vision_flags(cfg: RunConfig) -> tuple[str, ...]:
+    """Return the flag that gives a vision module the run's worker count (issue 41; none for the default, one process)."""
+    return () if cfg.vision_workers == 1 else ("--vision-workers", str(cfg.vision_workers))
 
 
 def _timed(cfg: RunConfig, plans: list[ProcessPlan]) -> list[ProcessPlan]:
@@ -426,7 +433,7 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
             watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
             map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
             secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
-            road_method=road_method_flags(cfg, setup),  # issue 13
+            road_method=road_method_flags(cfg, setup) + vision_flags(cfg),  # issues 13, 41
         )), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure, lockstep=cfg.lockstep)
     else:
         system = SystemRun(_timed(cfg, build_plans(cfg, setup, ns, endpoint)), ns=ns, endpoint=endpoint, log_dir=out / "logs",

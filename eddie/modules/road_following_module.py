@@ -47,6 +47,7 @@ from eddie.toolkit.process import run_module
 from modules.map_navigator import MapData, load_map
 from modules.road_following import CameraGeometry, RoadFollowingError
 from modules.road_following.road_method import ROAD_METHODS, CameraRoadFollower, load_alvinn_weights
+from modules.parallel import VisionPool
 from modules.perception import PerceptionPipeline, ResolutionTable, colored_range_image
 from modules.perception.monitor import SENSORS
 from modules.pilot import LocalPathPlanner, pilot_config_for
@@ -77,14 +78,15 @@ class RoadFollowing:
 
     def __init__(self, m: Module, map_data: MapData, *, vehicle: str, seed: int, start: tuple[float, float, float],
                  awake: bool = True, cfg: RoadFollowingConfig | None = None, method: str = "perception",
-                 alvinn_net=None, keep: str = "centre") -> None:
+                 alvinn_net=None, keep: str = "centre", vision_workers: int = 1) -> None:
         self.m = m
         self.map = map_data
         # the vehicle's top speed (the PILOT's) unless told otherwise; routes and triggers slow it
         self.cfg = cfg or RoadFollowingConfig(speed_mps=pilot_config_for(vehicle).max_speed)
         self.switch = Switch(awake)
         self.belief = Belief(m, start)
-        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=self.cfg.speed_mps)
+        pool = VisionPool(vision_workers, warm=("modules.perception",)) if vision_workers > 1 else None  # issue 41
+        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=self.cfg.speed_mps, pool=pool)
         # the PILOT's planner with a budget a control cycle can afford: a path late by seconds of wall
         # (a minute of sim at RTF 20) is worse than dead reckoning along the route until the next frame
         pc = pilot_config_for(vehicle).planner
@@ -144,7 +146,7 @@ class RoadFollowing:
         at_capture, prior = poses
         if self.follower is not None:
             return await self._follower_cycle(frame, at_capture, prior, taken)
-        img = colored_range_image(frame)
+        img = colored_range_image(frame, pool=self.pipeline.pool)
         objs = objects_in_view(self.map, tuple(prior))
         # perception and planning run in a worker thread: the loop keeps beating and reading its inbox meanwhile
         out = await asyncio.to_thread(self.pipeline.process, img, objs, tuple(prior), error_allowance=0.5)
@@ -287,7 +289,11 @@ class RoadFollowing:
 
     async def run(self) -> None:
         """Sleep until woken, then run cycles while awake; the inbox and the triggers switch it."""
-        await run_switched(self.m, self.switch, self.cycle, period_s=0.2, on_data=self.on_trigger)
+        try:
+            await run_switched(self.m, self.switch, self.cycle, period_s=0.2, on_data=self.on_trigger)
+        finally:
+            if self.pipeline.pool is not None:
+                self.pipeline.pool.close()
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -301,6 +307,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--road-method", choices=ROAD_METHODS, default="perception",
                    help="how the road is found: PERCEPTION's colored-range segmentation, or the SCARF, YARF or ALVINN follower")
     p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
+    p.add_argument("--vision-workers", type=int, default=1,
+                   help="processes the per-pixel stages of PERCEPTION's segmentation run on in stripes (1: this process alone)")
     p.add_argument("--keep", choices=["centre", "right", "left"], default="centre",
                    help="drive on the road's centre or keep right / left (a quarter of its width off the centre): the mission step's side")
     add_network_args(p)
@@ -318,6 +326,8 @@ def main(argv: list[str] | None = None) -> int:
         map_data = load_map(args.map)
     except (FileNotFoundError, ValueError) as exc:
         parser.error(f"--map: {exc}")
+    if not 1 <= args.vision_workers <= 64:
+        parser.error(f"--vision-workers: expected 1 to 64, got {args.vision_workers}")
     alvinn_net = None
     if args.road_method == "alvinn":
         try:
@@ -327,7 +337,7 @@ def main(argv: list[str] | None = None) -> int:
 
     async def body(m: Module) -> None:
         await RoadFollowing(m, map_data, vehicle=args.vehicle, seed=args.seed, start=start, awake=not args.asleep,
-                            method=args.road_method, alvinn_net=alvinn_net, keep=args.keep).run()
+                            method=args.road_method, alvinn_net=alvinn_net, keep=args.keep, vision_workers=args.vision_workers).run()
 
     return run_module("road_following", body, net)
 

@@ -114,6 +114,24 @@ def bench_terrain_planner(
     _emit(_measure(mod, vehicle=vehicle, seeds=seed_list, repeats=repeats), as_json)
 
 
+@bench_app.command("parallel")
+def bench_parallel(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    world: Annotated[str, typer.Option(help="World of PERCEPTION's frames")] = "campus",
+    frames: Annotated[int, typer.Option(min=2, help="Frames per algorithm")] = 12,
+    rounds: Annotated[int, typer.Option(min=1, help="Times each frame is run (its median counts)")] = 3,
+    seed: Annotated[int, typer.Option(help="Seed for poses and sensor noise")] = 0,
+    max_workers: Annotated[int, typer.Option("--max-workers", min=0, max=64, help="Largest worker count (0: the machine's cores)")] = 0,
+) -> None:
+    """Parallel vision: time per frame and speed-up over 1, 2, 4 … workers per algorithm, beside the Warp's (issue 41)."""
+    mod = importlib.import_module("bench.parallel")
+    try:
+        result = _measure(mod, world=world, frames=frames, rounds=rounds, seed=seed, max_workers=max_workers or None)
+    except (FileNotFoundError, ValueError) as exc:
+        raise typer.BadParameter(f"--world {world!r}: {exc}") from None
+    _emit(result, as_json)
+
+
 @bench_app.command("secure")
 def bench_secure(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

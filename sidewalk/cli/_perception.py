@@ -197,6 +197,7 @@ def eval_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
     laser: Annotated[bool, typer.Option("--laser", help="Score the laser libraries instead: obstacles, landmarks, time per frame")] = False,
     actors: Annotated[str, typer.Option("--actors", help="With --laser: objects not on the map (file or preset; default <world>-eval when it exists)")] = "",
+    vision_workers: Annotated[int, typer.Option("--vision-workers", min=1, max=64, help="Processes the per-pixel stages run on in stripes (1: this process alone)")] = 1,
 ) -> None:
     """Score colour, range and colored-range segmentation, position fixes and cycle time against truth."""
     if laser:
@@ -216,11 +217,13 @@ def eval_cmd(
     except (FileNotFoundError, ValueError) as exc:
         raise typer.BadParameter(f"--world {world!r}: {exc}") from None
     rng = np.random.default_rng(seed)
-    pipe = PerceptionPipeline(src.table)
-    with np.errstate(all="ignore"):
+    from modules.parallel import VisionPool
+
+    with VisionPool(vision_workers, warm=("modules.perception",)) as pool, np.errstate(all="ignore"):
+        pipe = PerceptionPipeline(src.table, pool=pool)
         allowance = max(0.5, 2.0 * pe[0])  # what the PILOT would put in the driving unit for this prior
         report = evaluate(eval_frames(src, frames, rng, pe), pipe, error_allowance=allowance).as_dict()  # type: ignore[arg-type]
-    report.update({"frames_along": getattr(src, "routes_from", ""), "world": world, "vehicle": vehicle, "seed": seed, "map": "world" if perfect_map else "map", "pose_error": pose_error,
+    report.update({"vision_workers": vision_workers, "frames_along": getattr(src, "routes_from", ""), "world": world, "vehicle": vehicle, "seed": seed, "map": "world" if perfect_map else "map", "pose_error": pose_error,
                    "error_allowance_m": allowance})
     if as_json:
         typer.echo(dumps(report, sort_keys=True))
@@ -297,6 +300,7 @@ def _run_command() -> None:
         speed: Annotated[float, typer.Option(min=0.01, help="desired speed for the view/resolution table (m/s)")] = 1.0,
         max_wait: Annotated[float, typer.Option(min=0.01, help="longest wait for the image input position (s, sim time)")] = 6.0,
         name: Annotated[str, typer.Option(help="module name (liveliness, heartbeat)")] = "perception",
+        vision_workers: Annotated[int, typer.Option("--vision-workers", min=1, max=64, help="processes the per-pixel stages run on in stripes (1: this process alone)")] = 1,
     ) -> None:
         """Run the PERCEPTION process: answer driving units from the blackboard with the simulator's sensors."""
         from pydantic import ValidationError
@@ -305,7 +309,7 @@ def _run_command() -> None:
         from modules.runtime import run_module, setup_logging
 
         try:
-            cfg = PerceptionConfig(vehicle=vehicle, speed=speed, max_wait_s=max_wait)
+            cfg = PerceptionConfig(vehicle=vehicle, speed=speed, max_wait_s=max_wait, vision_workers=vision_workers)
         except ValidationError as exc:
             raise typer.BadParameter("; ".join(f"--{e['loc'][0]}: {e['msg']}" for e in exc.errors())) from None
         setup_logging()

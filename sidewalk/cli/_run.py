@@ -102,6 +102,7 @@ def run(
     # ---- issue 13: road following as the Navlab did it ----
     road_method: Annotated[str, typer.Option("--road-method", help="How the road is found: perception (colored-range segmentation), scarf, yarf or alvinn — PERCEPTION's method (codger), vision road following's (eddie)")] = "perception",
     alvinn_weights: Annotated[Optional[Path], typer.Option("--alvinn-weights", help="ALVINN's weights (.npz from `sidewalk roadfollow train`), needed with --road-method alvinn")] = None,
+    vision_workers: Annotated[int, typer.Option("--vision-workers", help="Processes the vision of PERCEPTION (codger) or of vision road following (eddie) runs on, in stripes (issue 41; 1: the module's own process)")] = 1,
     lockstep: Annotated[bool, typer.Option("--lockstep/--realtime", help="Lock-step: the simulator steps only once every module handled its inputs (reproducible; --rtf unused), or real time at --rtf (latency under load is part of the result)")] = False,
 ) -> None:
     """Run a mission as OS processes on loopback Zenoh (CODGER: blackboard and modules; --arch eddie: EDDIE, no blackboard); writes run.mcap."""
@@ -142,6 +143,7 @@ def run(
                         secure=secure, actors=actors, obstacles=obstacles, map_file=map_file,  # issue 12
                         faults=fault_specs, max_speed=max_speed,  # issue 10
                         road_method=road_method, alvinn_weights=alvinn_weights,  # issue 13
+                        vision_workers=vision_workers,  # issue 41
                         lockstep=lockstep)
     except ValidationError as exc:
         e = exc.errors()[0]

@@ -14,7 +14,10 @@ depth; pixels whose truth straddles a depth edge or is sky are counted apart); o
 recall and false-positive rate by the laser evaluation's definition (`sidewalk.laser_eval`: each
 sensor judged on the truth obstacles its own true surface points show; FIDO's detections are its
 obstacle features, points); the motion estimate's error per metre against the true motion (each
-leg's end-point error over the distance driven, and per step); time per step. A step whose motion
+leg's end-point error over the distance driven, and per step); time per step, wall and CPU (the
+process's: the machine may be shared, and OpenCV runs SGBM on several threads). FIDO's obstacle
+features are also counted by the true class of the surface under them, the false ones on the ground
+also by whether they lie within 0.3 m of a shadow's edge (clutter). A step whose motion
 FIDO (or the baseline) cannot estimate is counted, and the odometry's increment stands in for it.
 This module reads truth; it is evaluation only. No NaN leaves it: empty figures are None.
 """
@@ -34,8 +37,11 @@ from modules.fido import FidoConfig, PlanarMotion, StereoPair, StereoRig, fido_s
 from modules.perception.obstacles import LaserScan, detect_obstacles, obstacles_from_points
 from sidewalk.laser_eval import ObstacleCounts, laser_truth_points, truth_obstacles, world_of
 
-__all__ = ["DEPTH_BANDS", "Leg", "DepthErrors", "MotionLeg", "FidoEvaluation", "straight_leg", "segment_leg",
+__all__ = ["DEPTH_BANDS", "GROUND_KINDS", "Leg", "DepthErrors", "MotionLeg", "FidoEvaluation", "straight_leg", "segment_leg",
            "approach_leg", "relative_motion", "stereo_truth_points", "json_ready"]
+
+#: Surfaces of the ground (the rest are standing objects, or sky at a silhouette).
+GROUND_KINDS = ("grass", "road", "driveway", "sidewalk", "intersection", "slope", "stairs")
 
 #: Bands of true depth [m] for the depth-error figures.
 DEPTH_BANDS: tuple[tuple[float, float], ...] = ((0.0, 5.0), (5.0, 10.0), (10.0, 20.0), (20.0, 40.0))
@@ -278,9 +284,11 @@ class FidoEvaluation:
     laser_obstacles: _SensorCounts = field(default_factory=_SensorCounts)
     fido_false_surfaces: Counter = field(default_factory=Counter)
     fido_true_surfaces: Counter = field(default_factory=Counter)
+    fido_false_shadow_edges: int = 0
     motion: dict = field(default_factory=lambda: {"fido": [], "sgbm_lk": [], "odometry": []})
     straight: dict | None = None
     ms: dict = field(default_factory=lambda: {k: [] for k in ("fido", "sgbm", "lk", "laser", "capture")})
+    cpu_ms: dict = field(default_factory=lambda: {k: [] for k in ("fido", "sgbm", "lk", "laser")})
     fido_parts: dict = field(default_factory=lambda: {k: [] for k in ("pyramid", "track", "stereo", "interest", "motion")})
     features: list = field(default_factory=list)
     tracked: list = field(default_factory=list)
@@ -314,7 +322,9 @@ class FidoEvaluation:
                 odo_state = new_state
             rig, pair = StereoRig.from_capture(cap), StereoPair.from_capture(cap)
             # FIDO
+            c0 = time.process_time()
             step = fido_step(pair, rig, fido_mem, self.config, odometry=odo)
+            self.cpu_ms["fido"].append(1e3 * (time.process_time() - c0))
             fido_mem = step.memory
             self.ms["fido"].append(step.timing.total_ms)
             for k in self.fido_parts:
@@ -325,22 +335,25 @@ class FidoEvaluation:
             ul = np.clip(np.rint(f.uv_left).astype(int), 0, [rig.width - 1, rig.height - 1])
             self.fido_depth.add(f.depth, cap.stereo_depth_true[ul[:, 1], ul[:, 0]])
             # SGBM and Lucas–Kanade on its depth
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             disp = sgbm_disparity(pair, rig)
             pts = disparity_points(disp, rig)
             sgbm_obs = obstacles_from_points(pts)
             self.ms["sgbm"].append(1e3 * (time.perf_counter() - t0))
+            self.cpu_ms["sgbm"].append(1e3 * (time.process_time() - c0))
             depth = disparity_depth(disp, rig)
             has = np.isfinite(depth)
             self.sgbm_depth.add(depth[has], cap.stereo_depth_true[has])
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             lk = lk_step(pair, rig, disp, lk_mem, odo)
             lk_mem = lk.memory
             self.ms["lk"].append(1e3 * (time.perf_counter() - t0))
+            self.cpu_ms["lk"].append(1e3 * (time.process_time() - c0))
             # the laser
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             laser_obs = detect_obstacles(LaserScan.from_capture(cap))
             self.ms["laser"].append(1e3 * (time.perf_counter() - t0))
+            self.cpu_ms["laser"].append(1e3 * (time.process_time() - c0))
             # obstacles, each sensor judged on what its own true surface points show
             truth = truth_obstacles(self.world, self.actors, float(stamp))
             seen_stereo = world_of(pose, stereo_truth_points(cap)[:, :2])
@@ -359,6 +372,8 @@ class FidoEvaluation:
                 kind = KINDS[int(cap.stereo_labels[ul[i, 1], ul[i, 0]])]
                 good = any(geom.buffer(0.5).intersects(g) for g in foot)
                 (self.fido_true_surfaces if good else self.fido_false_surfaces)[kind] += 1
+                if not good and kind in GROUND_KINDS:
+                    self.fido_false_shadow_edges += self._at_shadow_edge(cap, pose, ul[i])
             # motion
             legs["fido"].add(np.asarray(pose), truth_motion, None if step.motion is None else step.motion.planar, odo)
             legs["sgbm_lk"].add(np.asarray(pose), truth_motion, None if lk.motion is None else lk.motion.planar, odo)
@@ -370,10 +385,25 @@ class FidoEvaluation:
         for k, v in legs.items():
             self.motion[k].append(v)
 
+    def _at_shadow_edge(self, cap, pose: tuple[float, float, float], uv: np.ndarray) -> bool:
+        """Return whether the true ground point under left pixel `uv` lies within 0.3 m of a shadow's edge."""
+        z = float(cap.stereo_depth_true[uv[1], uv[0]])
+        if not math.isfinite(z):
+            return False
+        K, T = cap.stereo_K, cap.T_vehicle_stereo_left
+        p = T[:3, :3] @ np.array([(uv[0] - K[0, 2]) * z / K[0, 0], (uv[1] - K[1, 2]) * z / K[1, 1], z]) + T[:3, 3]
+        w = world_of(pose, p[:2])
+        ring = w + 0.3 * np.array([[0.0, 0.0], [1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+        lit = self.scene.sunlit_at(ring[:, 0], ring[:, 1])
+        return bool(lit.max() - lit.min() > 0.5)
+
     def as_dict(self) -> dict:
         """Return every figure (JSON-ready: None where there was nothing to measure)."""
         def ms(k):
-            return {"p50": _pct(self.ms[k], 50), "p95": _pct(self.ms[k], 95)}
+            out = {"p50": _pct(self.ms[k], 50), "p95": _pct(self.ms[k], 95)}
+            if k in self.cpu_ms:
+                out.update(cpu_p50=_pct(self.cpu_ms[k], 50), cpu_p95=_pct(self.cpu_ms[k], 95))
+            return out
 
         out = {
             "steps": self.steps,
@@ -383,7 +413,9 @@ class FidoEvaluation:
             "obstacles": {"fido": self.fido_obstacles.as_dict(self.steps), "sgbm": self.sgbm_obstacles.as_dict(self.steps),
                           "laser": self.laser_obstacles.as_dict(self.steps)},
             "fido_obstacle_surfaces": {"true": dict(self.fido_true_surfaces.most_common()),
-                                       "false": dict(self.fido_false_surfaces.most_common())},
+                                       "false": dict(self.fido_false_surfaces.most_common()),
+                                       "false_on_ground": sum(n for k, n in self.fido_false_surfaces.items() if k in GROUND_KINDS),
+                                       "false_at_shadow_edges": self.fido_false_shadow_edges},
             "motion": {k: _motion_summary(v) for k, v in self.motion.items()},
             "straight_leg": self.straight,
             "ms_per_step": {"fido": ms("fido"), "fido_parts_p50": {k: _pct(v, 50) for k, v in self.fido_parts.items()},

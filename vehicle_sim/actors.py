@@ -213,7 +213,8 @@ ACTOR_PRESETS: dict[str, dict] = {
         {"id": "car", "kind": "car", "yaw_deg": 90.0, "path": [{"x": -1.5, "y": 60.0}]},
     ]},
     # on campus, for the laser and FIDO evaluations (east of the south walk's first 60 m, which stays clear):
-    # a bin on the south walk, a walker standing on the quad's walk, a dog going to and fro across the south walk
+    # a bin on the south walk, a walker standing on the quad's walk, a dog that crosses the south walk and back in its
+    # first 12 s and then stays on the grass beside it
     "campus-eval": {"actors": [
         {"id": "bin", "kind": "bin", "path": [{"x": 75.0, "y": 0.9}]},
         {"id": "walker", "kind": "pedestrian", "path": [{"x": 89.6, "y": 15.0}]},

@@ -78,15 +78,16 @@ def lk_step(pair: StereoPair, rig: StereoRig, disparity: np.ndarray, previous: L
         p0 = previous.uv.reshape(-1, 1, 2).astype(np.float32)
         flags = 0
         p1 = p0.copy()
-        if odometry is not None:
-            guess, inside = rig.project(odometry.to_current(np.nan_to_num(previous.points.xyz)), "left")
-            p1 = np.where(inside[:, None, None], guess.reshape(-1, 1, 2), p0).astype(np.float32)
+        in_view = np.ones(len(p0), bool)
+        if odometry is not None:  # start where the dead-reckoned motion puts each corner; one it puts out of view is lost
+            guess, in_view = rig.project(odometry.to_current(np.nan_to_num(previous.points.xyz)), "left")
+            p1 = np.where(in_view[:, None, None], guess.reshape(-1, 1, 2), p0).astype(np.float32)
             flags = cv2.OPTFLOW_USE_INITIAL_FLOW
         lk = dict(winSize=(cfg.window, cfg.window), maxLevel=cfg.levels,
                   criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
         p1, st, _ = cv2.calcOpticalFlowPyrLK(previous.image, image, p0, p1, flags=flags, **lk)
-        back, st2, _ = cv2.calcOpticalFlowPyrLK(image, previous.image, p1, p0.copy(), flags=cv2.OPTFLOW_USE_INITIAL_FLOW, **lk)
-        good = (st.ravel() == 1) & (st2.ravel() == 1) & (np.linalg.norm((back - p0).reshape(-1, 2), axis=1) <= cfg.max_back_error)
+        back, st2, _ = cv2.calcOpticalFlowPyrLK(image, previous.image, p1, None, **lk)  # from the found point, unguided
+        good = in_view & (st.ravel() == 1) & (st2.ravel() == 1) & (np.linalg.norm((back - p0).reshape(-1, 2), axis=1) <= cfg.max_back_error)
         h, w = image.shape
         uv1 = p1.reshape(-1, 2)
         good &= (uv1[:, 0] >= 0) & (uv1[:, 0] <= w - 1) & (uv1[:, 1] >= 0) & (uv1[:, 1] <= h - 1)

@@ -45,22 +45,27 @@ def test_the_laser_detector_finds_a_box_among_dense_points() -> None:
 
 @pytest.mark.timeout(120)  # quiet run ~8 s
 def test_lucas_kanade_on_sgbm_depth_follows_the_vehicle_on_campus() -> None:
+    """Three 1 m steps on the south walk where corners on the near ground leave the view: those are lost, not kept at
+    the place the backward track was told to start from (which once gave 0.11 m for a 1 m step)."""
+    from sidewalk.fido_eval import relative_motion
     from vehicle_sim.scene import Scene
     from vehicle_sim.sensors import CaptureRequest, capture
     from vehicle_sim.worldfile import load_world
 
     scene = Scene(load_world("campus"), seed=0)
     req = CaptureRequest(laser=False, camera=False, stereo=True)
+    poses = [np.array([9.0 + k, -0.75, math.radians(y)]) for k, y in enumerate((-0.7037, -1.2654, -0.6233))]
     memory = None
-    for k in range(3):
-        cap = capture(scene, (6.0 + k, -0.75, math.radians(0.5 * k)), 2.0 * k, req, vehicle="terregator",
-                      rng=np.random.default_rng(k))
+    for k, pose in enumerate(poses):
+        cap = capture(scene, tuple(pose), 2.0 * (k + 8), req, vehicle="terregator", rng=np.random.default_rng(k + 8))
         pair, r = StereoPair.from_capture(cap), StereoRig.from_capture(cap)
-        step = lk_step(pair, r, sgbm_disparity(pair, r), memory, PlanarMotion(1.04, 0.0, 0.0) if memory else None)
+        odo = PlanarMotion(1.04, 0.0, 0.0) if memory else None  # the prior is 4 % long and knows no turn
+        step = lk_step(pair, r, sgbm_disparity(pair, r), memory, odo)
         memory = step.memory
         if k:
+            truth = relative_motion(poses[k - 1], pose)
             m = step.motion
             assert m is not None, step.failure
-            assert m.dx == pytest.approx(math.cos(math.radians(0.5 * (k - 1))) * 1.0, abs=0.03)
-            assert m.dyaw == pytest.approx(math.radians(0.5), abs=math.radians(0.2))
+            assert m.dx == pytest.approx(truth.dx, abs=0.05) and m.dy == pytest.approx(truth.dy, abs=0.03)
+            assert m.dyaw == pytest.approx(truth.dyaw, abs=math.radians(0.1))
             assert step.tracked >= 20

@@ -16,14 +16,16 @@ sensor judged on the truth obstacles its own true surface points show; FIDO's de
 obstacle features, points); the motion estimate's error per metre against the true motion (each
 leg's end-point error over the distance driven, and per step); time per step, wall and CPU (the
 process's: the machine may be shared, and OpenCV runs SGBM on several threads). FIDO's obstacle
-features are also counted by the true class of the surface under them, the false ones on the ground
-also by whether they lie within 0.3 m of a shadow's edge (clutter). A step whose motion
+features are also counted by the true class of the surface under them; FIDO's features on the ground
+(all, and the false obstacles) by whether they touch fallen leaves (the pixels that change when the
+same image is rendered without leaves) or lie within 0.3 m of a shadow's edge (clutter). A step whose motion
 FIDO (or the baseline) cannot estimate is counted, and the odometry's increment stands in for it.
 This module reads truth; it is evaluation only. No NaN leaves it: empty figures are None.
 """
 
 from __future__ import annotations
 
+import copy
 import math
 import time
 from collections import Counter
@@ -37,7 +39,7 @@ from modules.fido import FidoConfig, PlanarMotion, StereoPair, StereoRig, fido_s
 from modules.perception.obstacles import LaserScan, detect_obstacles, obstacles_from_points
 from sidewalk.laser_eval import ObstacleCounts, laser_truth_points, truth_obstacles, world_of
 
-__all__ = ["DEPTH_BANDS", "GROUND_KINDS", "Leg", "DepthErrors", "MotionLeg", "FidoEvaluation", "straight_leg", "segment_leg",
+__all__ = ["DEPTH_BANDS", "GROUND_KINDS", "Leg", "DepthErrors", "MotionLeg", "ClutterCounts", "FidoEvaluation", "straight_leg", "segment_leg",
            "approach_leg", "relative_motion", "stereo_truth_points", "json_ready"]
 
 #: Surfaces of the ground (the rest are standing objects, or sky at a silhouette).
@@ -238,6 +240,28 @@ def _motion_summary(legs: list[MotionLeg]) -> dict:
             "failures": sum(leg.failures for leg in legs), "steps": sum(max(len(leg.true) - 1, 0) for leg in legs)}
 
 
+@dataclass
+class ClutterCounts:
+    """FIDO features on the ground within 15 m: how many, how many touch fallen leaves (a leaf pixel within 2 px in the
+    left image), how many lie within 0.3 m of a shadow's edge."""
+
+    features: int = 0
+    on_leaves: int = 0
+    at_shadow_edges: int = 0
+
+    def add(self, leaf: bool, shadow: bool) -> None:
+        """Count one feature."""
+        self.features += 1
+        self.on_leaves += int(leaf)
+        self.at_shadow_edges += int(shadow)
+
+    def as_dict(self) -> dict:
+        """Return the counts and shares."""
+        n = self.features
+        return {"features": n, "on_leaves": self.on_leaves, "at_shadow_edges": self.at_shadow_edges,
+                "on_leaves_share": self.on_leaves / n if n else None, "at_shadow_edges_share": self.at_shadow_edges / n if n else None}
+
+
 def stereo_truth_points(capture) -> np.ndarray:
     """Return the left stereo camera's true surface points standing above 0.3 m, (N, 3) float64 `vehicle` [m]."""
     z = capture.stereo_depth_true.astype(np.float64)
@@ -284,7 +308,8 @@ class FidoEvaluation:
     laser_obstacles: _SensorCounts = field(default_factory=_SensorCounts)
     fido_false_surfaces: Counter = field(default_factory=Counter)
     fido_true_surfaces: Counter = field(default_factory=Counter)
-    fido_false_shadow_edges: int = 0
+    ground_all: ClutterCounts = field(default_factory=ClutterCounts)
+    ground_false: ClutterCounts = field(default_factory=ClutterCounts)
     motion: dict = field(default_factory=lambda: {"fido": [], "sgbm_lk": [], "odometry": []})
     straight: dict | None = None
     ms: dict = field(default_factory=lambda: {k: [] for k in ("fido", "sgbm", "lk", "laser", "capture")})
@@ -365,15 +390,23 @@ class FidoEvaluation:
                                       [(Polygon(world_of(pose, o.polygon)), o.distance) for o in sgbm_obs if len(o.polygon) >= 3])
             self.laser_obstacles.score(truth, pose, seen_laser, seen_stereo,
                                        [(Polygon(world_of(pose, o.polygon)), o.distance) for o in laser_obs if len(o.polygon) >= 3])
+            # clutter: leaves and shadow edges under FIDO's features on the ground, all of them and the false obstacles
             foot = [g for _, g, _ in truth]
-            for (geom, dist), i in zip(fido_det, ob):
-                if dist > self.fido_obstacles.own.max_distance:
-                    continue
+            leaves = self._leaf_pixels(scene, pose, float(stamp), rig.width)
+            false_ob = {int(i) for (geom, _), i in zip(fido_det, ob) if not any(geom.buffer(0.5).intersects(g) for g in foot)}
+            for i in range(len(f)):
+                dist = float(math.hypot(f.xyz[i, 0], f.xyz[i, 1]))
                 kind = KINDS[int(cap.stereo_labels[ul[i, 1], ul[i, 0]])]
-                good = any(geom.buffer(0.5).intersects(g) for g in foot)
-                (self.fido_true_surfaces if good else self.fido_false_surfaces)[kind] += 1
-                if not good and kind in GROUND_KINDS:
-                    self.fido_false_shadow_edges += self._at_shadow_edge(cap, pose, ul[i])
+                if step.obstacle[i] and dist <= self.fido_obstacles.own.max_distance:
+                    (self.fido_false_surfaces if i in false_ob else self.fido_true_surfaces)[kind] += 1
+                if kind not in GROUND_KINDS or not dist <= self.fido_obstacles.own.max_distance:
+                    continue
+                u, v = ul[i]
+                leaf = bool(leaves[max(v - 2, 0):v + 3, max(u - 2, 0):u + 3].any())
+                shadow = self._at_shadow_edge(cap, pose, ul[i])
+                self.ground_all.add(leaf, shadow)
+                if step.obstacle[i] and i in false_ob:
+                    self.ground_false.add(leaf, shadow)
             # motion
             legs["fido"].add(np.asarray(pose), truth_motion, None if step.motion is None else step.motion.planar, odo)
             legs["sgbm_lk"].add(np.asarray(pose), truth_motion, None if lk.motion is None else lk.motion.planar, odo)
@@ -384,6 +417,24 @@ class FidoEvaluation:
             self.straight = {k: v.as_dict() for k, v in legs.items()}
         for k, v in legs.items():
             self.motion[k].append(v)
+
+    def _leaf_pixels(self, scene, pose: tuple[float, float, float], stamp: float, size: int) -> np.ndarray:
+        """Return (size, size) bool: where fallen leaves change the left stereo image (the same render without them)."""
+        from vehicle_sim.sensors import StereoConfig, stereo_model, stereo_mount_for, world_from_vehicle
+        from vehicle_sim.sensors.camera import expose
+
+        if scene.weather is None or scene.weather.leaf_cover <= 0.0:
+            return np.zeros((size, size), bool)
+        mount = stereo_mount_for(self.vehicle)
+        model = stereo_model(StereoConfig(size=size), mount.pitch_deg)
+        x, y, yaw = pose
+        z = float(scene.elevation(np.array([[x, y]]))[0])
+        origin = world_from_vehicle(x, y, yaw, z).apply(mount.vehicle_from_left.t)
+        bare = copy.copy(scene)
+        bare.weather = scene.weather.model_copy(update={"leaf_cover": 0.0})
+        a = expose(scene, origin, yaw, stamp, model).light
+        b = expose(bare, origin, yaw, stamp, model).light
+        return np.abs(a - b).max(axis=-1) > 0.5
 
     def _at_shadow_edge(self, cap, pose: tuple[float, float, float], uv: np.ndarray) -> bool:
         """Return whether the true ground point under left pixel `uv` lies within 0.3 m of a shadow's edge."""
@@ -414,8 +465,8 @@ class FidoEvaluation:
                           "laser": self.laser_obstacles.as_dict(self.steps)},
             "fido_obstacle_surfaces": {"true": dict(self.fido_true_surfaces.most_common()),
                                        "false": dict(self.fido_false_surfaces.most_common()),
-                                       "false_on_ground": sum(n for k, n in self.fido_false_surfaces.items() if k in GROUND_KINDS),
-                                       "false_at_shadow_edges": self.fido_false_shadow_edges},
+                                       "false_on_ground": sum(n for k, n in self.fido_false_surfaces.items() if k in GROUND_KINDS)},
+            "fido_ground_clutter": {"all_features": self.ground_all.as_dict(), "false_obstacles": self.ground_false.as_dict()},
             "motion": {k: _motion_summary(v) for k, v in self.motion.items()},
             "straight_leg": self.straight,
             "ms_per_step": {"fido": ms("fido"), "fido_parts_p50": {k: _pct(v, 50) for k, v in self.fido_parts.items()},

@@ -18,7 +18,8 @@ leg's end-point error over the distance driven, and per step); time per step, wa
 process's: the machine may be shared, and OpenCV runs SGBM on several threads). FIDO's obstacle
 features are also counted by the true class of the surface under them; FIDO's features on the ground
 (all, and the false obstacles) by whether they touch fallen leaves (the pixels that change when the
-same image is rendered without leaves) or lie within 0.3 m of a shadow's edge (clutter). A step whose motion
+same image is rendered without leaves) or lie within 0.3 m of a shadow's edge (clutter), beside the same
+shares for the ground's pixels on an 8-pixel grid (what chance would give). A step whose motion
 FIDO (or the baseline) cannot estimate is counted, and the odometry's increment stands in for it.
 This module reads truth; it is evaluation only. No NaN leaves it: empty figures are None.
 """
@@ -31,6 +32,7 @@ import time
 from collections import Counter
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 from shapely.geometry import Point, Polygon
 
@@ -40,7 +42,7 @@ from modules.perception.obstacles import LaserScan, detect_obstacles, obstacles_
 from sidewalk.laser_eval import ObstacleCounts, laser_truth_points, truth_obstacles, world_of
 
 __all__ = ["DEPTH_BANDS", "GROUND_KINDS", "Leg", "DepthErrors", "MotionLeg", "ClutterCounts", "FidoEvaluation", "straight_leg", "segment_leg",
-           "approach_leg", "relative_motion", "stereo_truth_points", "json_ready"]
+           "approach_leg", "relative_motion", "stereo_truth_points", "ground_grid", "json_ready"]
 
 #: Surfaces of the ground (the rest are standing objects, or sky at a silhouette).
 GROUND_KINDS = ("grass", "road", "driveway", "sidewalk", "intersection", "slope", "stairs")
@@ -242,18 +244,19 @@ def _motion_summary(legs: list[MotionLeg]) -> dict:
 
 @dataclass
 class ClutterCounts:
-    """FIDO features on the ground within 15 m: how many, how many touch fallen leaves (a leaf pixel within 2 px in the
-    left image), how many lie within 0.3 m of a shadow's edge."""
+    """Points on the ground within 15 m (FIDO's features, or the chance rate's grid pixels): how many, how many touch
+    fallen leaves (a leaf pixel within 2 px in the left image), how many lie within 0.3 m of a shadow's edge."""
 
     features: int = 0
     on_leaves: int = 0
     at_shadow_edges: int = 0
 
-    def add(self, leaf: bool, shadow: bool) -> None:
-        """Count one feature."""
-        self.features += 1
-        self.on_leaves += int(leaf)
-        self.at_shadow_edges += int(shadow)
+    def add(self, leaf: np.ndarray, shadow: np.ndarray) -> None:
+        """Count points whose flags are `leaf` (N,) bool and `shadow` (N,) bool."""
+        leaf, shadow = np.asarray(leaf, bool), np.asarray(shadow, bool)
+        self.features += int(leaf.size)
+        self.on_leaves += int(leaf.sum())
+        self.at_shadow_edges += int(shadow.sum())
 
     def as_dict(self) -> dict:
         """Return the counts and shares."""
@@ -271,6 +274,20 @@ def stereo_truth_points(capture) -> np.ndarray:
     cam = np.stack([(u - K[0, 2]) * zz / K[0, 0], (v - K[1, 2]) * zz / K[1, 1], zz], 1)
     p = cam @ T[:3, :3].T + T[:3, 3]
     return p[p[:, 2] > 0.3]
+
+
+def ground_grid(capture, reach: float, step: int = 8) -> np.ndarray:
+    """Return the left stereo pixels (N, 2) int (u, v) of a regular `step`-pixel grid that see the ground within `reach` [m]."""
+    from vehicle_sim.worldfile import KINDS
+
+    z = capture.stereo_depth_true[step // 2::step, step // 2::step].astype(np.float64)
+    label = capture.stereo_labels[step // 2::step, step // 2::step]
+    i, j = np.nonzero(np.isin(label, [KINDS.index(k) for k in GROUND_KINDS]) & np.isfinite(z))
+    u, v, zz = j * step + step // 2, i * step + step // 2, z[i, j]
+    K, T = capture.stereo_K, capture.T_vehicle_stereo_left
+    p = np.stack([(u - K[0, 2]) * zz / K[0, 0], (v - K[1, 2]) * zz / K[1, 1], zz], 1) @ T[:3, :3].T + T[:3, 3]
+    near = np.hypot(p[:, 0], p[:, 1]) <= reach
+    return np.stack([u[near], v[near]], 1)
 
 
 @dataclass
@@ -310,6 +327,7 @@ class FidoEvaluation:
     fido_true_surfaces: Counter = field(default_factory=Counter)
     ground_all: ClutterCounts = field(default_factory=ClutterCounts)
     ground_false: ClutterCounts = field(default_factory=ClutterCounts)
+    ground_chance: ClutterCounts = field(default_factory=ClutterCounts)  # the ground's pixels on an 8-px grid
     motion: dict = field(default_factory=lambda: {"fido": [], "sgbm_lk": [], "odometry": []})
     straight: dict | None = None
     ms: dict = field(default_factory=lambda: {k: [] for k in ("fido", "sgbm", "lk", "laser", "capture")})
@@ -392,21 +410,23 @@ class FidoEvaluation:
                                        [(Polygon(world_of(pose, o.polygon)), o.distance) for o in laser_obs if len(o.polygon) >= 3])
             # clutter: leaves and shadow edges under FIDO's features on the ground, all of them and the false obstacles
             foot = [g for _, g, _ in truth]
-            leaves = self._leaf_pixels(scene, pose, float(stamp), rig.width)
+            near_leaf = self._near_leaves(scene, pose, float(stamp), rig.width)
             false_ob = {int(i) for (geom, _), i in zip(fido_det, ob) if not any(geom.buffer(0.5).intersects(g) for g in foot)}
+            reach = self.fido_obstacles.own.max_distance
+            on_ground, is_false = np.zeros(len(f), bool), np.zeros(len(f), bool)
             for i in range(len(f)):
                 dist = float(math.hypot(f.xyz[i, 0], f.xyz[i, 1]))
                 kind = KINDS[int(cap.stereo_labels[ul[i, 1], ul[i, 0]])]
-                if step.obstacle[i] and dist <= self.fido_obstacles.own.max_distance:
+                if step.obstacle[i] and dist <= reach:
                     (self.fido_false_surfaces if i in false_ob else self.fido_true_surfaces)[kind] += 1
-                if kind not in GROUND_KINDS or not dist <= self.fido_obstacles.own.max_distance:
-                    continue
-                u, v = ul[i]
-                leaf = bool(leaves[max(v - 2, 0):v + 3, max(u - 2, 0):u + 3].any())
-                shadow = self._at_shadow_edge(cap, pose, ul[i])
-                self.ground_all.add(leaf, shadow)
-                if step.obstacle[i] and i in false_ob:
-                    self.ground_false.add(leaf, shadow)
+                on_ground[i] = kind in GROUND_KINDS and dist <= reach
+                is_false[i] = bool(step.obstacle[i]) and i in false_ob
+            g = ul[on_ground]
+            leaf, shadow = near_leaf[g[:, 1], g[:, 0]], self._at_shadow_edges(cap, pose, g)
+            self.ground_all.add(leaf, shadow)
+            self.ground_false.add(leaf[is_false[on_ground]], shadow[is_false[on_ground]])
+            grid = ground_grid(cap, reach)
+            self.ground_chance.add(near_leaf[grid[:, 1], grid[:, 0]], self._at_shadow_edges(cap, pose, grid))
             # motion
             legs["fido"].add(np.asarray(pose), truth_motion, None if step.motion is None else step.motion.planar, odo)
             legs["sgbm_lk"].add(np.asarray(pose), truth_motion, None if lk.motion is None else lk.motion.planar, odo)
@@ -418,8 +438,9 @@ class FidoEvaluation:
         for k, v in legs.items():
             self.motion[k].append(v)
 
-    def _leaf_pixels(self, scene, pose: tuple[float, float, float], stamp: float, size: int) -> np.ndarray:
-        """Return (size, size) bool: where fallen leaves change the left stereo image (the same render without them)."""
+    def _near_leaves(self, scene, pose: tuple[float, float, float], stamp: float, size: int) -> np.ndarray:
+        """Return (size, size) bool: pixels of the left stereo image with a leaf pixel within 2 px (leaf pixels: those
+        that change when the same image is rendered without fallen leaves)."""
         from vehicle_sim.sensors import StereoConfig, stereo_model, stereo_mount_for, world_from_vehicle
         from vehicle_sim.sensors.camera import expose
 
@@ -434,19 +455,21 @@ class FidoEvaluation:
         bare.weather = scene.weather.model_copy(update={"leaf_cover": 0.0})
         a = expose(scene, origin, yaw, stamp, model).light
         b = expose(bare, origin, yaw, stamp, model).light
-        return np.abs(a - b).max(axis=-1) > 0.5
+        leaf = (np.abs(a - b).max(axis=-1) > 0.5).astype(np.uint8)
+        return cv2.dilate(leaf, np.ones((5, 5), np.uint8)).astype(bool)
 
-    def _at_shadow_edge(self, cap, pose: tuple[float, float, float], uv: np.ndarray) -> bool:
-        """Return whether the true ground point under left pixel `uv` lies within 0.3 m of a shadow's edge."""
-        z = float(cap.stereo_depth_true[uv[1], uv[0]])
-        if not math.isfinite(z):
-            return False
+    def _at_shadow_edges(self, cap, pose: tuple[float, float, float], uv: np.ndarray) -> np.ndarray:
+        """Return (N,) bool: whether the true ground point under each left pixel `uv` (N, 2) int lies within 0.3 m of a shadow's edge."""
+        z = cap.stereo_depth_true[uv[:, 1], uv[:, 0]].astype(np.float64)
+        ok = np.isfinite(z)
         K, T = cap.stereo_K, cap.T_vehicle_stereo_left
-        p = T[:3, :3] @ np.array([(uv[0] - K[0, 2]) * z / K[0, 0], (uv[1] - K[1, 2]) * z / K[1, 1], z]) + T[:3, 3]
-        w = world_of(pose, p[:2])
-        ring = w + 0.3 * np.array([[0.0, 0.0], [1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
-        lit = self.scene.sunlit_at(ring[:, 0], ring[:, 1])
-        return bool(lit.max() - lit.min() > 0.5)
+        cam = np.stack([(uv[:, 0] - K[0, 2]) * z / K[0, 0], (uv[:, 1] - K[1, 2]) * z / K[1, 1], z], 1)[ok]
+        w = world_of(pose, (cam @ T[:3, :3].T + T[:3, 3])[:, :2]).reshape(-1, 2)
+        ring = w[:, None, :] + 0.3 * np.array([[0.0, 0.0], [1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+        lit = self.scene.sunlit_at(ring[..., 0], ring[..., 1])
+        out = np.zeros(len(uv), bool)
+        out[ok] = lit.max(axis=1) - lit.min(axis=1) > 0.5
+        return out
 
     def as_dict(self) -> dict:
         """Return every figure (JSON-ready: None where there was nothing to measure)."""
@@ -466,7 +489,8 @@ class FidoEvaluation:
             "fido_obstacle_surfaces": {"true": dict(self.fido_true_surfaces.most_common()),
                                        "false": dict(self.fido_false_surfaces.most_common()),
                                        "false_on_ground": sum(n for k, n in self.fido_false_surfaces.items() if k in GROUND_KINDS)},
-            "fido_ground_clutter": {"all_features": self.ground_all.as_dict(), "false_obstacles": self.ground_false.as_dict()},
+            "fido_ground_clutter": {"all_features": self.ground_all.as_dict(), "false_obstacles": self.ground_false.as_dict(),
+                                    "ground_pixels": self.ground_chance.as_dict()},
             "motion": {k: _motion_summary(v) for k, v in self.motion.items()},
             "straight_leg": self.straight,
             "ms_per_step": {"fido": ms("fido"), "fido_parts_p50": {k: _pct(v, 50) for k, v in self.fido_parts.items()},

@@ -14,7 +14,23 @@ from typer.testing import CliRunner
 
 from modules.fido import PlanarMotion
 from sidewalk.cli import app
-from sidewalk.fido_eval import DepthErrors, MotionLeg, approach_leg, json_ready, relative_motion, segment_leg, straight_leg
+from sidewalk.fido_eval import (
+    GROUND_KINDS,
+    ClutterCounts,
+    DepthErrors,
+    MotionLeg,
+    approach_leg,
+    ground_grid,
+    json_ready,
+    relative_motion,
+    segment_leg,
+    straight_leg,
+)
+from tests.vehicle_sim.test_sensors_stereo import MARK, STEREO
+from tests.vehicle_sim.test_scene import synthetic_world
+from vehicle_sim.scene import Scene
+from vehicle_sim.sensors import capture
+from vehicle_sim.worldfile import KINDS
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -64,6 +80,28 @@ def test_legs_follow_the_route_and_stop_short_of_the_target() -> None:
     assert 2 <= len(r.poses) <= 11 and np.all(np.abs(np.diff(r.poses[:, :2], axis=0)).sum(axis=1) == pytest.approx(1.0))
 
 
+def test_clutter_counts_add_flags_and_leave_empty_shares_null() -> None:
+    c = ClutterCounts()
+    assert c.as_dict()["on_leaves_share"] is None
+    c.add(np.array([True, False, True, False]), np.array([False, False, True, False]))
+    c.add(np.zeros(0, bool), np.zeros(0, bool))
+    assert c.as_dict() == {"features": 4, "on_leaves": 2, "at_shadow_edges": 1, "on_leaves_share": 0.5, "at_shadow_edges_share": 0.25}
+
+
+@pytest.mark.timeout(30)  # quiet run ~1 s
+def test_the_ground_grid_keeps_ground_pixels_within_reach() -> None:
+    """A red square on the ground 8–9 m ahead: its grid pixels come in with a reach of 9.5 m, not with 7.5 m."""
+    cap = capture(Scene(synthetic_world(extra=(MARK,)), seed=7), (0.0, 0.0, 0.0), 2.0, STEREO, vehicle="terregator",
+                  rng=np.random.default_rng(1))
+    labels = cap.stereo_labels[4::8, 4::8]
+    mark = {(int(j) * 8 + 4, int(i) * 8 + 4) for i, j in zip(*np.nonzero(labels == KINDS.index("intersection")))}
+    assert len(mark) >= 2
+    near, far, all_ = (set(map(tuple, ground_grid(cap, r).tolist())) for r in (7.5, 9.5, 40.0))
+    assert mark <= far and not mark & near and near < far <= all_
+    for u, v in all_:
+        assert u % 8 == 4 and v % 8 == 4 and KINDS[cap.stereo_labels[v, u]] in GROUND_KINDS
+
+
 def test_json_ready_turns_non_finite_figures_into_null() -> None:
     out = json_ready({"a": float("nan"), "b": [np.float32(1.5), np.inf], "c": {"d": np.int64(3)}})
     assert json.dumps(out, allow_nan=False) == '{"a": null, "b": [1.5, null], "c": {"d": 3}}'
@@ -97,8 +135,9 @@ def test_eval_fido_prints_every_figure_as_strict_json() -> None:
     assert straight["fido"]["distance_m"] == pytest.approx(2.0, abs=0.01) and straight["fido"]["end_error_pct"] < 5.0
     assert out["ms_per_step"]["fido"]["p50"] > 0 and out["ms_per_step"]["fido"]["cpu_p50"] > 0
     assert out["stereo"] == {"size_px": 512, "hfov_deg": 60.0, "baseline_m": 0.5}
-    clutter = out["fido_ground_clutter"]["all_features"]
-    assert clutter["features"] > 0 and 0 <= clutter["on_leaves"] <= clutter["features"]
+    for k in ("all_features", "ground_pixels"):
+        clutter = out["fido_ground_clutter"][k]
+        assert clutter["features"] > 0 and 0 <= clutter["on_leaves"] <= clutter["features"]
     p = subprocess.run([sys.executable, "-m", "sidewalk", "perception", "eval", "--fido", "--world", "campus", "--frames", "1",
                         "--straight-leg", "500", "--json"], cwd=REPO, capture_output=True, text=True, timeout=90)
     assert p.returncode == 2 and "--straight-leg 500" in p.stderr and "Traceback" not in p.stderr

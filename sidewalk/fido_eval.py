@@ -16,7 +16,8 @@ sensor judged on the truth obstacles its own true surface points show; FIDO's de
 obstacle features, points); the motion estimate's error per metre against the true motion (each
 leg's end-point error over the distance driven, and per step); time per step, wall and CPU (the
 process's: the machine may be shared, and OpenCV runs SGBM on several threads). FIDO's obstacle
-features are also counted by the true class of the surface under them; FIDO's features on the ground
+features are also counted by the true class of the surface under them, and the false detections of
+SGBM's and the laser's detector by the world's class at their centroid; FIDO's features on the ground
 (all, and the false obstacles) by whether they touch fallen leaves (the pixels that change when the
 same image is rendered without leaves) or lie within 0.3 m of a shadow's edge (clutter), beside the same
 shares for the ground's pixels on an 8-pixel grid (what chance would give). A step whose motion
@@ -325,6 +326,7 @@ class FidoEvaluation:
     laser_obstacles: _SensorCounts = field(default_factory=_SensorCounts)
     fido_false_surfaces: Counter = field(default_factory=Counter)
     fido_true_surfaces: Counter = field(default_factory=Counter)
+    false_surfaces: dict = field(default_factory=lambda: {"sgbm": Counter(), "laser": Counter()})  # the polygon detectors'
     ground_all: ClutterCounts = field(default_factory=ClutterCounts)
     ground_false: ClutterCounts = field(default_factory=ClutterCounts)
     ground_chance: ClutterCounts = field(default_factory=ClutterCounts)  # the ground's pixels on an 8-px grid
@@ -404,12 +406,14 @@ class FidoEvaluation:
             ob = np.nonzero(step.obstacle)[0]
             fido_det = [(Point(*world_of(pose, f.xyz[i, :2])), float(math.hypot(f.xyz[i, 0], f.xyz[i, 1]))) for i in ob]
             self.fido_obstacles.score(truth, pose, seen_stereo, seen_laser, fido_det)
-            self.sgbm_obstacles.score(truth, pose, seen_stereo, seen_laser,
-                                      [(Polygon(world_of(pose, o.polygon)), o.distance) for o in sgbm_obs if len(o.polygon) >= 3])
-            self.laser_obstacles.score(truth, pose, seen_laser, seen_stereo,
-                                       [(Polygon(world_of(pose, o.polygon)), o.distance) for o in laser_obs if len(o.polygon) >= 3])
-            # clutter: leaves and shadow edges under FIDO's features on the ground, all of them and the false obstacles
+            sgbm_det = [(Polygon(world_of(pose, o.polygon)), o.distance) for o in sgbm_obs if len(o.polygon) >= 3]
+            laser_det = [(Polygon(world_of(pose, o.polygon)), o.distance) for o in laser_obs if len(o.polygon) >= 3]
+            self.sgbm_obstacles.score(truth, pose, seen_stereo, seen_laser, sgbm_det)
+            self.laser_obstacles.score(truth, pose, seen_laser, seen_stereo, laser_det)
             foot = [g for _, g, _ in truth]
+            for name, det in (("sgbm", sgbm_det), ("laser", laser_det)):
+                self.false_surfaces[name].update(self._false_surfaces(det, foot))
+            # clutter: leaves and shadow edges under FIDO's features on the ground, all of them and the false obstacles
             near_leaf = self._near_leaves(scene, pose, float(stamp), rig.width)
             false_ob = {int(i) for (geom, _), i in zip(fido_det, ob) if not any(geom.buffer(0.5).intersects(g) for g in foot)}
             reach = self.fido_obstacles.own.max_distance
@@ -437,6 +441,17 @@ class FidoEvaluation:
             self.straight = {k: v.as_dict() for k, v in legs.items()}
         for k, v in legs.items():
             self.motion[k].append(v)
+
+    def _false_surfaces(self, detections: list, foot: list) -> list[str]:
+        """Return the world's class at the centroid of each false detection (geometry in `world`, distance [m]) within reach."""
+        from vehicle_sim.worldfile import KINDS
+
+        bad = [d for d, dist in detections if dist <= self.laser_obstacles.own.max_distance
+               and not any(d.buffer(0.5).intersects(g) for g in foot)]
+        if not bad:
+            return []
+        xy = np.array([[d.centroid.x, d.centroid.y] for d in bad])
+        return [KINDS[int(k)] for k in self.world.label_at(xy)]
 
     def _near_leaves(self, scene, pose: tuple[float, float, float], stamp: float, size: int) -> np.ndarray:
         """Return (size, size) bool: pixels of the left stereo image with a leaf pixel within 2 px (leaf pixels: those
@@ -489,6 +504,7 @@ class FidoEvaluation:
             "fido_obstacle_surfaces": {"true": dict(self.fido_true_surfaces.most_common()),
                                        "false": dict(self.fido_false_surfaces.most_common()),
                                        "false_on_ground": sum(n for k, n in self.fido_false_surfaces.items() if k in GROUND_KINDS)},
+            "false_detection_surfaces": {k: dict(v.most_common()) for k, v in self.false_surfaces.items()},
             "fido_ground_clutter": {"all_features": self.ground_all.as_dict(), "false_obstacles": self.ground_false.as_dict(),
                                     "ground_pixels": self.ground_chance.as_dict()},
             "motion": {k: _motion_summary(v) for k, v in self.motion.items()},

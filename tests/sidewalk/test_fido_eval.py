@@ -127,6 +127,9 @@ def test_eval_fido_prints_every_figure_as_strict_json() -> None:
     out = json.loads(p.stdout, parse_constant=no_nan)
     assert out["actors"] == "campus-eval" and out["steps"] == 6 and out["legs"] == 2
     assert set(out["obstacles"]) == {"fido", "sgbm", "laser"} and set(out["motion"]) == {"fido", "sgbm_lk", "odometry"}
+    assert set(out["false_detection_surfaces"]) == {"sgbm", "laser"}
+    assert sum(out["false_detection_surfaces"]["sgbm"].values()) == round(out["obstacles"]["sgbm"]["obstacle_detections"]
+                                                                         * out["obstacles"]["sgbm"]["false_positive_rate"])
     for method in ("fido", "sgbm"):
         near = out["depth_error_m"][method]["0-5m"]
         assert near["n"] > 0 and near["p50"] < 0.2

@@ -29,6 +29,7 @@ from typing import Annotated, Any, Callable, Iterable, Literal, Union
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 from wire.errors import WireError
+from wire.terrainfile import TerrainFileError, TerrainRaster, TerrainRef, load_terrain
 
 __all__ = [
     "KINDS",
@@ -143,7 +144,7 @@ SHAPES_BY_KIND: dict[str, tuple[str, ...]] = {
     "building": ("prism",),
     "hedge": ("prism",),
     "wall": ("prism",),
-    "rock": ("prism", "post"),
+    "rock": ("prism", "post", "flat"),  # flat: a rock of a terrain world, its shape in the terrain raster
     "tree": ("tree",),
     "mailbox": ("post", "prism"),
     "lamp_post": ("post",),
@@ -693,8 +694,15 @@ class MapFile:
         source: str = "<memory>",
         weather: Weather | None = None,
         actors: Iterable[dict] = (),
+        terrain: TerrainRef | None = None,
+        terrain_raster: TerrainRaster | None = None,
     ) -> None:
         self.name = name
+        #: the optional `terrain` entry (a raster file beside this one, `wire.terrainfile`) and its raster, loaded
+        self.terrain: TerrainRef | None = terrain
+        self.terrain_raster: TerrainRaster | None = terrain_raster
+        if (terrain is None) != (terrain_raster is None):
+            raise WorldFileError(source, [Problem(field="terrain", message="a terrain entry needs its raster, and a raster its entry")])
         #: objects not on the map (the world file's optional `actors` list, truth for the simulator only):
         #: kept as written; `vehicle_sim.worldfile.World` validates them
         self.actors: tuple[dict, ...] = tuple(actors)
@@ -782,6 +790,8 @@ class MapFile:
             coll["weather"] = self.weather.model_dump()
         if self.actors:
             coll["actors"] = list(self.actors)
+        if self.terrain is not None:
+            coll["terrain"] = self.terrain.model_dump()
         feats = [o.to_feature() for o in self.objects]
         feats += [n.to_feature() for n in self.nodes]
         feats += [e.to_feature() for e in self.edges]
@@ -885,6 +895,19 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
             weather = Weather.model_validate(data["weather"])
         except ValidationError as exc:
             problems += _pyd_problems(exc, None, None, "weather")
+    terrain, terrain_raster = None, None
+    if "terrain" in data:
+        try:
+            terrain = TerrainRef.model_validate(data["terrain"])
+        except ValidationError as exc:
+            problems += _pyd_problems(exc, None, None, "terrain")
+        else:
+            base = Path(source).parent if Path(source).is_file() else Path.cwd()
+            try:
+                terrain_raster = load_terrain(base / terrain.file)
+            except TerrainFileError as exc:
+                problems.append(Problem(field="terrain.file", message=str(exc)))
+                terrain = None
     actors = data.get("actors", [])
     if not isinstance(actors, list) or not all(isinstance(a, dict) for a in actors):
         problems.append(Problem(field="actors", message="must be a list of actor objects ({\"id\", \"kind\", \"path\", …})"))
@@ -924,7 +947,9 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
         problems.append(p)
     if problems:
         raise WorldFileError(source, problems)
-    extra = {"actors": actors} if actors else {}
+    extra: dict[str, Any] = {"actors": actors} if actors else {}
+    if terrain is not None:
+        extra.update(terrain=terrain, terrain_raster=terrain_raster)
     return (factory or MapFile)(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source,
                                 weather=weather, **extra)
 

@@ -30,12 +30,14 @@ _SUBAPPS = [
     ("sidewalk.cli._security", "security_app", "security"),
     ("sidewalk.cli._eddie", "eddie_app", "eddie"),
     ("sidewalk.cli._roadfollow", "roadfollow_app", "roadfollow"),
+    ("sidewalk.cli._terrain", "terrain_app", "terrain"),
 ]
 _COMMANDS = [
     ("sidewalk.cli._run", "register"),
     ("sidewalk.cli._monitor", "register"),
     ("sidewalk.cli._mapbuild", "register"),
     ("sidewalk.cli._compare", "register"),
+    ("sidewalk.cli._worldgen", "register"),
 ]
 
 

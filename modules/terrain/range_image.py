@@ -6,7 +6,10 @@ where the range falls well below the last valid pixel beneath it (by more than a
 range, and 2 m), the interval is added from there on, if the sensor could have seen that far. Going
 up a column over open ground the true range grows; what falls is a return from beyond the interval
 (behind a crest the ground the rows above see can be 10 m farther, so a fall of half the interval
-is not required). An overhang (a crown above the ground seen under it) is then taken for far ground
+is not required). Above a gap (pixels without a return: their rays passed over everything within the
+sensor's reach), a return is taken from beyond the interval whenever it can be: a ray above one that
+met nothing within `max_range` passes over all the ground out there too, and only an overhang can
+be nearer. An overhang (a crown above the ground seen under it) is then taken for far ground
 and lands beyond the maps' reach, where it harms nothing; a ghost of far ground taken for near
 ground would float above the map.
 
@@ -56,15 +59,18 @@ def unwrap_columns(range_m: np.ndarray, valid: np.ndarray, ambiguity: float, max
     for j in range(W):
         offset = 0.0
         last = np.nan
+        gap = False
         for i in range(H - 1, -1, -1):
             if not valid[i, j]:
+                gap = last == last
                 continue
             cur = range_m[i, j] + offset
-            if last == last and cur < last - max(2.0, 0.25 * last) and cur + ambiguity <= max_range:
+            if last == last and (gap or cur < last - max(2.0, 0.25 * last)) and cur + ambiguity <= max_range:
                 offset += ambiguity
                 cur += ambiguity
             out[i, j] = cur
             last = cur
+            gap = False
     return out
 
 

@@ -127,6 +127,15 @@ def test_a_column_is_unwrapped_from_the_ground_up() -> None:
     assert np.allclose(out, true, atol=1e-4)
 
 
+def test_a_return_above_a_gap_is_taken_from_beyond_the_interval() -> None:
+    # the rays of rows 2-3 met nothing within 40 m: the crest's far side (37.9 m) above them reads 17.42 m
+    true = np.array([[37.9], [38.4], [np.nan], [np.nan], [16.2], [9.0]], np.float32)
+    valid = np.isfinite(true)
+    measured = np.where(valid, np.mod(np.nan_to_num(true), 20.48), 0.0).astype(np.float32)
+    out = unwrap_columns(measured, valid, 20.48, 40.0)
+    assert np.allclose(out[valid], true[valid], atol=1e-4) and np.isnan(out[~valid]).all()
+
+
 def test_a_capture_without_the_laser_is_refused() -> None:
     class NoLaser:
         laser_range = None

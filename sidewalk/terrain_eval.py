@@ -15,7 +15,9 @@ crown are left out (the maps see the crown there). Of the cells **in view** with
 the scanner's field of view as truly posed, within its 40 m range): the share the map knows
 (`known_share`), and of those it marks unknown the share truly in a range shadow (`unknown_shadowed_share`):
 the line from the true laser origin to the cell's true ground (2 cm above it) meets a surface more
-than 10 cm before it (the simulator's own ray caster). `update_ms_p50`: the robot's update per image
+than 10 cm before it (the simulator's own ray caster); `unknown_near_shadow_share` counts too the cells whose line of
+sight clears the true ground by less than one pixel's vertical pitch times the distance there (at the scanner's angular
+sampling they cannot be told from a shadow: the ground beyond a crest seen at grazing incidence). `update_ms_p50`: the robot's update per image
 (unwrap, map, z registration, fusion) [ms] wall, with its process CPU time beside it.
 """
 
@@ -106,6 +108,7 @@ class _Scores:
     known_in_view: int = 0
     unknown_in_view: int = 0
     shadowed: int = 0
+    near_shadow: int = 0
 
     def add(self, grid: ElevationGrid, truth: np.ndarray, usable: np.ndarray, near: np.ndarray) -> None:
         k = grid.known & usable
@@ -125,6 +128,7 @@ class _Scores:
         if self.in_view:
             out["known_share"] = round(self.known_in_view / self.in_view, 4)
             out["unknown_shadowed_share"] = round(self.shadowed / self.unknown_in_view, 4) if self.unknown_in_view else None
+            out["unknown_near_shadow_share"] = round(self.near_shadow / self.unknown_in_view, 4) if self.unknown_in_view else None
             out["unknown_cells"] = self.unknown_in_view
         return out
 
@@ -144,17 +148,36 @@ def _in_view(cap, truth_z: np.ndarray, spec: GridSpec, within: float) -> np.ndar
             & (np.linalg.norm(q, axis=-1) <= 40.0))
 
 
-def _shadowed(scene: Scene, cap, cells: tuple[np.ndarray, np.ndarray], truth_z: np.ndarray, spec: GridSpec, tol: float) -> int:
-    """Return how many of the cells (rows, cols) are truly in a range shadow from the true laser origin."""
+def _shadowed(scene: Scene, cap, cells: tuple[np.ndarray, np.ndarray], truth_z: np.ndarray, spec: GridSpec, tol: float,
+              pitch: float) -> tuple[int, int]:
+    """Return how many of the cells (rows, cols) are truly in a range shadow from the true laser origin, and how many are
+    in one or in a near shadow (`_grazing`)."""
     if len(cells[0]) == 0:
-        return 0
+        return 0, 0
     cx, cy = spec.centres()
     P = np.column_stack([cx[cells[1]], cy[cells[0]], truth_z[cells] + 0.02])
     o = np.asarray(cap.truth_world_laser)[:3, 3]
     d = P - o
     hits = scene.cast_rays(o, d, reach=float(np.hypot(d[:, 0], d[:, 1]).max()) + 1.0)
     dist = np.linalg.norm(d, axis=1)
-    return int(np.sum(hits.rng.astype(np.float64) < dist - tol))
+    blocked = hits.rng.astype(np.float64) < dist - tol
+    return int(blocked.sum()), int((blocked | _grazing(scene.world, o, P, pitch)).sum())
+
+
+def _grazing(world: World, o: np.ndarray, P: np.ndarray, pitch: float, samples: int = 161, chunk: int = 2048) -> np.ndarray:
+    """Return (N,) bool: the line of sight from `o` (3,) to each point of `P` (N, 3) [m] clears the true ground by less
+    than one pixel's vertical pitch `pitch` [rad] times its distance (the scanner cannot tell it from a shadow), away
+    from both ends (1 m from the sensor, 0.3 m from the point)."""
+    out = np.zeros(len(P), bool)
+    t = np.linspace(0.0, 1.0, samples)[None, :, None]
+    for a in range(0, len(P), chunk):
+        q = P[a:a + chunk]
+        line = o[None, None] + t * (q - o)[:, None, :]
+        ground = world.elevation(line[..., :2].reshape(-1, 2)).reshape(line.shape[:2])
+        r = np.linalg.norm(line - o, axis=-1)
+        inside = (np.linalg.norm(line - q[:, None, :], axis=-1) > 0.3) & (r > 1.0)
+        out[a:a + chunk] = np.any(inside & (line[..., 2] - ground < r * pitch), axis=1)
+    return out
 
 
 def evaluate(world: World, cfg: TerrainEvalConfig = TerrainEvalConfig()) -> dict:
@@ -224,14 +247,18 @@ def evaluate(world: World, cfg: TerrainEvalConfig = TerrainEvalConfig()) -> dict
             unknown = np.nonzero(seen_view & ~registered.known)
             sc.unknown_in_view += len(unknown[0])
             if method == "locus":
-                sc.shadowed += _shadowed(scene, cap, unknown, truth, spec, cfg.shadow_tolerance_m)
+                blocked, near_shadow = _shadowed(scene, cap, unknown, truth, spec, cfg.shadow_tolerance_m,
+                                                 float(np.max(np.abs(np.diff(cap.laser_el.astype(np.float64))))))
+                sc.shadowed += blocked
+                sc.near_shadow += near_shadow
     out: dict = {"world": world.name, "vehicle": cfg.vehicle, "images": len(poses), "spacing_m": cfg.spacing_m,
                  "resolution_m": cfg.resolution_m, "within_m": cfg.within_m, "max_range_m": cfg.max_range_m,
                  "pose_noise": list(cfg.pose_noise), "seed": cfg.seed, "load_avg_1min": round(os.getloadavg()[0], 2)}
     for method in ("locus", "bucket"):
         s = scores[method].summary()
         if method == "bucket":
-            s.pop("unknown_shadowed_share", None)  # not computed: a bucket map's holes are mostly sparse sampling
+            s.pop("unknown_shadowed_share", None)
+            s.pop("unknown_near_shadow_share", None)  # not computed: a bucket map's holes are mostly sparse sampling
         s["update_ms_p50"] = round(float(np.median(wall[method])), 3)
         s["update_cpu_ms_p50"] = round(float(np.median(cpu[method])), 3)
         f = _Scores([], [])

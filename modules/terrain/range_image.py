@@ -9,7 +9,10 @@ up a column over open ground the true range grows; what falls is a return from b
 is not required). Above a gap (pixels without a return: their rays passed over everything within the
 sensor's reach), a return is taken from beyond the interval whenever it can be: a ray above one that
 met nothing within `max_range` passes over all the ground out there too, and only an overhang can
-be nearer. An overhang (a crown above the ground seen under it) is then taken for far ground
+be nearer. Nor can the ground a higher ray meets be nearer horizontally than the ground the ray below
+it met (a height field hides nothing beneath a ray from a higher one): a return whose horizontal
+distance falls, and the next one's above it too, by more than 5 % (and 0.5 m, and three times the two ranges' noise) is taken from beyond the interval too (the crest's far
+side, whose wrapped range reads a little below the crest's). An overhang (a crown above the ground seen under it) is then taken for far ground
 and lands beyond the maps' reach, where it harms nothing; a ghost of far ground taken for near
 ground would float above the map.
 
@@ -43,6 +46,10 @@ class RangeNoise:
     k: float = 0.04
     dim: float = 2.0
 
+    def per_square_metre(self, reflectance: np.ndarray) -> np.ndarray:
+        """Return the growth k / reflectance [1/m] of the range sigma with the squared range, float64, reflectance's shape."""
+        return self.k / np.maximum(np.asarray(reflectance, np.float64), self.dim)
+
     def sigma(self, r: np.ndarray, reflectance: np.ndarray) -> np.ndarray:
         """Return the range standard deviation [m] at ranges `r` [m] with reflectance codes `reflectance`, float32."""
         r = np.asarray(r, np.float32)
@@ -51,25 +58,43 @@ class RangeNoise:
 
 
 @njit(cache=True, nogil=True, boundscheck=False)
-def unwrap_columns(range_m: np.ndarray, valid: np.ndarray, ambiguity: float, max_range: float) -> np.ndarray:
+def unwrap_columns(range_m: np.ndarray, valid: np.ndarray, ambiguity: float, max_range: float, cos_el: np.ndarray,
+                   noise_k: np.ndarray) -> np.ndarray:
     """Return the ranges (H, W) float32 [m] unwrapped column by column from the bottom row up (NaN where not valid);
-    no range is taken beyond `max_range` [m], the farthest the sensor returns."""
+    no range is taken beyond `max_range` [m], the farthest the sensor returns. `cos_el` (H,) the cosines of the rows'
+    elevations (their horizontal share of a range); `noise_k` (H, W) [1/m] each pixel's range sigma per squared
+    metre of range (`RangeNoise`: k / reflectance), so that a fall within the noise is not taken for a wrap."""
     H, W = range_m.shape
     out = np.full((H, W), np.nan, np.float32)
     for j in range(W):
         offset = 0.0
         last = np.nan
+        last_h = np.nan
+        last_k = 0.0
         gap = False
         for i in range(H - 1, -1, -1):
             if not valid[i, j]:
                 gap = last == last
                 continue
             cur = range_m[i, j] + offset
-            if last == last and (gap or cur < last - max(2.0, 0.25 * last)) and cur + ambiguity <= max_range:
+            wrap = False
+            if last == last and cur + ambiguity <= max_range:
+                wrap = gap or cur < last - max(2.0, 0.25 * last)
+                if not wrap:
+                    margin = max(0.5, 0.05 * last_h, 3.0 * (noise_k[i, j] * cur * cur + last_k * last * last))
+                    wrap = cur * cos_el[i] < last_h - margin
+                    a = i - 1  # and the next return above stays nearer too (a mixed point alone is not a wrap)
+                    while wrap and a >= 0 and not valid[a, j]:
+                        a -= 1
+                    if wrap and a >= 0:
+                        wrap = (range_m[a, j] + offset) * cos_el[a] < last_h - margin
+            if wrap:
                 offset += ambiguity
                 cur += ambiguity
             out[i, j] = cur
             last = cur
+            last_h = cur * cos_el[i]
+            last_k = noise_k[i, j]
             gap = False
     return out
 
@@ -143,8 +168,10 @@ class RangeImage:
             if getattr(capture, name, None) is None:
                 raise TerrainError(f"capture: field {name!r} is missing (ask for the laser)")
         valid = np.asarray(capture.laser_valid, bool)
-        rng = unwrap_columns(np.asarray(capture.laser_range, np.float32), valid, float(capture.ambiguity), float(max_range))
-        sigma = (noise or RangeNoise()).sigma(np.nan_to_num(rng, nan=0.0), capture.laser_reflectance)
+        noise = noise or RangeNoise()
+        rng = unwrap_columns(np.asarray(capture.laser_range, np.float32), valid, float(capture.ambiguity), float(max_range),
+                             np.cos(np.asarray(capture.laser_el, np.float64)), noise.per_square_metre(capture.laser_reflectance))
+        sigma = noise.sigma(np.nan_to_num(rng, nan=0.0), capture.laser_reflectance)
         if median:
             rng, sigma = median_filter(rng), (np.float32(0.5) * sigma).astype(np.float32)
         return cls(rng, sigma, np.asarray(capture.laser_az, np.float32), np.asarray(capture.laser_el, np.float32),

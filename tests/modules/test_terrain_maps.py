@@ -123,7 +123,7 @@ def test_matching_by_e_of_t_recovers_a_one_metre_ten_degree_pose_error() -> None
 def test_a_column_is_unwrapped_from_the_ground_up() -> None:
     true = np.array([[30.0], [24.0], [21.0], [19.0], [12.0], [6.0]], np.float32)  # row 0 the top
     measured = np.mod(true, 20.48).astype(np.float32)
-    out = unwrap_columns(measured, np.ones_like(measured, bool), 20.48, 40.0)
+    out = unwrap_columns(measured, np.ones_like(measured, bool), 20.48, 40.0, np.ones(len(measured)), np.zeros(measured.shape))
     assert np.allclose(out, true, atol=1e-4)
 
 
@@ -132,8 +132,15 @@ def test_a_return_above_a_gap_is_taken_from_beyond_the_interval() -> None:
     true = np.array([[37.9], [38.4], [np.nan], [np.nan], [16.2], [9.0]], np.float32)
     valid = np.isfinite(true)
     measured = np.where(valid, np.mod(np.nan_to_num(true), 20.48), 0.0).astype(np.float32)
-    out = unwrap_columns(measured, valid, 20.48, 40.0)
+    out = unwrap_columns(measured, valid, 20.48, 40.0, np.ones(len(measured)), np.zeros(measured.shape))
     assert np.allclose(out[valid], true[valid], atol=1e-4) and np.isnan(out[~valid]).all()
+
+
+def test_a_crest_s_far_side_reading_nearer_is_unwrapped() -> None:
+    # horizontal rays over a crest at 17.6 m: the far side at 36.5 m reads 16.02 m, a fall too small to be a wrap by range
+    true = np.array([[36.9], [36.5], [17.6], [16.4], [15.3]], np.float32)
+    out = unwrap_columns(np.mod(true, 20.48).astype(np.float32), np.ones_like(true, bool), 20.48, 40.0, np.ones(len(true)), np.zeros(true.shape))
+    assert np.allclose(out, true, atol=1e-4)
 
 
 def test_a_capture_without_the_laser_is_refused() -> None:

@@ -66,6 +66,7 @@ class CrossCountryParams(BaseModel):
     vehicle: str = "navlab"
     tolerance_m: float = 2.0  # the mission's goal tolerance
     attempts: int = Field(6, ge=1)
+    search_expansions: int = Field(4000, ge=100)  # the corridor search gives a draw up this many lattice poses (~1 min)
 
 
 DEFAULT_PARAMS = CrossCountryParams()
@@ -302,7 +303,8 @@ def _draw(seed: int, attempt: int, p: CrossCountryParams, name: str) -> CrossCou
     world = World(name=name, objects=b.objects, sun=Sun(azimuth_deg=float(rng.uniform(120.0, 240.0)), elevation_deg=40.0),
                   start=StartPose(x=round(start[0], 3), y=round(start[1], 3), yaw_deg=round(math.degrees(yaw), 3)),
                   source=f"<generated:{name}>", terrain=ref, terrain_raster=terrain)
-    corridor = find_corridor(world, (start[0], start[1], yaw), goal, vehicle=p.vehicle, reach=p.tolerance_m)
+    corridor = find_corridor(world, (start[0], start[1], yaw), goal, vehicle=p.vehicle, reach=p.tolerance_m,
+                             max_expansions=p.search_expansions)
     if corridor is None:
         return None
     map_terrain = _survey(terrain, p, rng, length)

@@ -24,7 +24,7 @@ def test_terrain_eval_scores_both_maps_on_the_shipped_world() -> None:
     locus, bucket = rep["locus"], rep["bucket"]
     assert rep["world"] == "cross_country" and rep["images"] == 6
     assert locus["rms_within_m"] <= 0.10 and locus["rms_within_m"] < bucket["rms_within_m"]
-    assert locus["known_share"] > 0.8 > bucket["known_share"]  # the locus map is dense, buckets leave holes
+    assert locus["known_share"] > 2.0 * bucket["known_share"]  # the locus map is dense, buckets leave holes
     assert 0.0 <= locus["unknown_shadowed_share"] <= locus["unknown_near_shadow_share"] <= 1.0
     assert locus["update_ms_p50"] > 0 and locus["update_cpu_ms_p50"] > 0
     assert rep["pyramid_build_ms"] is None

@@ -69,6 +69,21 @@ def bin_solids(cx: np.ndarray, cy: np.ndarray, radius: np.ndarray, ox: float, oy
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _wall_or_roof(oz: float, t: float, s_in: float, s_out: float, zb: float, zt: float, best: float) -> tuple[int, float]:
+    """Return (1, s) where a ray of slope `t` from height `oz` entering a vertical solid at s_in [m] meets its wall,
+    (2, s) where it meets its roof before leaving at s_out [m], or (0, inf): neither nearer than `best`."""
+    z_in = oz + s_in * t
+    if zb <= z_in <= zt:
+        if s_in < best:
+            return 1, s_in
+    elif z_in > zt and t < 0:
+        s_top = (zt - oz) / t
+        if s_top <= s_out and s_top < best:
+            return 2, s_top
+    return 0, np.inf
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
 def _round_hit(ox: float, oy: float, oz: float, c: float, s: float, t: float, cx: float, cy: float, r: float,
                zb: float, zt: float, best: float) -> tuple[float, float, float, float]:
     """Return (s, nx, ny, nz) where the ray meets a vertical cylinder's side or top nearer than `best`, else (inf, …)."""
@@ -79,16 +94,11 @@ def _round_hit(ox: float, oy: float, oz: float, c: float, s: float, t: float, cx
         return np.inf, 0.0, 0.0, 0.0
     half = math.sqrt(max(r * r - perp2, 0.0))
     s_in = max(p - half, 0.05)
-    s_out = p + half
-    z_in = oz + s_in * t
-    if zb <= z_in <= zt:
-        if s_in < best:
-            hx, hy = ox + s_in * c - cx, oy + s_in * s - cy
-            return s_in, hx / r, hy / r, 0.0
-    elif z_in > zt and t < 0:
-        s_top = (zt - oz) / t
-        if s_top <= s_out and s_top < best:
-            return s_top, 0.0, 0.0, 1.0
+    kind, s_hit = _wall_or_roof(oz, t, s_in, p + half, zb, zt, best)
+    if kind == 1:
+        return s_hit, (ox + s_hit * c - cx) / r, (oy + s_hit * s - cy) / r, 0.0
+    if kind == 2:
+        return s_hit, 0.0, 0.0, 1.0
     return np.inf, 0.0, 0.0, 0.0
 
 
@@ -137,18 +147,14 @@ def _prism_hit(ox: float, oy: float, oz: float, c: float, s: float, t: float, k:
             far = max(far, se)
     if eb < 0:
         return np.inf, 0.0, 0.0, 0.0
-    s_in = max(near, 0.05)
-    z_in = oz + s_in * t
-    if zb <= z_in <= zt:
-        if s_in < best:
-            nx, ny = edges_unit[eb, 1], -edges_unit[eb, 0]
-            if nx * c + ny * s > 0:  # the wall faces the sensor
-                nx, ny = -nx, -ny
-            return s_in, nx, ny, 0.0
-    elif z_in > zt and t < 0:
-        s_top = (zt - oz) / t
-        if s_top <= far and s_top < best:
-            return s_top, 0.0, 0.0, 1.0
+    kind, s_hit = _wall_or_roof(oz, t, max(near, 0.05), far, zb, zt, best)
+    if kind == 1:
+        nx, ny = edges_unit[eb, 1], -edges_unit[eb, 0]
+        if nx * c + ny * s > 0:  # the wall faces the sensor
+            nx, ny = -nx, -ny
+        return s_hit, nx, ny, 0.0
+    if kind == 2:
+        return s_hit, 0.0, 0.0, 1.0
     return np.inf, 0.0, 0.0, 0.0
 
 

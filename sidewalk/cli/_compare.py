@@ -57,6 +57,7 @@ def compare(
     jobs: Annotated[int, typer.Option(help="Runs at a time (1 on a 2-core machine: runs measure time)")] = 1,
     max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s); a lock-step EDDIE run takes 5-10 min here")] = 3600.0,
     resume: Annotated[bool, typer.Option("--resume", help="Reuse runs in --out whose report is of the same cell (architecture, mission, seed, fault, speed cap)")] = False,
+    cluster: Annotated[Optional[str], typer.Option(help="Run the cells on this Dask scheduler's workers (tcp://HOST:8786), one run per worker, their run directories brought back into --out")] = None,
 ) -> None:
     """Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables and plots."""
     from rich.console import Console
@@ -80,6 +81,8 @@ def compare(
             raise typer.BadParameter(f"unknown fault {f!r}; known: {', '.join(FAULTS)}", param_hint="--faults")
     if seeds < 1 or jobs < 1 or not (math.isfinite(rtf) and rtf > 0):
         raise typer.BadParameter("--seeds and --jobs must be ≥ 1 and --rtf > 0")
+    if cluster is not None and jobs != 1:
+        raise typer.BadParameter("the cluster's workers set how many runs go at once (one per worker); leave --jobs out", param_hint="--jobs")
     mission_list = _list(missions, "--missions")
     try:
         if worlds:
@@ -95,7 +98,7 @@ def compare(
     available, arch_flag = available_architectures()
     cfg = CompareConfig(missions=mission_list, seeds=tuple(range(seeds)), rtf=rtf, architectures=archs, faults=fault_list,
                         speeds=_speeds(speed_sweep) if speed_sweep else (), out=out, jobs=jobs, arch_flag=arch_flag,
-                        max_wall_time_s=max_wall_time, resume=resume, lockstep=lockstep)
+                        max_wall_time_s=max_wall_time, resume=resume, lockstep=lockstep, cluster=cluster)
     skipped = [a for a in archs if a not in available]
     if skipped:
         console.print(f"[yellow]not available in `sidewalk run`: {', '.join(skipped)} — compared without it[/yellow]")
@@ -119,6 +122,10 @@ def compare(
         except KeyboardInterrupt:
             console.print("[yellow]interrupted[/yellow]")
             raise typer.Exit(130) from None
+        except CompareError as exc:
+            bar.stop()
+            console.print(f"[red]error:[/red] {exc}", soft_wrap=True)
+            raise typer.Exit(2) from None
     out.mkdir(parents=True, exist_ok=True)
     (out / "compare.json").write_text(dumps(result.model_dump(mode="json"), indent=1) + "\n")
     command = "sidewalk " + " ".join(shlex.quote(a) for a in sys.argv[1:])

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 import time
 from pathlib import Path
-from typing import Callable, Optional, Sequence
+from typing import TYPE_CHECKING, Callable, Optional, Sequence
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
@@ -23,6 +23,9 @@ from sidewalk.compare.grid import GridResult, GridRun, run_grid
 from sidewalk.compare.measures import RunMeasures, measure_dir
 from sidewalk.compare.summary import ArchSummary, Unreported, summarise
 from sidewalk.run_record import RunRecordError, load_record
+
+if TYPE_CHECKING:
+    from sidewalk.compare.cluster import ClusterSession
 
 __all__ = ["CompareConfig", "RunEntry", "SweepPoint", "Comparison", "run_comparison", "summaries", "FAULT_AT", "SOURCE_ROOT",
            "mission_world", "mission_name"]
@@ -58,6 +61,8 @@ class CompareConfig(BaseModel):
     resume: bool = False
     #: every run in lock-step (reproducible; `rtf` unused) or, False, in real time at `rtf` (latency under load measured)
     lockstep: bool = True
+    #: the Dask scheduler whose workers run the cells (`tcp://HOST:8786`; None: here, `jobs` at a time)
+    cluster: Optional[str] = None
 
 
 class RunEntry(BaseModel):
@@ -190,15 +195,31 @@ def _cells(cfg: CompareConfig, archs: Sequence[str], seeds: Sequence[int], *, ta
 async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Callable[[int], None] | None = None,
                          on_start: Callable[[GridRun], None] | None = None,
                          on_done: Callable[[GridResult], None] | None = None, python: str = sys.executable) -> Comparison:
-    """Run the comparison; `total(n)` announces more cells as the grid grows (faults and sweep come later)."""
+    """Run the comparison (on `cfg.cluster`'s workers if set); `total(n)` announces more cells as the grid grows (faults and sweep come later)."""
     t0 = time.monotonic()
+    if cfg.cluster is None:
+        return await _run_comparison(cfg, available, total=total, on_start=on_start, on_done=on_done, python=python, t0=t0)
+    from sidewalk.compare.cluster import connect
+
+    session = await connect(cfg.cluster)
+    try:
+        return await _run_comparison(cfg, available, total=total, on_start=on_start, on_done=on_done, python=python, t0=t0,
+                                     cluster=session)
+    finally:
+        await session.close()
+
+
+async def _run_comparison(cfg: CompareConfig, available: list[str], *, total: Callable[[int], None] | None,
+                          on_start: Callable[[GridRun], None] | None, on_done: Callable[[GridResult], None] | None,
+                          python: str, t0: float, cluster: Optional[ClusterSession] = None) -> Comparison:
     archs = [a for a in cfg.architectures if a in available]
     grid = _cells(cfg, archs, cfg.seeds)
     n_fault = sum(TARGETS.get(a, {}).get(f) is not None for f in cfg.faults for a in archs) * len(cfg.missions)
     n_sweep = len(cfg.speeds) * len(cfg.missions) * len(cfg.seeds) * len([a for a in archs if a in SPEED_CAPPED])
     if total:
         total(len(grid) + n_fault + n_sweep)
-    kw = dict(jobs=cfg.jobs, arch_flag=cfg.arch_flag, python=python, on_start=on_start, on_done=on_done, resume=cfg.resume)
+    kw = dict(jobs=cfg.jobs, arch_flag=cfg.arch_flag, python=python, on_start=on_start, on_done=on_done, resume=cfg.resume,
+              cluster=cluster)
     entries = [_entry(r) for r in await run_grid(grid, **kw)]
     measured = [e.measures for e in entries if e.measures is not None]
 

@@ -13,12 +13,15 @@ import json
 import subprocess
 import sys
 from pathlib import Path
-from typing import Callable, Optional, Sequence
+from typing import TYPE_CHECKING, Callable, Optional, Sequence
 
 from pydantic import BaseModel, ConfigDict
 
 from sidewalk.compare.faults import FaultSpec
 from wire.lifeline import die_with_parent
+
+if TYPE_CHECKING:
+    from sidewalk.compare.cluster import ClusterSession
 
 __all__ = ["GridRun", "GridResult", "available_architectures", "run_grid", "ARCHITECTURES"]
 
@@ -101,11 +104,14 @@ def _finished(run: GridRun) -> Optional[int]:
     return (0 if rep.get("success") else 1) if same else None
 
 
-async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool) -> GridResult:
+async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool, cluster: Optional[ClusterSession]) -> GridResult:
     run.out.mkdir(parents=True, exist_ok=True)
     if resume and (code := _finished(run)) is not None:
         return GridResult(run=run, exit_code=code, has_report=True)
     (run.out / "report.json").unlink(missing_ok=True)  # a report left by an earlier comparison is not this run's
+    if cluster is not None:
+        code = await cluster.run(run, arch_flag=arch_flag)
+        return GridResult(run=run, exit_code=code, has_report=(run.out / "report.json").exists())
     with open(run.out / "compare-run.log", "wb") as log:
         proc = await asyncio.create_subprocess_exec(python, *run.argv(arch_flag=arch_flag), stdin=asyncio.subprocess.DEVNULL,
                                                     stdout=log, stderr=log, preexec_fn=die_with_parent())
@@ -114,17 +120,20 @@ async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool) -> Grid
 
 
 async def run_grid(runs: Sequence[GridRun], *, jobs: int = 1, arch_flag: bool = False, python: str = sys.executable,
-                   resume: bool = False,
+                   resume: bool = False, cluster: Optional[ClusterSession] = None,
                    on_start: Callable[[GridRun], None] | None = None,
                    on_done: Callable[[GridResult], None] | None = None) -> list[GridResult]:
-    """Run the cells, at most `jobs` at a time (`resume`: reuse a finished run of the same command); return their results in order."""
-    gate = asyncio.Semaphore(max(1, jobs))
+    """Run the cells, at most `jobs` at a time (`resume`: reuse a finished run of the same command); return their results in order.
+
+    With a `cluster` every cell is sent at once and its scheduler decides how many run (one per worker); `jobs` is unused.
+    """
+    gate = asyncio.Semaphore(len(runs) if cluster is not None else max(1, jobs))
 
     async def guarded(r: GridRun) -> GridResult:
         async with gate:
             if on_start:
                 on_start(r)
-            res = await _one(r, python, arch_flag, resume)
+            res = await _one(r, python, arch_flag, resume, cluster)
             if on_done:
                 on_done(res)
             return res

@@ -1,0 +1,105 @@
+"""`sidewalk compare --cluster`: the grid's cells on a Dask scheduler's workers give the local grid's figures (issue 39, item 3).
+
+The cluster is real: a `dask scheduler` and two `dask worker` processes (one thread and one `run`
+resource each) on loopback. The grid (the short-hop mission, a file the workers do not have, under
+CODGER and EDDIE in lock-step, seed 0) runs once here and once through the cluster; every figure of
+compare.json but the machine's (`MACHINE_MEASURES`) is equal.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from sidewalk.compare.repeat import MACHINE_MEASURES
+
+DATA = Path(__file__).parent / "data"
+
+#: report fields that measure wall time (or depend on it) and so differ between any two runs
+WALL_FIELDS = {"wall_time_s", "rtf_achieved", "modules", "blackboard", "processes"}
+
+
+def _compare(out: Path, *extra: str, timeout: float) -> subprocess.CompletedProcess:
+    cmd = [sys.executable, "-m", "sidewalk", "compare", "--missions", str(DATA / "short-hop.yaml"), "--seeds", "1",
+           "--faults", "none", "--lockstep", "--out", str(out), "--max-wall-time", "400", *extra]
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env={"COLUMNS": "300", **__import__("os").environ})
+
+
+@pytest.fixture
+def cluster(tmp_path: Path):
+    """Start a scheduler and two one-run workers on loopback; yield the scheduler's address."""
+    from distributed import Client
+
+    file = tmp_path / "scheduler.json"
+    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
+                               "--no-dashboard", "--scheduler-file", str(file)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        procs += [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", str(file),
+                                    "--host", "127.0.0.1", "--nthreads", "1", "--resources", "run=1", "--no-dashboard",
+                                    "--name", f"w{i}", "--local-directory", str(tmp_path / f"w{i}")],
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for i in range(2)]
+        with Client(scheduler_file=str(file), timeout=60) as client:  # waits for the scheduler file and the scheduler
+            client.wait_for_workers(2, timeout=120)
+            address = client.scheduler.address
+        yield address
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in reversed(procs):
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
+
+
+def _figures(data: dict) -> dict:
+    """Return compare.json's summaries without the machine's measures, and each run's report without wall-time fields."""
+    def summary(s: dict) -> dict:
+        return {**s, "measures": {k: v for k, v in s["measures"].items() if k not in MACHINE_MEASURES}}
+
+    def strip(v: object) -> object:  # the recorder may hear one truth sample more or less after the vehicle stopped
+        if isinstance(v, dict):
+            return {k: strip(x) for k, x in v.items() if k != "n"}
+        return [strip(x) for x in v] if isinstance(v, list) else v
+
+    runs = [{"arch": r["architecture"], "exit": r["exit_code"],
+             "report": strip({k: v for k, v in (r["report"] or {}).items() if k not in WALL_FIELDS}),
+             "measures": {k: v for k, v in (r["measures"] or {}).items() if k not in MACHINE_MEASURES}} for r in data["runs"]]
+    return {"summary": {a: summary(s) for a, s in data["summary"].items()},
+            "per_mission": [summary(s) for s in data["per_mission"]], "runs": runs}
+
+
+@pytest.mark.missions
+@pytest.mark.timeout(1500)  # quiet run ~? s (two lock-step short hops here, then the same two on the cluster)
+def test_the_grid_on_a_two_worker_cluster_gives_the_local_grids_figures(tmp_path: Path, cluster: str) -> None:
+    local = _compare(tmp_path / "local", timeout=700)
+    assert local.returncode == 0, local.stderr[-3000:]
+    remote = _compare(tmp_path / "remote", "--cluster", cluster, timeout=700)
+    assert remote.returncode == 0, remote.stderr[-3000:]
+    a, b = (json.loads((tmp_path / d / "compare.json").read_text()) for d in ("local", "remote"))
+    assert a["time_mode"] == b["time_mode"] == "lockstep" and b["config"]["cluster"] == cluster
+    assert [r["exit_code"] for r in a["runs"]] == [r["exit_code"] for r in b["runs"]] == [0, 0], [r["error"] for r in b["runs"]]
+    assert _figures(a) == _figures(b)
+    for arch in ("codger", "eddie"):  # each cell's run directory came back whole
+        run = tmp_path / "remote" / "runs" / arch / "short-hop" / "seed0"
+        assert {"report.json", "run_record.json", "run.mcap", "compare-run.log", "logs"} <= {p.name for p in run.iterdir()}
+        assert f"via {cluster}, exit 0" in (run / "compare-run.log").read_text()
+
+    # --resume: the finished cells are not sent again (a sent cell would rewrite its log)
+    logs = {p: p.read_text() for p in (tmp_path / "remote").glob("runs/*/*/*/compare-run.log")}
+    again = _compare(tmp_path / "remote", "--cluster", cluster, "--resume", timeout=120)
+    assert again.returncode == 0, again.stderr[-3000:]
+    assert {p: p.read_text() for p in logs} == logs
+
+
+@pytest.mark.timeout(90)  # quiet run ~13 s (the 10 s connect time-out)
+def test_a_cluster_out_of_reach_is_named_in_one_line(tmp_path: Path) -> None:
+    r = _compare(tmp_path / "x", "--cluster", "tcp://127.0.0.1:9", timeout=60)
+    assert r.returncode == 2 and "Traceback" not in r.stderr
+    assert "--cluster tcp://127.0.0.1:9: cannot reach a Dask scheduler there within 10 s" in " ".join(r.stderr.split())
+    r = _compare(tmp_path / "x", "--cluster", "tcp://127.0.0.1:9", "--jobs", "2", timeout=60)
+    assert r.returncode == 2 and "leave --jobs out" in " ".join(r.stderr.split())

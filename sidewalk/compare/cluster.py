@@ -138,7 +138,7 @@ async def connect(address: str, *, timeout_s: float = CONNECT_TIMEOUT_S) -> Clus
         raise ClusterError(f"--cluster {address}: cannot reach a Dask scheduler there within {timeout_s:g} s "
                            f"({type(exc).__name__}: {exc})") from None
     try:
-        workers = client.scheduler_info()["workers"]
+        workers = (await client.scheduler.identity(n_workers=-1))["workers"]
         if not workers:
             raise ClusterError(f"--cluster {address}: the scheduler has no workers; start some with "
                                f"`dask worker {address} --nthreads 1 --resources {RUN_RESOURCE}=1`")

@@ -9,7 +9,9 @@ compare.json but the machine's (`MACHINE_MEASURES`) is equal.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
+import threading
 import sys
 from pathlib import Path
 
@@ -26,34 +28,48 @@ WALL_FIELDS = {"wall_time_s", "rtf_achieved", "modules", "blackboard", "processe
 def _compare(out: Path, *extra: str, timeout: float) -> subprocess.CompletedProcess:
     cmd = [sys.executable, "-m", "sidewalk", "compare", "--missions", str(DATA / "short-hop.yaml"), "--seeds", "1",
            "--faults", "none", "--lockstep", "--out", str(out), "--max-wall-time", "400", *extra]
-    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env={"COLUMNS": "300", **__import__("os").environ})
+    return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env={"COLUMNS": "300", **os.environ})
+
+
+class Cluster:
+    """A `dask scheduler` and `dask worker` processes on loopback (no nanny: a worker is the process that runs its cells)."""
+
+    def __init__(self, tmp: Path, workers: int, env: dict[str, str] | None = None) -> None:
+        from distributed import Client
+
+        file = tmp / "scheduler.json"
+        env = {**os.environ, **(env or {})}
+        self.procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
+                                        "--no-dashboard", "--scheduler-file", str(file)], env=env,
+                                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+        self.workers = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", str(file),
+                                          "--host", "127.0.0.1", "--nthreads", "1", "--resources", "run=1", "--no-dashboard",
+                                          "--no-nanny", "--name", f"w{i}", "--local-directory", str(tmp / f"w{i}")],
+                                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for i in range(workers)]
+        self.procs += self.workers
+        with Client(scheduler_file=str(file), timeout=60) as client:  # waits for the scheduler file and the scheduler
+            client.wait_for_workers(workers, timeout=120)
+            self.address: str = client.scheduler.address
+
+    def close(self) -> None:
+        """End every process of the cluster."""
+        for p in reversed(self.procs):
+            p.terminate()
+        for p in reversed(self.procs):
+            try:
+                p.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                p.kill()
 
 
 @pytest.fixture
 def cluster(tmp_path: Path):
     """Start a scheduler and two one-run workers on loopback; yield the scheduler's address."""
-    from distributed import Client
-
-    file = tmp_path / "scheduler.json"
-    procs = [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
-                               "--no-dashboard", "--scheduler-file", str(file)], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    c = Cluster(tmp_path, 2)
     try:
-        procs += [subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_worker", "--scheduler-file", str(file),
-                                    "--host", "127.0.0.1", "--nthreads", "1", "--resources", "run=1", "--no-dashboard",
-                                    "--name", f"w{i}", "--local-directory", str(tmp_path / f"w{i}")],
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL) for i in range(2)]
-        with Client(scheduler_file=str(file), timeout=60) as client:  # waits for the scheduler file and the scheduler
-            client.wait_for_workers(2, timeout=120)
-            address = client.scheduler.address
-        yield address
+        yield c.address
     finally:
-        for p in reversed(procs):
-            p.terminate()
-        for p in reversed(procs):
-            try:
-                p.wait(timeout=30)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        c.close()
 
 
 def _figures(data: dict) -> dict:
@@ -103,3 +119,38 @@ def test_a_cluster_out_of_reach_is_named_in_one_line(tmp_path: Path) -> None:
     assert "--cluster tcp://127.0.0.1:9: cannot reach a Dask scheduler there within 10 s" in " ".join(r.stderr.split())
     r = _compare(tmp_path / "x", "--cluster", "tcp://127.0.0.1:9", "--jobs", "2", timeout=60)
     assert r.returncode == 2 and "leave --jobs out" in " ".join(r.stderr.split())
+
+
+@pytest.mark.missions
+@pytest.mark.timeout(400)  # quiet run ~? s (two cells given 60 s of wall time each)
+def test_a_worker_that_dies_mid_run_fails_its_cell_and_the_grid_goes_on(tmp_path: Path) -> None:
+    import psutil
+
+    # the scheduler gives up on a task at its first dead worker (its default re-runs it on another up to 3 times)
+    c = Cluster(tmp_path, 2, env={"DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "0"})
+    killed: list[int] = []
+    done = threading.Event()
+
+    def kill_the_first_worker_to_start_a_run() -> None:
+        while not done.wait(0.2):
+            for w in c.workers:
+                kids = psutil.Process(w.pid).children() if w.poll() is None else []
+                if any("run" in k.cmdline() for k in kids):
+                    w.kill()
+                    killed.append(w.pid)
+                    return
+
+    killer = threading.Thread(target=kill_the_first_worker_to_start_a_run, daemon=True)
+    killer.start()
+    try:
+        r = _compare(tmp_path / "grid", "--cluster", c.address, "--max-wall-time", "60", timeout=300)
+    finally:
+        done.set()
+        killer.join(timeout=10)
+        c.close()
+    assert r.returncode == 0 and len(killed) == 1, r.stderr[-3000:]
+    runs = json.loads((tmp_path / "grid" / "compare.json").read_text())["runs"]
+    dead = [x for x in runs if x["exit_code"] == 255]
+    assert len(dead) == 1 and "the worker running it died mid-run" in dead[0]["error"], [x["error"] for x in runs]
+    other = next(x for x in runs if x is not dead[0])
+    assert other["exit_code"] != 255 and "ran on" in (Path(other["out"]) / "compare-run.log").read_text()

@@ -27,7 +27,7 @@ WALL_FIELDS = {"wall_time_s", "rtf_achieved", "modules", "blackboard", "processe
 
 def _compare(out: Path, *extra: str, timeout: float) -> subprocess.CompletedProcess:
     cmd = [sys.executable, "-m", "sidewalk", "compare", "--missions", str(DATA / "short-hop.yaml"), "--seeds", "1",
-           "--faults", "none", "--lockstep", "--out", str(out), "--max-wall-time", "400", *extra]
+           "--faults", "none", "--lockstep", "--out", str(out), "--max-wall-time", "900", *extra]
     return subprocess.run(cmd, capture_output=True, text=True, timeout=timeout, env={"COLUMNS": "300", **os.environ})
 
 
@@ -89,17 +89,27 @@ def _figures(data: dict) -> dict:
             "per_mission": [summary(s) for s in data["per_mission"]], "runs": runs}
 
 
+def _differences(x: object, y: object, at: str = "") -> list[str]:
+    """Return where `x` and `y` differ, as paths with both values."""
+    if isinstance(x, dict) and isinstance(y, dict):
+        return [d for k in dict.fromkeys([*x, *y]) for d in _differences(x.get(k), y.get(k), f"{at}.{k}")]
+    if isinstance(x, list) and isinstance(y, list) and len(x) == len(y):
+        return [d for i, (u, v) in enumerate(zip(x, y)) for d in _differences(u, v, f"{at}[{i}]")]
+    return [] if x == y else [f"{at}: {str(x)[:80]} != {str(y)[:80]}"]
+
+
 @pytest.mark.missions
-@pytest.mark.timeout(1500)  # quiet run ~? s (two lock-step short hops here, then the same two on the cluster)
+@pytest.mark.timeout(2400)  # quiet run ~? s (two lock-step short hops here, then the same two on the cluster)
 def test_the_grid_on_a_two_worker_cluster_gives_the_local_grids_figures(tmp_path: Path, cluster: str) -> None:
-    local = _compare(tmp_path / "local", timeout=700)
+    local = _compare(tmp_path / "local", timeout=1100)
     assert local.returncode == 0, local.stderr[-3000:]
-    remote = _compare(tmp_path / "remote", "--cluster", cluster, timeout=700)
+    remote = _compare(tmp_path / "remote", "--cluster", cluster, timeout=1100)
     assert remote.returncode == 0, remote.stderr[-3000:]
     a, b = (json.loads((tmp_path / d / "compare.json").read_text()) for d in ("local", "remote"))
     assert a["time_mode"] == b["time_mode"] == "lockstep" and b["config"]["cluster"] == cluster
     assert [r["exit_code"] for r in a["runs"]] == [r["exit_code"] for r in b["runs"]] == [0, 0], [r["error"] for r in b["runs"]]
-    assert _figures(a) == _figures(b)
+    fa, fb = _figures(a), _figures(b)
+    assert fa == fb, _differences(fa, fb)
     for arch in ("codger", "eddie"):  # each cell's run directory came back whole
         run = tmp_path / "remote" / "runs" / arch / "short-hop" / "seed0"
         assert {"report.json", "run_record.json", "run.mcap", "compare-run.log", "logs"} <= {p.name for p in run.iterdir()}

@@ -18,6 +18,7 @@ import subprocess
 import sys
 import tarfile
 import tempfile
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Optional
@@ -98,7 +99,7 @@ class ClusterSession:
             return self._failed(run, f"world {run.world} is a file on this host; a worker finds worlds by name in its own package")
         try:
             fut = self.client.submit(run_cell, run, arch_flag, _mission_file(run), pure=False, resources=self.resources,
-                                     key=f"sidewalk-run-{run.label.replace(' ', '-')}-{id(run):x}")
+                                     key=f"sidewalk-run-{run.out.name}-{run.architecture}-{Path(run.mission).stem}-{uuid.uuid4().hex[:8]}")
             cell: ClusterCell = await fut
         except KilledWorker as exc:
             return self._failed(run, f"the worker running it died mid-run ({exc})")

@@ -132,7 +132,7 @@ def test_a_cluster_out_of_reach_is_named_in_one_line(tmp_path: Path) -> None:
 
 
 @pytest.mark.missions
-@pytest.mark.timeout(400)  # quiet run ~? s (two cells given 60 s of wall time each)
+@pytest.mark.timeout(700)  # 212 s beside another mission test at load 9 (quiet run not measured); two cells of ≤ 60 s wall
 def test_a_worker_that_dies_mid_run_fails_its_cell_and_the_grid_goes_on(tmp_path: Path) -> None:
     import psutil
 

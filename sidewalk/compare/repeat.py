@@ -32,7 +32,9 @@ __all__ = ["MACHINE_MEASURES", "MeasureRepeat", "VerdictRepeat", "RepeatCheck", 
 
 #: measures of what the machine spent, not of what the simulated run did
 MACHINE_MEASURES = frozenset({"cpu_s", "cpu_s_modules", "rss_mb", "wall_time_s",
-                              "messages_per_s", "bytes_per_s"})
+                              "messages_per_s", "bytes_per_s",
+                              # the barrier asks until every module is idle: how often depends on how fast they work
+                              "barrier_messages_per_s"})
 
 
 class MeasureRepeat(BaseModel):

@@ -74,8 +74,9 @@ def cluster(tmp_path: Path):
 
 def _figures(data: dict) -> dict:
     """Return compare.json's summaries without the machine's measures, and each run's report without wall-time fields."""
-    def summary(s: dict) -> dict:
-        return {**s, "measures": {k: v for k, v in s["measures"].items() if k not in MACHINE_MEASURES}}
+    def summary(s: dict) -> dict:  # it repeats some measures' medians beside `measures`
+        return {**{k: v for k, v in s.items() if k not in MACHINE_MEASURES},
+                "measures": {k: v for k, v in s["measures"].items() if k not in MACHINE_MEASURES}}
 
     def strip(v: object) -> object:  # the recorder may hear one truth sample more or less after the vehicle stopped
         if isinstance(v, dict):

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Callable, Optional
 
 from pydantic import ValidationError
 
-from modules.runtime import Link
+from runtime import Link
 from modules.vocabulary import MissionStatus
 from sidewalk.observers import observer_plans
 from sidewalk.eddie_observe import subscribe_eddie

@@ -14,7 +14,7 @@ from blackboard import BlackboardClient, BlackboardError, MonitorStream, Network
 from blackboard.codec import decode
 from blackboard.replies import NodeStats
 from modules.captain.client import CaptainUnavailableError, MissionClient
-from modules.runtime import ModuleKeys, Link
+from runtime import ModuleKeys, Link
 from wire.keys import BlackboardKeys, SimKeys
 from wire.lockstep import LockstepRelease, NotReleasedError, decode as decode_lockstep
 from wire.network import SecureConfig

@@ -7,7 +7,7 @@ import math
 import sys
 
 from modules.helm.tracker import tracker_config_for
-from modules.runtime.args import setup_logging
+from runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
 
 from eddie.controller.controller_module import ControllerModule

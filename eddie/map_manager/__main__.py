@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from modules.runtime.args import setup_logging
+from runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
 
 from eddie.annotated_map import AnnotatedMapError, AnnotationDatabase, load_annotations

@@ -24,7 +24,7 @@ from eddie.toolkit.process import run_module
 from modules.map_navigator import MapData, load_map
 from modules.perception import PerceptionPipeline, ResolutionTable, colored_range_image
 from modules.perception.monitor import SENSORS
-from modules.runtime.args import setup_logging
+from runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
 
 __all__ = ["LandmarkMatching", "main", "build_parser"]

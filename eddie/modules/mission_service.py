@@ -39,7 +39,7 @@ from modules.captain.wire import new_mission_id
 from modules.captain.wire import Rejection, SubmitAccepted, WireError, parse_cancel, rejection_from
 from modules.pilot import pilot_config_for
 from modules.map_navigator import MapData, load_map
-from modules.runtime.args import setup_logging
+from runtime.args import setup_logging
 from wire.aio import QueryAnswer, QueryRequest
 from wire.flags import add_network_args, network_from_args
 from wire.keys import MissionKeys

@@ -36,7 +36,7 @@ from eddie.toolkit.process import run_module
 from modules.helm.tracker import tracker_config_for
 from modules.perception.obstacles import detect_obstacles
 from modules.pilot import pilot_config_for
-from modules.runtime.args import setup_logging
+from runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
 
 __all__ = ["ObstacleStop", "corridor_half_width", "stop_now", "main", "build_parser"]

@@ -50,7 +50,7 @@ from modules.road_following.road_method import ROAD_METHODS, CameraRoadFollower,
 from modules.perception import PerceptionPipeline, ResolutionTable, colored_range_image
 from modules.perception.monitor import SENSORS
 from modules.pilot import LocalPathPlanner, pilot_config_for
-from modules.runtime.args import setup_logging
+from runtime.args import setup_logging
 from wire.flags import add_network_args, network_from_args
 from wire.se2 import inverse, transform_points
 

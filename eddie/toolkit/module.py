@@ -30,9 +30,9 @@ import time
 from dataclasses import dataclass
 from typing import Any, Awaitable, Callable, TextIO, TypeVar
 
-from modules.runtime.clock import SimClock
-from modules.runtime.heartbeat import ClockPayloadError, decode_clock
-from modules.runtime.lifecycle import READY_PREFIX
+from runtime.clock import SimClock
+from runtime.heartbeat import ClockPayloadError, decode_clock
+from runtime.lifecycle import READY_PREFIX
 from wire.aio import Link, QueryAnswer, QueryRequest
 from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import EddieKeys, ModuleKeys

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Literal
 
-from modules.runtime.lifecycle import READY_PREFIX
+from runtime.lifecycle import READY_PREFIX
 from wire.aio import Link
 from wire.health import Heartbeat, HeartbeatError, decode_heartbeat
 from wire.keys import ModuleKeys

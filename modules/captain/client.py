@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from modules.captain.wire import Rejection, SubmitAccepted
-from modules.runtime import ModuleKeys, Link
+from runtime import ModuleKeys, Link
 from modules.vocabulary import MissionStatus
 from modules.captain.errors import CaptainError
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from modules.captain.missionfile import MissionFileError, load_mission
 from modules.captain.service import Captain, CaptainOptions
-from modules.runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
+from runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
 from modules.vocabulary import Mission
 
 __all__ = ["main", "build_parser", "captain_main"]

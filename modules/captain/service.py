@@ -18,7 +18,7 @@ from blackboard import AttrPredicate, BlackboardError, Spec, VersionConflictErro
 from modules.captain.missionfile import MissionFileError, MissionProblem, parse_mission
 from modules.captain.sequencer import MissionRun
 from modules.captain.wire import Rejection, SubmitAccepted, WireError, new_mission_id, parse_cancel, rejection_from
-from modules.runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
+from runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
 from modules.vocabulary import MapPlaces, Mission, MissionStatus, StepResult
 
 __all__ = ["Captain", "CaptainOptions", "new_mission_id"]

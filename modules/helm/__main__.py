@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from modules.helm.helm import DriveKeys, Helm, helm_config_for
-from modules.runtime import add_network_args, network_from_args, run_module, setup_logging
+from runtime import add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser"]
 

@@ -9,7 +9,7 @@ from dataclasses import replace
 from modules.map_navigator.mapdata import MapData, WorldFileError, load_map
 from modules.map_navigator.service import MapNavigator, ServiceOptions
 from modules.map_navigator.stepjob import NavigatorOptions
-from modules.runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
+from runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser", "navigator_main", "start_position"]
 

@@ -17,7 +17,7 @@ from blackboard import AttrPredicate, InvalidTokenError, Point, Polygon, Polylin
 
 from modules.map_navigator.mapdata import MapData
 from modules.map_navigator.stepjob import NavigatorOptions, Planned, StepJob
-from modules.runtime import ModuleRuntime, ModuleWatch
+from runtime import ModuleRuntime, ModuleWatch
 from modules.vocabulary import MapPlaces, MissionStep, RouteSegmentDescription, SegmentResult, StepResult
 
 __all__ = ["MapNavigator", "ServiceOptions"]

@@ -8,7 +8,7 @@ import sys
 from pydantic import ValidationError
 
 from modules.obstacles.detector import ObstacleDetector, ObstacleDetectorConfig
-from modules.runtime import add_network_args, network_from_args, run_module, setup_logging
+from runtime import add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser"]
 

@@ -10,7 +10,7 @@ from pydantic import ValidationError
 from modules.perception.module import PerceptionConfig, PerceptionModule
 from modules.perception.road_method import RoadMethodPerception
 from modules.road_following import ROAD_METHODS, CameraRoadFollower, RoadFollowingError, load_alvinn_weights
-from modules.runtime import add_network_args, network_from_args, run_module, setup_logging
+from runtime import add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser"]
 

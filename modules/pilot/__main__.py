@@ -7,7 +7,7 @@ import sys
 
 from modules.pilot.config import pilot_config_for
 from modules.pilot.pilot import Pilot
-from modules.runtime import add_network_args, network_from_args, run_module, setup_logging
+from runtime import add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser"]
 

@@ -19,7 +19,7 @@ import math
 from blackboard import Spec
 from blackboard.errors import BlackboardError
 from modules.pilot.config import PilotConfig
-from modules.runtime.watch import HeartbeatWatch
+from runtime.watch import HeartbeatWatch
 from modules.pilot.driving_monitor import DrivingMonitor
 from modules.pilot.driving_unit_finder import DrivingUnitFinder
 from modules.pilot.driving_unit_navigator import DrivingUnitNavigator, UnitConstraints

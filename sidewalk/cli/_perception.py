@@ -300,7 +300,7 @@ def _run_command() -> None:
         from pydantic import ValidationError
 
         from modules.perception.module import PerceptionConfig, PerceptionModule
-        from modules.runtime import run_module, setup_logging
+        from runtime import run_module, setup_logging
 
         try:
             cfg = PerceptionConfig(vehicle=vehicle, speed=speed, max_wait_s=max_wait)

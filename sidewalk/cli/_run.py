@@ -267,7 +267,7 @@ async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -
     from rich.console import Console
 
     from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
-    from modules.runtime import ModuleKeys, Link
+    from runtime import ModuleKeys, Link
 
     console = Console()
     link = Link.open(net)
@@ -322,7 +322,7 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
     from rich.table import Table
 
     from modules.captain.client import MissionClient
-    from modules.runtime import Link, ModuleKeys
+    from runtime import Link, ModuleKeys
     from sidewalk.health import ModuleHealth, collect_heartbeats
 
     keys = ModuleKeys(net.namespace)
@@ -387,7 +387,7 @@ def cancel(
 
 async def _cancel(net: NetworkConfig, mission_id: str, timeout: float) -> int:
     from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
-    from modules.runtime import ModuleKeys, Link
+    from runtime import ModuleKeys, Link
 
     link = Link.open(net)
     try:

@@ -13,7 +13,7 @@ import logging
 from typing import Literal
 
 from blackboard import BlackboardClient, BlackboardError, TypeRegistry
-from modules.runtime import ModuleRuntime, run_module
+from runtime import ModuleRuntime, run_module
 from sidewalk.monitor.codger import CodgerLive
 from sidewalk.monitor.eddie import LATEST_STREAMS, STREAMS, EddieLive
 from sidewalk.monitor.errors import PortInUseError

@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Literal
 
 from blackboard import BlackboardClient, BlackboardError, TypeRegistry
-from modules.runtime import ModuleRuntime, run_module_async
+from runtime import ModuleRuntime, run_module_async
 from sidewalk.recording.recorder import RunRecorder
 from wire.network import NetworkConfig
 

@@ -14,7 +14,7 @@ import pytest
 
 from eddie.modules import obstacle_stop_module as osm
 from eddie.modules.stop_at_object import ObjectCorrection
-from modules.runtime.clock import SimClock
+from runtime.clock import SimClock
 
 
 class _Endpoint:

@@ -16,7 +16,7 @@ from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import NodeProcess, start_node
 from modules.captain import CaptainOptions, MissionClient, captain_main
 from modules.map_navigator import NavigatorOptions, ServiceOptions, load_map, navigator_main, start_position
-from modules.runtime import ModuleKeys, Link, run_module_async
+from runtime import ModuleKeys, Link, run_module_async
 from modules.vocabulary import MissionStatus, RouteSegmentDescription, SegmentResult
 
 __all__ = ["System", "system", "ScriptedPilot", "Answer"]

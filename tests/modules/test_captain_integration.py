@@ -213,7 +213,7 @@ def test_navigator_refuses_a_missing_map() -> None:
 
 
 async def test_pilot_gone_fails_the_step_with_the_reason() -> None:
-    from modules.runtime import Link
+    from runtime import Link
 
     async with system("cap-pilot", answer=lambda seg: None, pilot_grace=1.0) as s:
         pilot_link = Link.open(s.net)  # the PILOT's liveliness, as the real module declares it

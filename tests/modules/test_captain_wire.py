@@ -6,7 +6,7 @@ import pytest
 
 from modules.captain import MissionFileError, WireError, new_mission_id, parse_mission
 from modules.captain.wire import parse_cancel, rejection_from
-from modules.runtime import check_name
+from runtime import check_name
 
 
 def test_cancel_takes_a_bare_id_or_json() -> None:

@@ -20,7 +20,7 @@ import pytest
 
 from blackboard import BlackboardClient, NetworkConfig
 from blackboard.testing import start_node
-from modules.runtime import Link
+from runtime import Link
 from tests._odometry import CircleDrive, circle_odometry
 from tests.modules._procs import spawn, stop
 

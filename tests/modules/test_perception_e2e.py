@@ -13,7 +13,7 @@ import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import start_node
-from modules.runtime import Link
+from runtime import Link
 from modules.vocabulary import DrivingConstraints, ExitCondition, RouteSegmentDescription
 from modules.map_navigator.mapdata import map_object
 from wire.drive import TruthPose, decode

@@ -23,7 +23,7 @@ from wire.network import NetworkConfig
 from wire.ports import free_port
 from modules.perception.module import PerceptionConfig, PerceptionModule
 from modules.perception.predicted import world_to_vehicle
-from modules.runtime import run_module_async
+from runtime import run_module_async
 from modules.vocabulary import DrivingUnitDescription, LineFix, PerceptionResult, PointFix
 from modules.map_navigator.mapdata import map_object
 from vehicle_sim.node import NodeConfig, SimNode

@@ -19,7 +19,7 @@ import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import start_node
-from modules.runtime import Link
+from runtime import Link
 from modules.vocabulary import (
     DrivingConstraints, ExitCondition, MapObject, PerceptionResult, PointFix, Pose, RouteSegmentDescription,
 )

@@ -13,7 +13,7 @@ from pathlib import Path
 import msgpack
 import pytest
 
-from modules.runtime import (
+from runtime import (
     READY_PREFIX, ClockNotRunningError, ClockPayloadError, HeartbeatError, HeartbeatTracker, ModuleKeys, QueryAnswer,
     SimClock, Link, decode_clock, decode_heartbeat, encode_heartbeat, run_module_async,
 )
@@ -307,7 +307,7 @@ async def test_module_lifecycle_over_zenoh() -> None:
 _CHILD = """
 import asyncio, sys
 from wire.network import NetworkConfig
-from modules.runtime import run_module
+from runtime import run_module
 
 async def main(rt):
     rt.ready()

@@ -70,7 +70,7 @@ def _error_classes(package: str) -> set[type]:
 #: (package, sub-packages left out: their errors get a root on another branch)
 ERROR_PACKAGES = [
     ("wire", ()), ("blackboard", ()), ("sidewalk", ()), ("vehicle_sim", ()), ("modules", ()),
-    ("modules.captain", ()), ("modules.map_navigator", ()), ("modules.pilot", ()), ("modules.helm", ()), ("modules.runtime", ()),
+    ("modules.captain", ()), ("modules.map_navigator", ()), ("modules.pilot", ()), ("modules.helm", ()), ("runtime", ()),
     ("modules.perception", ()), ("eddie", ()),
 ]
 

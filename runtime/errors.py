@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-from modules.errors import ModuleError
-
 __all__ = ["ModuleRuntimeError"]
 
 
-class ModuleRuntimeError(ModuleError):
+class ModuleRuntimeError(Exception):
     """Base of every error the module runtime (sim clock, heartbeats) raises."""

@@ -12,7 +12,7 @@ from pydantic import ValidationError
 from modules.vocabulary import Heartbeat
 from wire.health import HeartbeatError, encode_heartbeat
 from wire.health import decode_heartbeat as _decode_wire_heartbeat
-from modules.runtime.errors import ModuleRuntimeError
+from runtime.errors import ModuleRuntimeError
 
 __all__ = ["encode_heartbeat", "decode_heartbeat", "HeartbeatError", "HeartbeatTracker", "decode_clock", "ClockPayloadError"]
 

@@ -7,7 +7,7 @@ import time
 
 from wire.aio import Link
 from wire.keys import ModuleKeys
-from modules.runtime.heartbeat import HeartbeatError, HeartbeatTracker, decode_heartbeat
+from runtime.heartbeat import HeartbeatError, HeartbeatTracker, decode_heartbeat
 
 __all__ = ["ModuleWatch", "HeartbeatWatch"]
 

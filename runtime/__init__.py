@@ -7,13 +7,13 @@ from wire.aio import GetReply, Link, QueryAnswer, QueryRequest
 from wire.flags import add_network_args, network_from_args
 from wire.keys import ModuleKeys
 from wire.network import check_chunk as check_name
-from modules.runtime.args import setup_logging
-from modules.runtime.clock import ClockNotRunningError, SimClock
-from modules.runtime.heartbeat import (
+from runtime.args import setup_logging
+from runtime.clock import ClockNotRunningError, SimClock
+from runtime.heartbeat import (
     ClockPayloadError, HeartbeatError, HeartbeatTracker, decode_clock, decode_heartbeat, encode_heartbeat,
 )
-from modules.runtime.watch import HeartbeatWatch, ModuleWatch
-from modules.runtime.lifecycle import READY_PREFIX, ModuleMain, ModuleRuntime, run_module, run_module_async
+from runtime.watch import HeartbeatWatch, ModuleWatch
+from runtime.lifecycle import READY_PREFIX, ModuleMain, ModuleRuntime, run_module, run_module_async
 
 __all__ = [
     "GetReply", "QueryAnswer", "QueryRequest", "Link",

@@ -8,7 +8,7 @@ import itertools
 import logging
 import math
 from typing import Awaitable, TypeVar
-from modules.runtime.errors import ModuleRuntimeError
+from runtime.errors import ModuleRuntimeError
 from wire.ratelimit import warn_limited
 
 __all__ = ["SimClock", "ClockNotRunningError"]

@@ -16,8 +16,8 @@ from wire.aio import Link
 from wire.health import process_usage
 from wire.lockstep import Participant, lockstep_enabled, participant_name
 from wire.session import session_stats, traffic
-from modules.runtime.clock import SimClock
-from modules.runtime.heartbeat import ClockPayloadError, decode_clock, encode_heartbeat
+from runtime.clock import SimClock
+from runtime.heartbeat import ClockPayloadError, decode_clock, encode_heartbeat
 from wire.keys import ModuleKeys
 from wire.network import check_chunk as check_name
 from modules.vocabulary import Heartbeat

@@ -169,7 +169,7 @@ def network_from_args(parser: argparse.ArgumentParser, args: argparse.Namespace,
                       who: str | None = None) -> NetworkConfig:
     """Return the NetworkConfig of parsed flags; exit through `parser.error` naming the bad flag.
 
-    The --secure identity is --role, else `who`, else the program's module (`python -m modules.helm` → helm,
+    The --secure identity is --role, else `who`, else the program's module (`python -m codger.helm` → helm,
     `python -m eddie.modules.obstacle_stop_module` → obstacle_stop).
     """
     if who is None and parser.prog.startswith("python -m "):

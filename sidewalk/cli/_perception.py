@@ -299,7 +299,7 @@ def _run_command() -> None:
         """Run the PERCEPTION process: answer driving units from the blackboard with the simulator's sensors."""
         from pydantic import ValidationError
 
-        from modules.perception.module import PerceptionConfig, PerceptionModule
+        from codger.perception.module import PerceptionConfig, PerceptionModule
         from runtime import run_module, setup_logging
 
         try:

@@ -18,12 +18,12 @@ __all__ = ["register", "UP_TARGETS"]
 
 #: `sidewalk up NAME` → (module, function taking argv). The node and the simulator go through their Typer commands.
 UP_TARGETS: dict[str, tuple[str, str]] = {
-    "captain": ("modules.captain.main", "main"),
-    "map_navigator": ("modules.map_navigator.main", "main"),
-    "pilot": ("modules.pilot.__main__", "main"),
-    "helm": ("modules.helm.__main__", "main"),
-    "perception": ("modules.perception.__main__", "main"),
-    "obstacles": ("modules.obstacles.__main__", "main"),
+    "captain": ("codger.captain.__main__", "main"),
+    "map_navigator": ("codger.map_navigator.__main__", "main"),
+    "pilot": ("codger.pilot.__main__", "main"),
+    "helm": ("codger.helm.__main__", "main"),
+    "perception": ("codger.perception.__main__", "main"),
+    "obstacles": ("codger.obstacles.__main__", "main"),
     # EDDIE (issue 9): the integrated controller, the navigator, the annotated map manager and EDDIE's modules
     "controller": ("eddie.controller.__main__", "main"),
     "navigator": ("eddie.navigator.__main__", "main"),

@@ -26,7 +26,7 @@ from pydantic import BaseModel, ConfigDict
 __all__ = ["GlueCount", "count_glue", "logical_lines", "PACKAGES", "TRANSPORT"]
 
 #: architecture → the packages its processes come from.
-PACKAGES: dict[str, tuple[str, ...]] = {"codger": ("modules", "blackboard"), "eddie": ("eddie",)}
+PACKAGES: dict[str, tuple[str, ...]] = {"codger": ("codger", "modules", "runtime", "blackboard"), "eddie": ("eddie",)}
 
 #: The transport modules of `wire` (importing one makes a file substrate).
 TRANSPORT = ("wire.session", "wire.aio", "wire.keys", "wire.network", "wire.flags", "wire.router", "wire.health", "wire.ports")

@@ -14,8 +14,12 @@ import msgpack
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import NodeProcess, start_node
-from modules.captain import CaptainOptions, MissionClient, captain_main
-from modules.map_navigator import NavigatorOptions, ServiceOptions, load_map, navigator_main, start_position
+from codger.captain import CaptainOptions
+from codger.captain.__main__ import captain_main
+from codger.map_navigator import ServiceOptions
+from codger.map_navigator.__main__ import navigator_main, start_position
+from modules.captain import MissionClient
+from modules.map_navigator import NavigatorOptions, load_map
 from runtime import ModuleKeys, Link, run_module_async
 from modules.vocabulary import MissionStatus, RouteSegmentDescription, SegmentResult
 

@@ -21,7 +21,7 @@ from blackboard import AttrPredicate, BlackboardClient, Polygon as BbPolygon, Po
 from blackboard.testing import start_node
 from wire.network import NetworkConfig
 from wire.ports import free_port
-from modules.perception.module import PerceptionConfig, PerceptionModule
+from codger.perception.module import PerceptionConfig, PerceptionModule
 from modules.perception.predicted import world_to_vehicle
 from runtime import run_module_async
 from modules.vocabulary import DrivingUnitDescription, LineFix, PerceptionResult, PointFix

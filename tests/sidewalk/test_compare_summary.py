@@ -132,7 +132,7 @@ def test_glue_is_what_touches_the_transport(tmp_path):
 def test_the_codger_glue_count_covers_the_blackboard_and_module_mains():
     root = Path(__file__).resolve().parents[2]
     g = count_glue(root, "codger")
-    assert "blackboard/client.py" in g.glue_by_file and "modules/pilot/pilot.py" in g.glue_by_file
+    assert "blackboard/client.py" in g.glue_by_file and "codger/pilot/pilot.py" in g.glue_by_file
     assert "modules/pilot/kalman.py" not in g.glue_by_file  # an algorithm
     assert g.glue_lines > 0 and g.algorithm_lines > 0 and not math.isnan(g.glue_lines)
 

@@ -1,4 +1,4 @@
-"""Run the PERCEPTION module: `python -m modules.perception [--vehicle navlab|terregator] [--speed M/S] …`."""
+"""Run the PERCEPTION module: `python -m codger.perception [--vehicle navlab|terregator] [--speed M/S] …`."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import sys
 
 from pydantic import ValidationError
 
-from modules.perception.module import PerceptionConfig, PerceptionModule
+from codger.perception.module import PerceptionConfig, PerceptionModule
 from modules.perception.road_method import RoadMethodPerception
 from modules.road_following import ROAD_METHODS, CameraRoadFollower, RoadFollowingError, load_alvinn_weights
 from runtime import add_network_args, network_from_args, run_module, setup_logging
@@ -17,7 +17,7 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the PERCEPTION argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m modules.perception", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m codger.perception", description=__doc__)
     p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator", help="sensor mounting")
     p.add_argument("--speed", type=float, default=1.0, help="desired speed for the view/resolution table [m/s]")
     p.add_argument("--max-wait", type=float, default=6.0, help="longest wait for the image input position [s] sim")

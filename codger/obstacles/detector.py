@@ -38,7 +38,7 @@ from wire.keys import SimKeys
 
 __all__ = ["ObstacleDetectorConfig", "ObstacleDetector"]
 
-log = logging.getLogger("modules.obstacles")
+log = logging.getLogger("codger.obstacles")
 
 
 class ObstacleDetectorConfig(BaseModel):

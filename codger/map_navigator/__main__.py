@@ -1,4 +1,4 @@
-"""Entry point of the MAP NAVIGATOR: `python -m modules.map_navigator --map FILE|NAME [options] [Zenoh flags]`."""
+"""Entry point of the MAP NAVIGATOR: `python -m codger.map_navigator --map FILE|NAME [options] [Zenoh flags]`."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import sys
 from dataclasses import replace
 
 from modules.map_navigator.mapdata import MapData, WorldFileError, load_map
-from modules.map_navigator.service import MapNavigator, ServiceOptions
+from codger.map_navigator.service import MapNavigator, ServiceOptions
 from modules.map_navigator.stepjob import NavigatorOptions
 from runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
 
@@ -16,7 +16,7 @@ __all__ = ["main", "build_parser", "navigator_main", "start_position"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the MAP NAVIGATOR's argument parser."""
-    p = argparse.ArgumentParser(prog="python -m modules.map_navigator",
+    p = argparse.ArgumentParser(prog="python -m codger.map_navigator",
                                 description="Sidewalk MAP NAVIGATOR: mission steps → route → route segments.")
     p.add_argument("--map", required=True, help="map file (GeoJSON), or a world name like campus for worlds/campus.map.geojson")
     p.add_argument("--vehicle", choices=("terregator", "navlab"), default="terregator", help="vehicle (stairs are impassable for the navlab)")
@@ -80,3 +80,7 @@ def main(argv: list[str] | None = None) -> int:
     options = replace(NavigatorOptions(), vehicle=args.vehicle, max_replans=args.max_replans)
     service = ServiceOptions(pilot=args.pilot, pilot_grace_s=args.pilot_grace, post_map=not args.no_post_map)
     return run_module(args.name, navigator_main(m, start, options, service), net, heartbeat_period=args.heartbeat)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,4 +1,4 @@
-"""Entry point of the CAPTAIN module: `python -m modules.captain [--mission FILE]... [Zenoh flags]`."""
+"""Entry point of the CAPTAIN module: `python -m codger.captain [--mission FILE]... [Zenoh flags]`."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from modules.captain.missionfile import MissionFileError, load_mission
-from modules.captain.service import Captain, CaptainOptions
+from codger.captain.service import Captain, CaptainOptions
 from runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
 from modules.vocabulary import Mission
 
@@ -16,7 +16,7 @@ __all__ = ["main", "build_parser", "captain_main"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the CAPTAIN's argument parser."""
-    p = argparse.ArgumentParser(prog="python -m modules.captain", description="Sidewalk CAPTAIN: missions → steps → status.")
+    p = argparse.ArgumentParser(prog="python -m codger.captain", description="Sidewalk CAPTAIN: missions → steps → status.")
     p.add_argument("--mission", action="append", default=[], type=Path, help="mission file to run at start (repeatable, in order)")
     p.add_argument("--name", default="captain", help="module name (liveliness key chunk)")
     p.add_argument("--navigator", default="map_navigator", help="module name of the MAP NAVIGATOR to supervise")
@@ -60,3 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     options = CaptainOptions(navigator=args.navigator, navigator_grace_s=args.navigator_grace, step_timeout_s=args.step_timeout,
                              ack_timeout_s=args.ack_timeout or None)
     return run_module(args.name, captain_main(missions, options), net, heartbeat_period=args.heartbeat)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

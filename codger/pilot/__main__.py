@@ -1,4 +1,4 @@
-"""Run the PILOT module: `python -m modules.pilot [--vehicle navlab|terregator] [--perception auto|on|off] …`."""
+"""Run the PILOT module: `python -m codger.pilot [--vehicle navlab|terregator] [--perception auto|on|off] …`."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from modules.pilot.config import pilot_config_for
-from modules.pilot.pilot import Pilot
+from codger.pilot.pilot import Pilot
 from runtime import add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser"]
@@ -22,7 +22,7 @@ def _pose(text: str) -> tuple[float, float, float]:
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the PILOT's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m modules.pilot", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m codger.pilot", description=__doc__)
     p.add_argument("--vehicle", choices=["navlab", "terregator"], default="navlab", help="vehicle model (planner, margins, speed)")
     p.add_argument("--perception", choices=["auto", "on", "off"], default="auto",
                    help="on: wait for PERCEPTION; off: dead reckoning on the map; auto: on, falling back to off when unanswered")

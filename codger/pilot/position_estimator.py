@@ -31,7 +31,7 @@ from wire.se2 import compose
 
 __all__ = ["PositionEstimator", "Odometry", "filter_fix"]
 
-log = logging.getLogger("modules.pilot")
+log = logging.getLogger("codger.pilot")
 
 
 @dataclass

@@ -1,4 +1,4 @@
-"""Run the OBSTACLE DETECTOR: `python -m modules.obstacles [--period S] [--half-width M] …`."""
+"""Run the OBSTACLE DETECTOR: `python -m codger.obstacles [--period S] [--half-width M] …`."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import sys
 
 from pydantic import ValidationError
 
-from modules.obstacles.detector import ObstacleDetector, ObstacleDetectorConfig
+from codger.obstacles.detector import ObstacleDetector, ObstacleDetectorConfig
 from runtime import add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser"]
@@ -15,7 +15,7 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the OBSTACLE DETECTOR's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m modules.obstacles", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m codger.obstacles", description=__doc__)
     p.add_argument("--period", type=float, default=0.1, help="seconds of sim time between scans [s]")
     p.add_argument("--half-width", type=float, default=1.5, help="half-width of the corridor along the plan [m]")
     p.add_argument("--lookahead", type=float, default=20.0, help="how far along the plan to check [m]")

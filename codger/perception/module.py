@@ -39,7 +39,7 @@ from modules.vocabulary import DrivingUnitDescription, LocalPathPlan, Perception
 
 __all__ = ["PerceptionConfig", "PerceptionModule", "CycleStats", "SENSORS", "capture_key"]
 
-log = logging.getLogger("modules.perception")
+log = logging.getLogger("codger.perception")
 
 #: Laser mounting per vehicle (height [m], ahead of the vehicle origin [m]): the view table's first guess,
 #: replaced by the calibration the first capture carries.

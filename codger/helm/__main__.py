@@ -1,11 +1,11 @@
-"""Run the HELM module: `python -m modules.helm [--vehicle navlab|terregator] [--control-hz N] …`."""
+"""Run the HELM module: `python -m codger.helm [--vehicle navlab|terregator] [--control-hz N] …`."""
 
 from __future__ import annotations
 
 import argparse
 import sys
 
-from modules.helm.helm import DriveKeys, Helm, helm_config_for
+from codger.helm.helm import DriveKeys, Helm, helm_config_for
 from runtime import add_network_args, network_from_args, run_module, setup_logging
 
 __all__ = ["main", "build_parser"]
@@ -13,7 +13,7 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the HELM's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m modules.helm", description=__doc__)
+    p = argparse.ArgumentParser(prog="python -m codger.helm", description=__doc__)
     p.add_argument("--vehicle", choices=["navlab", "terregator"], default="navlab", help="vehicle model (tracker limits)")
     p.add_argument("--control-hz", type=float, default=None, help="drive commands per sim second [Hz]")
     p.add_argument("--pose-hz", type=float, default=None, help="local←vehicle poses per sim second [Hz] (≥ 10)")

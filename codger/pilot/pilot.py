@@ -20,14 +20,14 @@ from blackboard import Spec
 from blackboard.errors import BlackboardError
 from modules.pilot.config import PilotConfig
 from runtime.watch import HeartbeatWatch
-from modules.pilot.driving_monitor import DrivingMonitor
-from modules.pilot.driving_unit_finder import DrivingUnitFinder
-from modules.pilot.driving_unit_navigator import DrivingUnitNavigator, UnitConstraints
-from modules.pilot.local_path_planner import LocalPathPlanning
+from codger.pilot.driving_monitor import DrivingMonitor
+from codger.pilot.driving_unit_finder import DrivingUnitFinder
+from codger.pilot.driving_unit_navigator import DrivingUnitNavigator, UnitConstraints
+from codger.pilot.local_path_planner import LocalPathPlanning
 from modules.pilot.navigator import ConstraintError
 from modules.pilot.planner import PlannedPath, PlanningError
 from modules.pilot.polyline import PolylineError
-from modules.pilot.position_estimator import PositionEstimator
+from codger.pilot.position_estimator import PositionEstimator
 from modules.pilot.segment import SegmentDriver
 from modules.vocabulary import RouteSegmentDescription
 

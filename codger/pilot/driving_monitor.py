@@ -25,13 +25,13 @@ from blackboard.errors import BlackboardError
 from modules.pilot.config import PilotConfig
 from modules.pilot.driving_units import ExpectedObject
 from modules.pilot.polyline import PathLine
-from modules.pilot.position_estimator import PositionEstimator
+from codger.pilot.position_estimator import PositionEstimator
 from modules.pilot.segment import SegmentDriver, SegmentGeometry, as_ring, map_region
 from modules.vocabulary import DrivingUnitDescription, MapObject, RouteSegmentDescription, SegmentResult
 
 __all__ = ["DrivingMonitor", "SegmentChange", "segment_geometry", "object_geometry"]
 
-log = logging.getLogger("modules.pilot")
+log = logging.getLogger("codger.pilot")
 
 
 def object_geometry(obj: MapObject):

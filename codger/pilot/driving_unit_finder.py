@@ -18,13 +18,13 @@ from shapely.geometry import Polygon as ShPolygon
 
 from blackboard.errors import BlackboardError
 from modules.pilot.config import PilotConfig
-from modules.pilot.position_estimator import PositionEstimator
+from codger.pilot.position_estimator import PositionEstimator
 from modules.pilot.segment import SegmentDriver, fuse_regions
 from modules.vocabulary import PerceptionResult, RouteSegmentDescription
 
 __all__ = ["DrivingUnitFinder"]
 
-log = logging.getLogger("modules.pilot")
+log = logging.getLogger("codger.pilot")
 
 
 class DrivingUnitFinder:

@@ -6,7 +6,7 @@ The run uses the CODGER run's router, simulator, recorder and monitor processes 
 - the mission compiles into an annotated map (`eddie.missions`, along the MAP NAVIGATOR's route)
   written as `annotated_map.geojson` into the run's out dir, which the map manager loads at start;
 - the processes are the controller, the navigator (told the start belief as `world` ← `local`), the
-  map manager, the mission service (`eddie.modules.mission_service`: answers the CAPTAIN's mission
+  map manager, the mission service (`eddie.mission_service.mission_service`: answers the CAPTAIN's mission
   submit / status / cancel keys and publishes the mission events, so `sidewalk submit` works
   unchanged) and, unless `--no-perception`, vision road following, landmark matching and obstacle stop;
 - the observer follows the mission on the mission events stream (not a blackboard monitor), takes

@@ -16,22 +16,23 @@ from wire.flags import with_network
 
 __all__ = ["register", "UP_TARGETS"]
 
-#: `sidewalk up NAME` → (module, function taking argv). The node and the simulator go through their Typer commands.
-UP_TARGETS: dict[str, tuple[str, str]] = {
-    "captain": ("codger.captain.__main__", "main"),
-    "map_navigator": ("codger.map_navigator.__main__", "main"),
-    "pilot": ("codger.pilot.__main__", "main"),
-    "helm": ("codger.helm.__main__", "main"),
-    "perception": ("codger.perception.__main__", "main"),
-    "obstacles": ("codger.obstacles.__main__", "main"),
+#: `sidewalk up NAME` → the package run as `python -m PACKAGE` (its `__main__.main(argv)`): one table for both
+#: architectures. The node and the simulator go through their Typer commands.
+UP_TARGETS: dict[str, str] = {
+    "captain": "codger.captain",
+    "map_navigator": "codger.map_navigator",
+    "pilot": "codger.pilot",
+    "helm": "codger.helm",
+    "perception": "codger.perception",
+    "obstacles": "codger.obstacles",
     # EDDIE (issue 9): the integrated controller, the navigator, the annotated map manager and EDDIE's modules
-    "controller": ("eddie.controller.__main__", "main"),
-    "navigator": ("eddie.navigator.__main__", "main"),
-    "map_manager": ("eddie.map_manager.__main__", "main"),
-    "mission_service": ("eddie.modules.mission_service", "main"),
-    "road_following": ("eddie.modules.road_following_module", "main"),
-    "landmark_matching": ("eddie.modules.landmark_matching_module", "main"),
-    "obstacle_stop": ("eddie.modules.obstacle_stop_module", "main"),
+    "controller": "eddie.controller",
+    "navigator": "eddie.navigator",
+    "map_manager": "eddie.map_manager",
+    "mission_service": "eddie.mission_service",
+    "road_following": "eddie.road_following",
+    "landmark_matching": "eddie.landmark_matching",
+    "obstacle_stop": "eddie.obstacle_stop",
 }
 
 
@@ -229,14 +230,14 @@ def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, b
     if name not in UP_TARGETS:
         known = ", ".join(["router", "blackboard", "sim", *UP_TARGETS])
         raise typer.BadParameter(f"unknown module {module!r}; known: {known}", param_hint="MODULE")
-    modname, fn = UP_TARGETS[name]
+    modname = f"{UP_TARGETS[name]}.__main__"
     try:
         target = importlib.import_module(modname)
     except ModuleNotFoundError as exc:
         if not modname.startswith(exc.name or "\0"):
             raise
         raise typer.BadParameter(f"module {module!r} is not part of this installation ({modname} is missing)", param_hint="MODULE") from None
-    main: Callable[[list[str]], int] = getattr(target, fn)
+    main: Callable[[list[str]], int] = target.main
     raise typer.Exit(main(argv) or 0)
 
 

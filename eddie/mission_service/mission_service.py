@@ -1,13 +1,13 @@
 """EDDIE's mission service: takes missions on the CAPTAIN's keys, keeps their status, and (without vision) drives the route.
 
-`python -m eddie.modules.mission_service --map FILE --vehicle V --start-pose X,Y,YAW [--perception on|off]`
+`python -m eddie.mission_service --map FILE --vehicle V --start-pose X,Y,YAW [--perception on|off]`
 
 EDDIE (seed: Navlab 1990 ch. 3) has no CAPTAIN on a blackboard: a mission is compiled into trigger
 annotations on the annotated map, and the modules the triggers wake drive it. This small module is
 what `sidewalk submit` talks to: it answers the CAPTAIN's mission submit / status / cancel keys with
 the CAPTAIN's wire forms and publishes every status change on the mission events stream, so tools
 work unchanged for both architectures. Each step's outcome is judged from the believed pose (see
-`eddie.modules.mission_progress`). With `--perception off` it drives: it sends the whole route,
+`eddie.mission_service.mission_progress`). With `--perception off` it drives: it sends the whole route,
 moved into `local` by the navigator's `world` ← `local`, to the controller as one path (the seed's
 dead reckoning along a known route), with each step's speed limit; with perception on, vision road
 following drives: this module wakes it when a mission starts and puts it to sleep when the mission
@@ -16,11 +16,8 @@ ends, stopping the vehicle unless the mission succeeded (a failed or cancelled m
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import logging
-import math
-import sys
 from collections import deque
 
 import numpy as np
@@ -28,26 +25,22 @@ import numpy as np
 from eddie.messages.controller import PathCommand, Stop
 from eddie.missions.lane import KERB_MARGIN_M
 from eddie.messages.modules import MissionRoute, ModuleSwitch
-from eddie.modules.mission_progress import MissionProgress, MissionRouteError, mission_route, step_goals
-from eddie.modules.args import parse_pose
+from eddie.mission_service.mission_progress import MissionProgress, MissionRouteError, mission_route, step_goals
 from eddie.modules.sensing import Belief
 from eddie.toolkit.module import Incoming
 from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
 from modules.captain.missionfile import MissionFileError, parse_mission
 from modules.captain.wire import new_mission_id
 from modules.captain.wire import Rejection, SubmitAccepted, WireError, parse_cancel, rejection_from
 from modules.pilot import pilot_config_for
-from modules.map_navigator import MapData, load_map
-from runtime.args import setup_logging
+from modules.map_navigator import MapData
 from wire.aio import QueryAnswer, QueryRequest
-from wire.flags import add_network_args, network_from_args
 from wire.keys import MissionKeys
 from wire.se2 import inverse, transform_points
 
-__all__ = ["MissionService", "main", "build_parser"]
+__all__ = ["MissionService"]
 
-log = logging.getLogger("eddie.modules.mission_service")
+log = logging.getLogger("eddie.mission_service.mission_service")
 
 #: the client name and priority the mission service drives the controller with (vision road following: higher)
 CLIENT, PRIORITY = "mission_service", 1
@@ -221,44 +214,3 @@ class MissionService:
             # a path vision sent before the switch reached it may reach the controller after the stop
             await self.m.clock.sleep(self.tick_s)
             await self.m.send("controller", stop)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Return the mission service's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m eddie.modules.mission_service", description=__doc__.splitlines()[0])
-    p.add_argument("--map", required=True, help="the robot's map file (routes are planned on it)")
-    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
-    p.add_argument("--start-pose", required=True, help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
-    p.add_argument("--perception", choices=["on", "off"], default="on", help="off: drive the route by dead reckoning")
-    p.add_argument("--speed", type=float, default=None,
-                   help="route speed without a step's limit [m/s] (default: the vehicle's top speed, as the PILOT's)")
-    p.add_argument("--annotated-map", default=None, help="the run's annotated map (for the record; the map manager loads it)")
-    add_network_args(p)
-    return p
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Parse flags and run the mission service until SIGINT/SIGTERM; return the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
-    x, y, yaw = parse_pose(parser, args.start_pose)
-    if args.speed is None:
-        args.speed = pilot_config_for(args.vehicle).max_speed
-    if not (args.speed > 0 and math.isfinite(args.speed)):
-        parser.error("--speed: must be > 0 [m/s]")
-    try:
-        map_data = load_map(args.map)
-    except (FileNotFoundError, ValueError) as exc:
-        parser.error(f"--map: {exc}")
-
-    async def body(m: Module) -> None:
-        await MissionService(m, map_data, vehicle=args.vehicle, perception=args.perception == "on",
-                             world_from_local=(x, y, yaw), speed_mps=args.speed).run()
-
-    return run_module("mission_service", body, net)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,6 +1,6 @@
 """Obstacle stop as an EDDIE process: stops the controller when something stands on its path.
 
-`python -m eddie.modules.obstacle_stop_module --vehicle V [--asleep]`
+`python -m eddie.obstacle_stop --vehicle V [--asleep]`
 
 Seed: Navlab 1990 §2.5 — fast obstacle detection, started and stopped by triggers ("stop / start
 fast obstacle detection"). Awake, each cycle reads a range image (the simulator's capture service,
@@ -14,34 +14,27 @@ it (action `stop`) or waits and lets it go (`wait`). Each verdict goes out on it
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import math
 import logging
-import sys
 
 import numpy as np
 
 from eddie.messages.controller import ControllerPath, Release, SpeedLimit, Stop
 from eddie.messages.map_manager import StopAtObject
 from eddie.messages.modules import ObjectStopped, ObstacleSeen
-from eddie.modules.args import parse_pose
-from eddie.modules.obstacle_stop import ObstacleStopConfig, obstacle_ahead
+from eddie.obstacle_stop.obstacle_stop import ObstacleStopConfig, obstacle_ahead
 from eddie.modules.sensing import Belief, CaptureError, capture_scan
-from eddie.modules.stop_at_object import ObjectCorrection, sight_object
+from eddie.obstacle_stop.stop_at_object import ObjectCorrection, sight_object
 from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
-from modules.helm.tracker import tracker_config_for
 from modules.perception.obstacles import detect_obstacles
 from modules.pilot import pilot_config_for
-from runtime.args import setup_logging
-from wire.flags import add_network_args, network_from_args
 
-__all__ = ["ObstacleStop", "corridor_half_width", "stop_now", "main", "build_parser"]
+__all__ = ["ObstacleStop", "corridor_half_width", "stop_now"]
 
-log = logging.getLogger("eddie.modules.obstacle_stop")
+log = logging.getLogger("eddie.obstacle_stop.obstacle_stop")
 
 #: the controller client name and priority of obstacle stop (above every driving module)
 CLIENT, PRIORITY = "obstacle_stop", 10
@@ -121,7 +114,7 @@ class ObstacleStop:
         inside that reach once the distance grows again (it passed its nearest approach); a path that
         ends at the point stops the vehicle there first. When the map has the object itself, the laser looks for it on
         the way in and the believed position is corrected by where the object is seen
-        (`eddie.modules.stop_at_object`).
+        (`eddie.obstacle_stop.stop_at_object`).
         """
         reach = max(target.tolerance - STOP_AT_MARGIN_M, STOP_AT_NEAR_M)
         best = math.inf
@@ -216,43 +209,3 @@ def corridor_half_width(vehicle: str) -> float:
     stop EDDIE for good (the OBSTACLE DETECTOR's 1.5 m took in benches 1.5 m from a walk's centre).
     """
     return pilot_config_for(vehicle).navigator.obstacle_clearance
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Return the module's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m eddie.modules.obstacle_stop_module", description=__doc__.splitlines()[0])
-    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
-    p.add_argument("--map", default=None, help="(accepted for a uniform command line; not used)")
-    p.add_argument("--start-pose", default="0,0,0", help="X,Y,YAW: world←local until the navigator says [m, m, rad] (for stop at object)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--stop-distance", type=float, default=ObstacleStopConfig().stop_distance_m, help="stop for an obstacle this near along the path [m]")
-    p.add_argument("--half-width", type=float, default=None,
-                   help="half the corridor swept along the path [m] (default: the PILOT's obstacle clearance for the vehicle)")
-    p.add_argument("--asleep", action="store_true", help="start asleep (a trigger wakes it)")
-    add_network_args(p)
-    return p
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Parse flags and run obstacle stop until SIGINT/SIGTERM; return the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
-    if not args.stop_distance > 0:
-        parser.error("--stop-distance: must be > 0 [m]")
-    half = corridor_half_width(args.vehicle) if args.half_width is None else args.half_width
-    if not half > 0:
-        parser.error("--half-width: must be > 0 [m]")
-    cfg = ObstacleStopConfig(stop_distance_m=args.stop_distance, half_width_m=half, front_m=BODY_FRONT_M[args.vehicle],
-                             decel_mps2=tracker_config_for(args.vehicle).max_decel)
-    start = parse_pose(parser, args.start_pose)
-
-    async def body(m: Module) -> None:
-        await ObstacleStop(m, awake=not args.asleep, cfg=cfg, start=start).run()
-
-    return run_module("obstacle_stop", body, net)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

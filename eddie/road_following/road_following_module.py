@@ -1,6 +1,6 @@
 """Vision road following as an EDDIE process: sees the road, plans in `local`, sends paths to the controller.
 
-`python -m eddie.modules.road_following_module --vehicle V --map FILE --start-pose X,Y,YAW [--seed N]
+`python -m eddie.road_following --vehicle V --map FILE --start-pose X,Y,YAW [--seed N]
 [--road-method perception|scarf|yarf|alvinn] [--alvinn-weights FILE]`
 
 It sleeps until a trigger wakes it (`ModuleSwitch(on=True)` in its inbox: "resume vision after
@@ -22,41 +22,35 @@ dead-reckons through an intersection makes the follower start afresh on the next
 
 from __future__ import annotations
 
-import argparse
 import asyncio
 import logging
 import math
-import sys
 
 import numpy as np
 
 from eddie.messages.controller import DeadReckon, PathCommand
 from eddie.messages.modules import MissionRoute, RouteQuery
 from eddie.errors import EddieError
-from eddie.modules.args import parse_pose
 from eddie.modules.errors import NoRoadPath
-from eddie.modules.landmark_matching import calibration_fix, fix_message
+from eddie.landmark_matching.landmark_matching import calibration_fix, fix_message
 from eddie.missions.lane import KERB_MARGIN_M, kept_lane_offset, lane_offset, shift_into_lane
-from eddie.modules.road_following import (RoadFollowingConfig, follower_path, map_road_at, plan_road_path, road_line_fix, route_ahead,
+from eddie.road_following.road_following import (RoadFollowingConfig, follower_path, map_road_at, plan_road_path, road_line_fix, route_ahead,
                                           route_lane_offset, route_to_local)
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
 from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.message import Message, message_name
 from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
-from modules.map_navigator import MapData, load_map
+from modules.map_navigator import MapData
 from modules.road_following import CameraGeometry, RoadFollowingError
-from modules.road_following.road_method import ROAD_METHODS, CameraRoadFollower, load_alvinn_weights
+from modules.road_following.road_method import CameraRoadFollower
 from modules.perception import PerceptionPipeline, ResolutionTable, colored_range_image
 from modules.perception.monitor import SENSORS
 from modules.pilot import LocalPathPlanner, pilot_config_for
-from runtime.args import setup_logging
-from wire.flags import add_network_args, network_from_args
 from wire.se2 import inverse, transform_points
 
-__all__ = ["RoadFollowing", "main", "build_parser"]
+__all__ = ["RoadFollowing"]
 
-log = logging.getLogger("eddie.modules.road_following")
+log = logging.getLogger("eddie.road_following.road_following")
 
 #: the controller client name and priority of vision (above the mission service's dead reckoning)
 CLIENT, PRIORITY = "road_following", 2
@@ -288,49 +282,3 @@ class RoadFollowing:
     async def run(self) -> None:
         """Sleep until woken, then run cycles while awake; the inbox and the triggers switch it."""
         await run_switched(self.m, self.switch, self.cycle, period_s=0.2, on_data=self.on_trigger)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """Return the module's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m eddie.modules.road_following_module", description=__doc__.splitlines()[0])
-    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
-    p.add_argument("--map", required=True, help="the robot's map file (the objects PERCEPTION looks for)")
-    p.add_argument("--start-pose", default="0,0,0", help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--asleep", action="store_true", help="start asleep (a trigger wakes it)")
-    p.add_argument("--road-method", choices=ROAD_METHODS, default="perception",
-                   help="how the road is found: PERCEPTION's colored-range segmentation, or the SCARF, YARF or ALVINN follower")
-    p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
-    p.add_argument("--keep", choices=["centre", "right", "left"], default="centre",
-                   help="drive on the road's centre or keep right / left (a quarter of its width off the centre): the mission step's side")
-    add_network_args(p)
-    return p
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Parse flags and run vision road following until SIGINT/SIGTERM; return the exit code."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
-    start = parse_pose(parser, args.start_pose)
-    try:
-        map_data = load_map(args.map)
-    except (FileNotFoundError, ValueError) as exc:
-        parser.error(f"--map: {exc}")
-    alvinn_net = None
-    if args.road_method == "alvinn":
-        try:
-            alvinn_net = load_alvinn_weights(args.alvinn_weights)
-        except RoadFollowingError as exc:
-            parser.error(f"--alvinn-weights: {exc}")
-
-    async def body(m: Module) -> None:
-        await RoadFollowing(m, map_data, vehicle=args.vehicle, seed=args.seed, start=start, awake=not args.asleep,
-                            method=args.road_method, alvinn_net=alvinn_net, keep=args.keep).run()
-
-    return run_module("road_following", body, net)
-
-
-if __name__ == "__main__":
-    sys.exit(main())

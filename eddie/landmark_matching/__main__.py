@@ -1,0 +1,55 @@
+"""Run landmark matching: `python -m eddie.landmark_matching --vehicle V --map FILE --start-pose X,Y,YAW [--asleep]`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from eddie.landmark_matching.landmark_matching_module import LandmarkMatching
+from eddie.modules.args import parse_pose
+from eddie.toolkit.module import Module
+from eddie.toolkit.process import run_module
+from modules.map_navigator import load_map
+from runtime.args import setup_logging
+from wire.flags import add_network_args, network_from_args
+
+__all__ = ["main", "build_parser"]
+
+_DESCRIPTION = 'Landmark matching as an EDDIE process: position fixes from the landmarks in view, sent to the navigator'
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """Return the module's argument parser (network flags included)."""
+    p = argparse.ArgumentParser(prog="python -m eddie.landmark_matching", description=_DESCRIPTION)
+    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
+    p.add_argument("--map", required=True, help="the robot's map file (the landmarks)")
+    p.add_argument("--start-pose", default="0,0,0", help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--period", type=float, default=2.0, help="one fix attempt per this much sim time [s]")
+    p.add_argument("--asleep", action="store_true", help="start asleep (a trigger wakes it)")
+    add_network_args(p)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Parse flags and run landmark matching until SIGINT/SIGTERM; return the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    setup_logging()
+    net = network_from_args(parser, args)
+    start = parse_pose(parser, args.start_pose)
+    if not args.period > 0:
+        parser.error("--period: must be > 0 [s]")
+    try:
+        map_data = load_map(args.map)
+    except (FileNotFoundError, ValueError) as exc:
+        parser.error(f"--map: {exc}")
+
+    async def body(m: Module) -> None:
+        await LandmarkMatching(m, map_data, vehicle=args.vehicle, start=start, awake=not args.asleep, period_s=args.period).run()
+
+    return run_module("landmark_matching", body, net)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

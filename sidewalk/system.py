@@ -13,7 +13,7 @@ from pydantic import ValidationError
 from blackboard import BlackboardClient, BlackboardError, MonitorStream, NetworkConfig, Spec
 from blackboard.codec import decode
 from blackboard.replies import NodeStats
-from modules.captain.client import CaptainUnavailableError, MissionClient
+from sidewalk.mission_client import MissionClient, MissionServiceUnavailable
 from runtime import ModuleKeys, Link
 from wire.keys import BlackboardKeys, SimKeys
 from wire.lockstep import LockstepRelease, NotReleasedError, decode as decode_lockstep
@@ -109,7 +109,7 @@ class SystemRun:
                 accepted = await MissionClient(link, ModuleKeys(self.ns), timeout=max(left, 0.5)).submit(text)
                 self.submitted[accepted.mission_id] = self.stamps()
                 return accepted.mission_id
-            except CaptainUnavailableError:
+            except MissionServiceUnavailable:
                 if loop.time() + 0.2 >= end:
                     raise
                 await asyncio.sleep(0.2)

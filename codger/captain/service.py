@@ -15,13 +15,13 @@ from typing import Any
 
 from blackboard import AttrPredicate, BlackboardError, Spec, VersionConflictError
 
-from modules.captain.missionfile import MissionFileError, MissionProblem, parse_mission
+from modules.captain.missionfile import MissionFileError, MissionProblem, parse_mission, rejection_from
 from modules.captain.sequencer import MissionRun
-from modules.captain.wire import Rejection, SubmitAccepted, WireError, new_mission_id, parse_cancel, rejection_from
+from wire.mission import MissionRequestError, Rejection, SubmitAccepted, new_mission_id, parse_cancel
 from runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
 from modules.vocabulary import MapPlaces, Mission, MissionStatus, StepResult
 
-__all__ = ["Captain", "CaptainOptions", "new_mission_id"]
+__all__ = ["Captain", "CaptainOptions"]
 
 log = logging.getLogger(__name__)
 
@@ -344,7 +344,7 @@ class Captain:
         try:
             creq = parse_cancel(req.payload)
             st = await self.cancel(creq.mission_id, creq.reason)
-        except WireError as exc:
+        except MissionRequestError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
         except KeyError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {str(exc.args[0])[:80]!r} known to this CAPTAIN").to_bytes())

@@ -29,13 +29,12 @@ from eddie.mission_service.mission_progress import MissionProgress, MissionRoute
 from eddie.modules.sensing import Belief
 from eddie.toolkit.module import Incoming
 from eddie.toolkit.module import Module
-from modules.captain.missionfile import MissionFileError, parse_mission
-from modules.captain.wire import new_mission_id
-from modules.captain.wire import Rejection, SubmitAccepted, WireError, parse_cancel, rejection_from
+from modules.captain.missionfile import MissionFileError, parse_mission, rejection_from
 from modules.pilot import pilot_config_for
 from modules.map_navigator import MapData
 from wire.aio import QueryAnswer, QueryRequest
 from wire.keys import MissionKeys
+from wire.mission import MissionRequestError, Rejection, SubmitAccepted, new_mission_id, parse_cancel
 from wire.se2 import inverse, transform_points
 
 __all__ = ["MissionService"]
@@ -136,7 +135,7 @@ class MissionService:
         """Answer a cancel request: stop the vehicle if the mission runs, and return its status."""
         try:
             creq = parse_cancel(req.payload)
-        except WireError as exc:
+        except MissionRequestError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
         prog = self.missions.get(creq.mission_id)
         if prog is None:

@@ -267,7 +267,7 @@ def submit(
 async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -> int:
     from rich.console import Console
 
-    from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
+    from sidewalk.mission_client import MissionClient, MissionRejected, MissionServiceUnavailable
     from runtime import ModuleKeys, Link
 
     console = Console()
@@ -279,7 +279,7 @@ async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -
         except MissionRejected as exc:
             console.print(f"[red]rejected:[/red] {exc.rejection.message}")
             return 2
-        except CaptainUnavailableError as exc:
+        except MissionServiceUnavailable as exc:
             typer.echo(f"error: {exc}", err=True)
             return 3
         console.print(f"mission accepted: [bold]{acc.mission_id}[/bold]")
@@ -322,7 +322,7 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
     from rich.console import Console
     from rich.table import Table
 
-    from modules.captain.client import MissionClient
+    from sidewalk.mission_client import MissionClient
     from runtime import Link, ModuleKeys
     from sidewalk.health import ModuleHealth, collect_heartbeats
 
@@ -387,7 +387,7 @@ def cancel(
 
 
 async def _cancel(net: NetworkConfig, mission_id: str, timeout: float) -> int:
-    from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
+    from sidewalk.mission_client import MissionClient, MissionRejected, MissionServiceUnavailable
     from runtime import ModuleKeys, Link
 
     link = Link.open(net)
@@ -395,7 +395,7 @@ async def _cancel(net: NetworkConfig, mission_id: str, timeout: float) -> int:
         st = await MissionClient(link, ModuleKeys(net.namespace), timeout=timeout).cancel(mission_id)
         typer.echo(f"{st.mission_id}: {st.state} {st.reason}")
         return 0
-    except (MissionRejected, CaptainUnavailableError) as exc:
+    except (MissionRejected, MissionServiceUnavailable) as exc:
         typer.echo(f"error: {exc}", err=True)
         return 2
     finally:

@@ -18,7 +18,7 @@ from codger.captain import CaptainOptions
 from codger.captain.__main__ import captain_main
 from codger.map_navigator import ServiceOptions
 from codger.map_navigator.__main__ import navigator_main, start_position
-from modules.captain import MissionClient
+from sidewalk.mission_client import MissionClient
 from modules.map_navigator import NavigatorOptions, load_map
 from runtime import ModuleKeys, Link, run_module_async
 from modules.vocabulary import MissionStatus, RouteSegmentDescription, SegmentResult

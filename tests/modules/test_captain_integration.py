@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from blackboard import AttrPredicate, Spec
-from modules.captain import MissionRejected
+from sidewalk.mission_client import MissionRejected
 from tests.modules._harness import system
 
 ROOT = Path(__file__).resolve().parents[2]

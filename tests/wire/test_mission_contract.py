@@ -1,11 +1,11 @@
-"""The CAPTAIN's wire forms: cancel requests, rejections, mission ids."""
+"""The mission contract's forms: cancel requests, rejections, mission ids."""
 
 from __future__ import annotations
 
 import pytest
 
-from modules.captain import MissionFileError, WireError, new_mission_id, parse_mission
-from modules.captain.wire import parse_cancel, rejection_from
+from modules.captain import MissionFileError, parse_mission, rejection_from
+from wire.mission import MissionRequestError, new_mission_id, parse_cancel
 from runtime import check_name
 
 
@@ -13,9 +13,9 @@ def test_cancel_takes_a_bare_id_or_json() -> None:
     assert parse_cancel(b"  tour-abc123\n").mission_id == "tour-abc123"
     req = parse_cancel(b'{"mission_id": "m-1", "reason": "rain"}')
     assert (req.mission_id, req.reason) == ("m-1", "rain")
-    with pytest.raises(WireError, match="needs a mission id"):
+    with pytest.raises(MissionRequestError, match="needs a mission id"):
         parse_cancel(b"   ")
-    with pytest.raises(WireError, match="bad cancel request"):
+    with pytest.raises(MissionRequestError, match="bad cancel request"):
         parse_cancel(b'{"id": "m-1"}')
 
 

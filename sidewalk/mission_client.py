@@ -1,25 +1,30 @@
-"""Talk to a CAPTAIN over Zenoh: submit a mission, read its status, cancel it."""
+"""Talk to a system's mission service over Zenoh (the mission contract, `wire.mission`): submit, status, cancel.
+
+The same client serves both architectures: the CAPTAIN under CODGER and EDDIE's mission service
+answer the same keys with the same forms.
+"""
 
 from __future__ import annotations
 
-from modules.captain.wire import Rejection, SubmitAccepted
-from runtime import ModuleKeys, Link
 from modules.vocabulary import MissionStatus
-from modules.captain.errors import CaptainError
+from sidewalk.errors import SidewalkError
+from wire.aio import Link
+from wire.keys import ModuleKeys
+from wire.mission import Rejection, SubmitAccepted
 
-__all__ = ["MissionClient", "MissionRejected", "CaptainUnavailableError"]
+__all__ = ["MissionClient", "MissionRejected", "MissionServiceUnavailable"]
 
 
-class MissionRejected(CaptainError):
-    """The CAPTAIN refused the request; `rejection` says why (and, for a bad mission, where)."""
+class MissionRejected(SidewalkError):
+    """The mission service refused the request; `rejection` says why (and, for a bad mission, where)."""
 
     def __init__(self, rejection: Rejection) -> None:
         super().__init__(rejection.message)
         self.rejection = rejection
 
 
-class CaptainUnavailableError(CaptainError):
-    """No CAPTAIN answered in time."""
+class MissionServiceUnavailable(SidewalkError):
+    """No mission service (the CAPTAIN or EDDIE's) answered in time."""
 
 
 class MissionClient:
@@ -33,7 +38,7 @@ class MissionClient:
     async def _one(self, selector: str, payload: bytes | None) -> bytes:
         replies = await self.link.get(selector, payload=payload, timeout=self.timeout)
         if not replies:
-            raise CaptainUnavailableError(f"no CAPTAIN answered on {selector} within {self.timeout:.0f} s")
+            raise MissionServiceUnavailable(f"no CAPTAIN (or mission service) answered on {selector} within {self.timeout:.0f} s")
         r = replies[0]
         if not r.ok:
             try:

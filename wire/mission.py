@@ -1,27 +1,33 @@
-"""Wire forms of the CAPTAIN's Zenoh services (JSON, so a person or a standard Zenoh tool can speak them)."""
+"""The mission contract every mission service answers (the CAPTAIN under CODGER, EDDIE's mission service).
+
+Keys (`wire.keys.MissionKeys`): `mission/submit` takes a mission (YAML or JSON text) and answers a
+`SubmitAccepted` or a `Rejection`; `mission/status/<id>` (or `*`) answers the mission's status as JSON;
+`mission/cancel` takes a `CancelRequest` (or a bare mission id) and answers the status or a
+`Rejection`; `mission/events` carries every status as it changes. Statuses are the vocabulary's
+`MissionStatus` (a blackboard token type under CODGER, the same JSON under EDDIE). Everything here is
+JSON, so a person or a standard Zenoh tool can speak it.
+"""
 
 from __future__ import annotations
 
-import secrets
-
-import re
-
 import json
+import re
+import secrets
 
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from modules.captain.missionfile import MissionFileError
-from modules.captain.errors import CaptainError
+from wire.errors import PayloadError
 
-__all__ = ["new_mission_id", "SubmitAccepted", "Rejection", "ProblemWire", "CancelRequest", "rejection_from", "parse_cancel", "WireError", "MAX_CANCEL_BYTES"]
+__all__ = ["new_mission_id", "SubmitAccepted", "Rejection", "ProblemWire", "CancelRequest", "parse_cancel",
+           "MissionRequestError", "MAX_CANCEL_BYTES"]
 
 
 class _Frozen(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
 
-class WireError(CaptainError, ValueError):
-    """A request payload that cannot be understood."""
+class MissionRequestError(PayloadError, ValueError):
+    """A mission request payload (a cancel) that cannot be understood."""
 
 
 class SubmitAccepted(_Frozen):
@@ -54,14 +60,6 @@ class Rejection(_Frozen):
         return self.model_dump_json().encode()
 
 
-def rejection_from(exc: MissionFileError) -> Rejection:
-    """Return the rejection for an invalid mission."""
-    return Rejection(
-        error="invalid_mission", message=str(exc),
-        problems=tuple(ProblemWire(line=p.line, column=p.column, field=p.field, message=p.message) for p in exc.problems),
-    )
-
-
 class CancelRequest(_Frozen):
     """A cancel request: the mission id and an optional reason."""
 
@@ -76,15 +74,15 @@ MAX_CANCEL_BYTES = 4096
 def parse_cancel(payload: bytes) -> CancelRequest:
     """Return the cancel request in a payload: a bare mission id, or JSON {"mission_id": ..., "reason": ...}."""
     if len(payload) > MAX_CANCEL_BYTES:
-        raise WireError(f"a cancel request of {len(payload)} bytes is too large (the limit is {MAX_CANCEL_BYTES} bytes)")
+        raise MissionRequestError(f"a cancel request of {len(payload)} bytes is too large (the limit is {MAX_CANCEL_BYTES} bytes)")
     text = payload.decode("utf-8", errors="replace").strip()
     if not text:
-        raise WireError("cancel needs a mission id (text) or JSON {\"mission_id\": ...}")
+        raise MissionRequestError("cancel needs a mission id (text) or JSON {\"mission_id\": ...}")
     if text.startswith("{"):
         try:
             return CancelRequest.model_validate(json.loads(text))
         except (ValueError, ValidationError) as exc:
-            raise WireError(f"bad cancel request: {str(exc)[:300]}") from None
+            raise MissionRequestError(f"bad cancel request: {str(exc)[:300]}") from None
     return CancelRequest(mission_id=text)
 
 

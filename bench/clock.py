@@ -85,7 +85,7 @@ def _codger(net: NetworkConfig, seconds: float) -> float:
         out.append((time.process_time() - c0) / (time.monotonic() - t0))
 
     with open(os.devnull, "w") as devnull:
-        run_module("bench-clock", body, net, use_blackboard=False, install_signals=False, stdout=devnull)
+        run_module("bench-clock", body, net, install_signals=False, stdout=devnull)
     return out[0]
 
 

@@ -13,7 +13,7 @@ from runtime.heartbeat import (
     ClockPayloadError, HeartbeatError, HeartbeatTracker, decode_clock, decode_heartbeat, encode_heartbeat,
 )
 from runtime.watch import HeartbeatWatch, ModuleWatch
-from runtime.lifecycle import READY_PREFIX, ModuleMain, ModuleRuntime, run_module, run_module_async
+from runtime.lifecycle import READY_PREFIX, ModuleMain, ModuleRuntime, RuntimePart, run_module, run_module_async
 
 __all__ = [
     "GetReply", "QueryAnswer", "QueryRequest", "Link",
@@ -22,5 +22,5 @@ __all__ = [
     "ClockPayloadError", "HeartbeatError", "HeartbeatTracker", "decode_clock", "decode_heartbeat", "encode_heartbeat",
     "ModuleKeys", "check_name",
     "ModuleWatch", "HeartbeatWatch",
-    "READY_PREFIX", "ModuleMain", "ModuleRuntime", "run_module", "run_module_async",
+    "READY_PREFIX", "ModuleMain", "ModuleRuntime", "RuntimePart", "run_module", "run_module_async",
 ]

@@ -7,23 +7,15 @@ import time
 from dataclasses import dataclass, field
 
 import msgpack
-from pydantic import ValidationError
 
-from modules.vocabulary import Heartbeat
-from wire.health import HeartbeatError, encode_heartbeat
-from wire.health import decode_heartbeat as _decode_wire_heartbeat
 from runtime.errors import ModuleRuntimeError
+from wire.health import Heartbeat, HeartbeatError, decode_heartbeat, encode_heartbeat
 
 __all__ = ["encode_heartbeat", "decode_heartbeat", "HeartbeatError", "HeartbeatTracker", "decode_clock", "ClockPayloadError"]
 
 
 class ClockPayloadError(ModuleRuntimeError, ValueError):
     """A sim clock payload that does not decode to a sim time."""
-
-
-def decode_heartbeat(payload: bytes) -> Heartbeat:
-    """Return the module heartbeat in a msgpack (or JSON) payload; raise HeartbeatError saying what is wrong."""
-    return Heartbeat.model_validate(_decode_wire_heartbeat(payload).model_dump())
 
 
 _CLOCK_FIELDS = ("stamp", "t", "sim_time", "time", "now")

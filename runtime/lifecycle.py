@@ -1,4 +1,19 @@
-"""Module lifecycle: session, blackboard client, sim clock, liveliness, heartbeat, clean shutdown."""
+"""The one module runtime of both architectures: session, sim clock, liveliness, heartbeat, lock-step, clean shutdown.
+
+Every process of a Sidewalk system (CODGER's services, EDDIE's modules, the recorder) runs as
+`run_module(name, main, net, parts=…)`: the runtime opens the process's one Zenoh session, follows the
+simulator's clock, declares the liveliness token and beats every `heartbeat_period` wall seconds
+once `ready()` is said (and before), takes part in the lock-step barrier when the run is in
+lock-step (`wire.lockstep`), waits until the session reaches the network, starts its optional
+*parts*, runs `main(rt)` until it returns or SIGINT/SIGTERM, and closes everything explicitly on the
+way out (an unclosed Zenoh session hangs interpreter exit).
+
+A part (`RuntimePart`) is what one architecture plugs in: CODGER's blackboard client
+(`codger.blackboard_part`: connected before `main`, its link state in every heartbeat, a lock-step
+probe for its unacknowledged writes), EDDIE's point-to-point endpoint (`eddie.toolkit.module`: the
+inbox and streams released at each lock-step tick through `on_tick`). The runtime itself knows
+neither.
+"""
 
 from __future__ import annotations
 
@@ -9,21 +24,20 @@ import signal
 import socket
 import sys
 import time
-from typing import Any, Awaitable, Callable, TextIO
+from typing import Any, Awaitable, Callable, Protocol, Sequence, TextIO
 
-from wire.network import NetworkConfig
-from wire.aio import Link
-from wire.health import process_usage
-from wire.lockstep import Participant, lockstep_enabled, participant_name
-from wire.session import session_stats, traffic
 from runtime.clock import SimClock
-from runtime.heartbeat import ClockPayloadError, decode_clock, encode_heartbeat
+from runtime.heartbeat import ClockPayloadError, decode_clock
+from wire.aio import Link
+from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import ModuleKeys
+from wire.lockstep import Participant, lockstep_enabled, participant_name
+from wire.network import NetworkConfig
 from wire.network import check_chunk as check_name
-from modules.vocabulary import Heartbeat
 from wire.ratelimit import warn_limited
+from wire.session import session_stats, traffic
 
-__all__ = ["ModuleRuntime", "ModuleMain", "run_module", "run_module_async", "READY_PREFIX"]
+__all__ = ["ModuleRuntime", "ModuleMain", "RuntimePart", "run_module", "run_module_async", "READY_PREFIX"]
 
 log = logging.getLogger(__name__)
 
@@ -34,10 +48,25 @@ READY_PREFIX = "SIDEWALK-READY"
 ModuleMain = Callable[["ModuleRuntime"], Awaitable[None]]
 
 
-class ModuleRuntime:
-    """What a running module gets: its name, network, keys, Zenoh link, blackboard client and sim clock.
+class RuntimePart(Protocol):
+    """An optional part of the runtime an architecture plugs in (the blackboard client, EDDIE's endpoint)."""
 
-    `bb` is None when the module runs without a blackboard (`use_blackboard=False`).
+    async def start(self, rt: "ModuleRuntime") -> None:
+        """Start once the session reaches the network, before the module's main runs."""
+
+    def health(self) -> dict[str, Any]:
+        """Return the fields this part adds to every heartbeat (empty: none)."""
+
+    async def close(self) -> None:
+        """Close on the way out, before the session closes."""
+
+
+class ModuleRuntime:
+    """What a running module gets: its name, network, keys, Zenoh link, sim clock, and the parts plugged in.
+
+    `bb` is the blackboard client when CODGER's blackboard part is plugged in (None otherwise).
+    `start()` follows the clock and starts the heartbeat (and, in lock-step, the barrier participant);
+    `close()` says `stopping` and closes the parts (the caller closes the link it opened).
     """
 
     def __init__(self, name: str, net: NetworkConfig, link: Link, *, heartbeat_period: float = 1.0,
@@ -50,12 +79,51 @@ class ModuleRuntime:
         self.bb: Any = None
         self.heartbeat_period = heartbeat_period
         self.stop_event = asyncio.Event()
+        self.parts: list[RuntimePart] = []
         self._ready = False
         self._seq = 0
         self._stdout = stdout if stdout is not None else sys.stdout
         self._host = socket.gethostname()
+        self._ticks: list[Callable[[], None]] = []
+        self._participant: Participant | None = None
+        self._hb_task: asyncio.Task[None] | None = None
 
     # ---- lifecycle -----------------------------------------------------------------------
+
+    def start(self) -> None:
+        """Follow the sim clock, beat once now and every `heartbeat_period` [s wall], and join the lock-step barrier."""
+        if lockstep_enabled():  # lock-step: every tick is handled on the loop, where the barrier sees it
+            self._participant = Participant(self.link.session, participant_name(self.name))
+            self.link.subscribe(self.keys.sim_clock, self._on_clock)
+        else:
+            self.link.subscribe_feed(self.keys.sim_clock, self._feed_clock)
+        self._beat()
+        self._hb_task = asyncio.get_running_loop().create_task(self._heartbeat_loop())
+
+    async def plug(self, part: RuntimePart) -> None:
+        """Start `part` now and keep it: its health in every heartbeat, closed on the way out."""
+        await part.start(self)
+        self.parts.append(part)
+
+    async def close(self) -> None:
+        """Stop beating, say `stopping`, close the parts (newest first) and leave the barrier (idempotent)."""
+        if self._hb_task is not None:
+            self._hb_task.cancel()
+            self._hb_task = None
+        try:
+            if not self.link.closed:
+                self._beat("stopping")
+        except Exception:  # noqa: BLE001 - closing anyway
+            pass
+        while self.parts:
+            part = self.parts.pop()
+            try:
+                await part.close()
+            except Exception as exc:  # noqa: BLE001 - closing anyway
+                log.warning("%s: closing %s failed: %s", self.name, type(part).__name__, exc)
+        if self._participant is not None:
+            self._participant.close()
+            self._participant = None
 
     @property
     def is_ready(self) -> bool:
@@ -81,78 +149,74 @@ class ModuleRuntime:
         """Return whether a stop has been requested."""
         return self.stop_event.is_set()
 
+    def now(self) -> float | None:
+        """Return the sim time [s], or None before the simulator's first clock tick."""
+        return self.clock.now() if self.clock.running else None
+
+    # ---- lock-step -----------------------------------------------------------------------
+
+    def on_tick(self, release: Callable[[], None]) -> None:
+        """Call `release()` on the loop after each lock-step clock tick (what arrived before it is handed over then)."""
+        self._ticks.append(release)
+
+    def add_probe(self, busy: Callable[[], int]) -> None:
+        """Have the lock-step barrier also wait while `busy()` is non-zero (writes not yet acknowledged); no-op in real time."""
+        if self._participant is not None:
+            self._participant.add_probe(busy)
+
     # ---- internals -----------------------------------------------------------------------
 
     def _on_clock(self, _key: str, payload: bytes) -> None:
         try:
             self.clock.advance(decode_clock(payload))
         except ClockPayloadError as exc:
-            warn_limited(log, "clock-sample", "bad sim clock sample: %.200s", exc)
+            warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
+            return
+        for release in self._ticks:
+            release()
 
     def _feed_clock(self, _key: str, payload: bytes, loop: asyncio.AbstractEventLoop) -> None:
         """Real time: take a clock tick on the Zenoh thread (`SimClock.feed`)."""
         try:
             self.clock.feed(decode_clock(payload), loop)
         except ClockPayloadError as exc:
-            warn_limited(log, "clock-sample", "bad sim clock sample: %.200s", exc)
+            warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
 
     def _beat(self, state: str | None = None) -> None:
+        health: dict[str, Any] = {}
+        for part in self.parts:
+            health.update(part.health())
         hb = Heartbeat(
-            module=self.name, seq=self._seq, sim_time=self.clock.now() if self.clock.running else None,
-            wall_time=time.time(), period_s=self.heartbeat_period, pid=os.getpid(), host=self._host,
-            state=state or ("ready" if self._ready else "starting"), zenoh_sessions=session_stats()["open"],
-            usage=process_usage(traffic()),
-            **self._blackboard_health(),
+            module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(), period_s=self.heartbeat_period,
+            pid=os.getpid(), host=self._host, state=state or ("ready" if self._ready else "starting"),
+            zenoh_sessions=session_stats()["open"], usage=process_usage(traffic()), **health,
         )
         self._seq += 1
         self.link.put(self.keys.heartbeat(self.name), encode_heartbeat(hb))
 
-    def _blackboard_health(self) -> dict[str, Any]:
-        bb = self.bb
-        if bb is None or not hasattr(bb, "link_state"):
-            return {}
-        return {"blackboard": bb.link_state, "monitors": bb.monitor_count, "resyncs": bb.resyncs}
-
     async def _heartbeat_loop(self) -> None:
-        while True:
-            self._beat()
+        while not self.link.closed:
             await asyncio.sleep(self.heartbeat_period)  # wall time: a heartbeat tells a wedged process apart
+            self._beat()
 
 
-async def _connect_blackboard(rt: ModuleRuntime, connect_timeout: float) -> Any:
-    from blackboard import BlackboardClient  # the client lives in the blackboard package
+async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, parts: Sequence[RuntimePart] = (),
+                           heartbeat_period: float = 1.0, install_signals: bool = True, stdout: TextIO | None = None) -> int:
+    """Run `main(runtime)` as module `name` until it returns or SIGINT/SIGTERM; return the exit code (1: it failed).
 
-    try:
-        return await BlackboardClient.connect(rt.net, source=rt.name, connect_timeout=connect_timeout)
-    except Exception as exc:
-        raise RuntimeError(f"{rt.name}: cannot reach the blackboard node: {exc}") from exc
-
-
-async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, use_blackboard: bool = True,
-                           heartbeat_period: float = 1.0, connect_timeout: float = 30.0,
-                           install_signals: bool = True, stdout: TextIO | None = None) -> int:
-    """Run `main(runtime)` as module `name` until it returns or SIGINT/SIGTERM; return the exit code.
-
-    Opens the Zenoh session, subscribes to the sim clock, publishes heartbeats every
-    `heartbeat_period` wall seconds [s], connects the blackboard client (waiting up to
-    `connect_timeout` [s] for the node), and closes everything explicitly on the way out.
-    In lock-step (`wire.lockstep`), the module takes part in the simulator's barrier.
+    Opens the Zenoh session, follows the sim clock, beats every `heartbeat_period` wall seconds [s],
+    waits (saying so) until the session reaches the network, starts `parts` in order, runs `main`,
+    and closes everything explicitly on the way out.
     """
     loop = asyncio.get_running_loop()
     link = Link.open(net)
     rt = ModuleRuntime(name, net, link, heartbeat_period=heartbeat_period, stdout=stdout)
-    participant = Participant(link.session, participant_name(name)) if lockstep_enabled() else None
-    hb_task: asyncio.Task[None] | None = None
     main_task: asyncio.Task[None] | None = None
     stop_task: asyncio.Task[bool] | None = None
     installed: list[int] = []
     code = 0
     try:
-        if participant is not None:  # lock-step: every tick is handled on the loop, where the barrier sees it
-            link.subscribe(rt.keys.sim_clock, rt._on_clock)
-        else:
-            link.subscribe_feed(rt.keys.sim_clock, rt._feed_clock)
-        hb_task = loop.create_task(rt._heartbeat_loop())
+        rt.start()
         if install_signals:
             for sig in (signal.SIGINT, signal.SIGTERM):
                 try:
@@ -162,12 +226,10 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
                     pass
 
         async def body() -> None:
-            # never say ready (or wait for the node) while connected to nothing: say so and keep trying
+            # never say ready (or start a part) while connected to nothing: say so and keep trying
             await asyncio.to_thread(link.session.wait_connected, None, name=name, cancelled=rt.stop_event.is_set)
-            if use_blackboard:
-                rt.bb = await _connect_blackboard(rt, connect_timeout)
-                if participant is not None:
-                    participant.add_probe(lambda: rt.bb.awaiting_acks)
+            for part in parts:
+                await rt.plug(part)
             await main(rt)
 
         main_task = loop.create_task(body())
@@ -175,8 +237,11 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
         done, _ = await asyncio.wait({main_task, stop_task}, return_when=asyncio.FIRST_COMPLETED)
         stop_task.cancel()
         if main_task in done:
-            exc = main_task.exception()
-            if exc is not None:
+            exc = None if main_task.cancelled() else main_task.exception()
+            if main_task.cancelled():
+                print(f"{name}: error: its main was cancelled", file=sys.stderr, flush=True)
+                code = 1
+            elif exc is not None:
                 log.error("%s failed: %s", name, exc, exc_info=exc)
                 print(f"{name}: error: {exc}", file=sys.stderr, flush=True)
                 code = 1
@@ -200,20 +265,7 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, u
                 await asyncio.wait({main_task}, timeout=5.0)
             except asyncio.CancelledError:
                 pass
-        if hb_task is not None:
-            hb_task.cancel()
-        try:
-            if link is not None and not link.closed:
-                rt._beat("stopping")
-        except Exception:
-            pass
-        if rt.bb is not None:
-            try:
-                await rt.bb.close()
-            except Exception as exc:
-                log.warning("%s: closing the blackboard client failed: %s", name, exc)
-        if participant is not None:
-            participant.close()
+        await rt.close()
         link.close()
     return code
 

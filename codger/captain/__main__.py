@@ -9,6 +9,7 @@ from pathlib import Path
 from modules.captain.missionfile import MissionFileError, load_mission
 from codger.captain.service import Captain, CaptainOptions
 from runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
+from codger.blackboard_part import BlackboardPart
 from modules.vocabulary import Mission
 
 __all__ = ["main", "build_parser", "captain_main"]
@@ -59,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     options = CaptainOptions(navigator=args.navigator, navigator_grace_s=args.navigator_grace, step_timeout_s=args.step_timeout,
                              ack_timeout_s=args.ack_timeout or None)
-    return run_module(args.name, captain_main(missions, options), net, heartbeat_period=args.heartbeat)
+    return run_module(args.name, captain_main(missions, options), net, parts=(BlackboardPart(),), heartbeat_period=args.heartbeat)
 
 
 if __name__ == "__main__":

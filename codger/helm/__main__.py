@@ -7,6 +7,7 @@ import sys
 
 from codger.helm.helm import DriveKeys, Helm, helm_config_for
 from runtime import add_network_args, network_from_args, run_module, setup_logging
+from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser"]
 
@@ -39,7 +40,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(rt) -> None:
         await Helm(rt, cfg).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, body, net, parts=(BlackboardPart(),))
 
 
 if __name__ == "__main__":

@@ -10,6 +10,7 @@ from modules.map_navigator.mapdata import MapData, WorldFileError, load_map
 from codger.map_navigator.service import MapNavigator, ServiceOptions
 from modules.map_navigator.stepjob import NavigatorOptions
 from runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
+from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser", "navigator_main", "start_position"]
 
@@ -79,7 +80,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--max-replans must be ≥ 0")
     options = replace(NavigatorOptions(), vehicle=args.vehicle, max_replans=args.max_replans)
     service = ServiceOptions(pilot=args.pilot, pilot_grace_s=args.pilot_grace, post_map=not args.no_post_map)
-    return run_module(args.name, navigator_main(m, start, options, service), net, heartbeat_period=args.heartbeat)
+    return run_module(args.name, navigator_main(m, start, options, service), net, parts=(BlackboardPart(),), heartbeat_period=args.heartbeat)
 
 
 if __name__ == "__main__":

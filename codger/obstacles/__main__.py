@@ -9,6 +9,7 @@ from pydantic import ValidationError
 
 from codger.obstacles.detector import ObstacleDetector, ObstacleDetectorConfig
 from runtime import add_network_args, network_from_args, run_module, setup_logging
+from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser"]
 
@@ -49,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(rt) -> None:
         await ObstacleDetector(rt, cfg, landmarks).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, body, net, parts=(BlackboardPart(),))
 
 
 if __name__ == "__main__":

@@ -11,6 +11,7 @@ from codger.perception.module import PerceptionConfig, PerceptionModule
 from modules.perception.road_method import RoadMethodPerception
 from modules.road_following import ROAD_METHODS, CameraRoadFollower, RoadFollowingError, load_alvinn_weights
 from runtime import add_network_args, network_from_args, run_module, setup_logging
+from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser"]
 
@@ -50,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(rt) -> None:
         await PerceptionModule(rt, cfg, road=road).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, body, net, parts=(BlackboardPart(),))
 
 
 if __name__ == "__main__":

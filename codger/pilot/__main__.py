@@ -8,6 +8,7 @@ import sys
 from modules.pilot.config import pilot_config_for
 from codger.pilot.pilot import Pilot
 from runtime import add_network_args, network_from_args, run_module, setup_logging
+from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser"]
 
@@ -50,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(rt) -> None:
         await Pilot(rt, cfg).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, body, net, parts=(BlackboardPart(),))
 
 
 if __name__ == "__main__":

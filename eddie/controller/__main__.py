@@ -8,12 +8,12 @@ import sys
 
 from modules.helm.tracker import tracker_config_for
 from runtime.args import setup_logging
+from runtime import run_module
 from wire.flags import add_network_args, network_from_args
 
 from eddie.controller.controller_module import ControllerModule
 from eddie.controller.integrated_controller import ARC_OVERSHOOT_RAD, ControllerConfig
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 
 __all__ = ["main", "build_parser"]
 
@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(m: Module) -> None:
         await ControllerModule(m, cfg).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -7,10 +7,10 @@ import sys
 
 from eddie.landmark_matching.landmark_matching_module import LandmarkMatching
 from eddie.modules.args import parse_pose
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 from modules.map_navigator import load_map
 from runtime.args import setup_logging
+from runtime import run_module
 from wire.flags import add_network_args, network_from_args
 
 __all__ = ["main", "build_parser"]
@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(m: Module) -> None:
         await LandmarkMatching(m, map_data, vehicle=args.vehicle, start=start, awake=not args.asleep, period_s=args.period).run()
 
-    return run_module("landmark_matching", body, net)
+    return run_module("landmark_matching", endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -7,14 +7,14 @@ import sys
 from pathlib import Path
 
 from runtime.args import setup_logging
+from runtime import run_module
 from wire.flags import add_network_args, network_from_args
 
 from eddie.annotated_map import AnnotatedMapError, AnnotationDatabase, load_annotations
 from eddie.map_manager.map_manager import MapManager
 from eddie.map_manager.map_manager_module import MapManagerModule
 from eddie.map_manager.state_file import StateFileError, load_state
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 
 __all__ = ["main", "build_parser"]
 
@@ -54,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         await MapManagerModule(m, mgr, controller=args.controller, navigator=args.navigator, state_path=args.state,
                                map_name=map_name, resume=resume).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -8,11 +8,11 @@ import sys
 
 from eddie.mission_service.mission_service import MissionService
 from eddie.modules.args import parse_pose
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 from modules.map_navigator import load_map
 from modules.pilot import pilot_config_for
 from runtime.args import setup_logging
+from runtime import run_module
 from wire.flags import add_network_args, network_from_args
 
 __all__ = ["main", "build_parser"]
@@ -54,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         await MissionService(m, map_data, vehicle=args.vehicle, perception=args.perception == "on",
                              world_from_local=(x, y, yaw), speed_mps=args.speed).run()
 
-    return run_module("mission_service", body, net)
+    return run_module("mission_service", endpoint(body), net)
 
 
 if __name__ == "__main__":

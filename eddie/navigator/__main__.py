@@ -7,12 +7,12 @@ import math
 import sys
 
 from runtime.args import setup_logging
+from runtime import run_module
 from wire.flags import add_network_args, network_from_args
 
 from eddie.navigator.navigator import Navigator
 from eddie.navigator.navigator_module import DELIVERY_MODES, NavigatorModule
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 
 __all__ = ["main", "build_parser", "parse_pose"]
 
@@ -68,7 +68,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(m: Module) -> None:
         await NavigatorModule(m, nav, deliver=frozenset(modes), controller=args.controller).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -8,10 +8,10 @@ import sys
 from eddie.modules.args import parse_pose
 from eddie.obstacle_stop.obstacle_stop import ObstacleStopConfig
 from eddie.obstacle_stop.obstacle_stop_module import BODY_FRONT_M, ObstacleStop, corridor_half_width
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 from modules.helm.tracker import tracker_config_for
 from runtime.args import setup_logging
+from runtime import run_module
 from wire.flags import add_network_args, network_from_args
 
 __all__ = ["main", "build_parser"]
@@ -52,7 +52,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(m: Module) -> None:
         await ObstacleStop(m, awake=not args.asleep, cfg=cfg, start=start).run()
 
-    return run_module("obstacle_stop", body, net)
+    return run_module("obstacle_stop", endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -8,12 +8,12 @@ import sys
 
 from eddie.modules.args import parse_pose
 from eddie.road_following.road_following_module import RoadFollowing
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 from modules.map_navigator import load_map
 from modules.road_following import RoadFollowingError
 from modules.road_following.road_method import ROAD_METHODS, load_alvinn_weights
 from runtime.args import setup_logging
+from runtime import run_module
 from wire.flags import add_network_args, network_from_args
 
 __all__ = ["main", "build_parser"]
@@ -60,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
         await RoadFollowing(m, map_data, vehicle=args.vehicle, seed=args.seed, start=start, awake=not args.asleep,
                             method=args.road_method, alvinn_net=alvinn_net, keep=args.keep).run()
 
-    return run_module("road_following", body, net)
+    return run_module("road_following", endpoint(body), net)
 
 
 if __name__ == "__main__":

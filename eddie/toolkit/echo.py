@@ -9,12 +9,12 @@ from __future__ import annotations
 import argparse
 import sys
 
+from runtime import run_module
 from wire.flags import add_network_args, network_from_args
 
 from eddie.errors import BadMessage
 from eddie.toolkit.message import Message, message_type
-from eddie.toolkit.module import Incoming, Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Incoming, Module, endpoint
 
 __all__ = ["Echo", "main"]
 
@@ -48,7 +48,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             await m.send(inc.sender, inc.message)
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

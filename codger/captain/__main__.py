@@ -8,7 +8,7 @@ from pathlib import Path
 
 from modules.captain.missionfile import MissionFileError, load_mission
 from codger.captain.service import Captain, CaptainOptions
-from runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
+from runtime import ModuleRuntime, add_heartbeat, module_parser, parse_module_args, run_module
 from codger.blackboard_part import BlackboardPart
 from modules.vocabulary import Mission
 
@@ -17,16 +17,14 @@ __all__ = ["main", "build_parser", "captain_main"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the CAPTAIN's argument parser."""
-    p = argparse.ArgumentParser(prog="python -m codger.captain", description="Sidewalk CAPTAIN: missions → steps → status.")
+    p = module_parser("codger.captain", "Sidewalk CAPTAIN: missions → steps → status.")
     p.add_argument("--mission", action="append", default=[], type=Path, help="mission file to run at start (repeatable, in order)")
-    p.add_argument("--name", default="captain", help="module name (liveliness key chunk)")
     p.add_argument("--navigator", default="map_navigator", help="module name of the MAP NAVIGATOR to supervise")
     p.add_argument("--navigator-grace", type=float, default=15.0, help="wall seconds the MAP NAVIGATOR may be gone before the mission fails")
     p.add_argument("--step-timeout", type=float, default=None, help="sim seconds a step may take (default: no limit)")
     p.add_argument("--ack-timeout", type=float, default=60.0,
                    help="wall seconds the navigator has to acknowledge a step with a route plan before the mission fails (0: no limit)")
-    p.add_argument("--heartbeat", type=float, default=1.0, help="heartbeat period [s wall]")
-    add_network_args(p)
+    add_heartbeat(p)
     return p
 
 
@@ -47,10 +45,7 @@ def captain_main(missions: list[Mission], options: CaptainOptions):
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CAPTAIN until SIGINT/SIGTERM; return the exit code (2 for a bad mission file)."""
-    setup_logging()
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    net = network_from_args(parser, args)
+    args, net = parse_module_args(build_parser(), argv)
     missions = []
     for path in args.mission:
         try:

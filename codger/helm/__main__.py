@@ -6,7 +6,7 @@ import argparse
 import sys
 
 from codger.helm.helm import DriveKeys, Helm, helm_config_for
-from runtime import add_network_args, network_from_args, run_module, setup_logging
+from runtime import add_vehicle, module_parser, parse_module_args, run_module
 from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser"]
@@ -14,23 +14,19 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the HELM's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m codger.helm", description=__doc__)
-    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="navlab", help="vehicle model (tracker limits)")
+    p = module_parser("codger.helm", __doc__)
+    add_vehicle(p, default="navlab", help="vehicle model (tracker limits)")
     p.add_argument("--control-hz", type=float, default=None, help="drive commands per sim second [Hz]")
     p.add_argument("--pose-hz", type=float, default=None, help="local←vehicle poses per sim second [Hz] (≥ 10)")
     p.add_argument("--drive-key", default=None, help="drive command key under sidewalk/<ns>/ (default sim/cmd)")
     p.add_argument("--odom-key", default=None, help="odometry key under sidewalk/<ns>/ (default sim/odom)")
-    p.add_argument("--name", default="helm", help="module name (liveliness, heartbeat)")
-    add_network_args(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Parse flags and run the HELM until SIGINT/SIGTERM; return the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
+    args, net = parse_module_args(parser, argv)
     keys = DriveKeys(**{k: v for k, v in (("command", args.drive_key), ("odometry", args.odom_key)) if v})
     try:
         cfg = helm_config_for(args.vehicle, control_hz=args.control_hz, pose_hz=args.pose_hz, keys=keys)

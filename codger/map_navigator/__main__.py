@@ -9,7 +9,7 @@ from dataclasses import replace
 from modules.map_navigator.mapdata import MapData, WorldFileError, load_map
 from codger.map_navigator.service import MapNavigator, ServiceOptions
 from modules.map_navigator.stepjob import NavigatorOptions
-from runtime import ModuleRuntime, add_network_args, network_from_args, run_module, setup_logging
+from runtime import ModuleRuntime, add_heartbeat, add_vehicle, module_parser, parse_module_args, run_module
 from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser", "navigator_main", "start_position"]
@@ -17,18 +17,15 @@ __all__ = ["main", "build_parser", "navigator_main", "start_position"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the MAP NAVIGATOR's argument parser."""
-    p = argparse.ArgumentParser(prog="python -m codger.map_navigator",
-                                description="Sidewalk MAP NAVIGATOR: mission steps → route → route segments.")
+    p = module_parser("codger.map_navigator", "Sidewalk MAP NAVIGATOR: mission steps → route → route segments.")
     p.add_argument("--map", required=True, help="map file (GeoJSON), or a world name like campus for worlds/campus.map.geojson")
-    p.add_argument("--vehicle", choices=("terregator", "navlab"), default="terregator", help="vehicle (stairs are impassable for the navlab)")
+    add_vehicle(p, help="vehicle (stairs are impassable for the navlab)")
     p.add_argument("--start", default=None, help="start position X,Y [m] world frame, or a place name (default: the map's start)")
     p.add_argument("--max-replans", type=int, default=2, help="replans allowed per step after segment failures")
-    p.add_argument("--name", default="map_navigator", help="module name (liveliness key chunk)")
     p.add_argument("--pilot", default="pilot", help="module name of the PILOT to supervise")
     p.add_argument("--pilot-grace", type=float, default=15.0, help="wall seconds the PILOT may be gone before the segment fails")
     p.add_argument("--no-post-map", action="store_true", help="do not store the map objects on the blackboard (for monitors)")
-    p.add_argument("--heartbeat", type=float, default=1.0, help="heartbeat period [s wall]")
-    add_network_args(p)
+    add_heartbeat(p)
     return p
 
 
@@ -63,10 +60,8 @@ def navigator_main(m: MapData, start_xy: tuple[float, float], options: Navigator
 
 def main(argv: list[str] | None = None) -> int:
     """Run the MAP NAVIGATOR until SIGINT/SIGTERM; return the exit code (2 for a bad map or flag)."""
-    setup_logging()
     parser = build_parser()
-    args = parser.parse_args(argv)
-    net = network_from_args(parser, args)
+    args, net = parse_module_args(parser, argv)
     try:
         m = load_map(args.map)
     except (WorldFileError, FileNotFoundError) as exc:

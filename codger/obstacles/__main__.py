@@ -8,7 +8,7 @@ import sys
 from pydantic import ValidationError
 
 from codger.obstacles.detector import ObstacleDetector, ObstacleDetectorConfig
-from runtime import add_network_args, network_from_args, run_module, setup_logging
+from runtime import module_parser, parse_module_args, run_module
 from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser"]
@@ -16,22 +16,18 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the OBSTACLE DETECTOR's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m codger.obstacles", description=__doc__)
+    p = module_parser("codger.obstacles", __doc__)
     p.add_argument("--period", type=float, default=0.1, help="seconds of sim time between scans [s]")
     p.add_argument("--half-width", type=float, default=1.5, help="half-width of the corridor along the plan [m]")
     p.add_argument("--lookahead", type=float, default=20.0, help="how far along the plan to check [m]")
     p.add_argument("--map", default=None, help="the robot's map file: its landmarks give position fixes (landmark_fix)")
-    p.add_argument("--name", default="obstacles", help="module name (liveliness, heartbeat)")
-    add_network_args(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Parse flags and run the OBSTACLE DETECTOR until SIGINT/SIGTERM; return the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
+    args, net = parse_module_args(parser, argv)
     try:
         cfg = ObstacleDetectorConfig(period_s=args.period, half_width=args.half_width, lookahead_m=args.lookahead)
     except ValidationError as exc:

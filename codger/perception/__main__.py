@@ -10,7 +10,7 @@ from pydantic import ValidationError
 from codger.perception.module import PerceptionConfig, PerceptionModule
 from modules.perception.road_method import RoadMethodPerception
 from modules.road_following import ROAD_METHODS, CameraRoadFollower, RoadFollowingError, load_alvinn_weights
-from runtime import add_network_args, network_from_args, run_module, setup_logging
+from runtime import add_vehicle, module_parser, parse_module_args, run_module
 from codger.blackboard_part import BlackboardPart
 
 __all__ = ["main", "build_parser"]
@@ -18,24 +18,20 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the PERCEPTION argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m codger.perception", description=__doc__)
-    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator", help="sensor mounting")
+    p = module_parser("codger.perception", __doc__)
+    add_vehicle(p, help="sensor mounting")
     p.add_argument("--speed", type=float, default=1.0, help="desired speed for the view/resolution table [m/s]")
     p.add_argument("--max-wait", type=float, default=6.0, help="longest wait for the image input position [s] sim")
-    p.add_argument("--name", default="perception", help="module name (liveliness, heartbeat)")
     p.add_argument("--road-method", choices=ROAD_METHODS, default="perception",
                    help="what finds the road of follow-road units: the colored-range pipeline, or the SCARF, YARF or ALVINN follower")
     p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
-    add_network_args(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Parse flags and run PERCEPTION until SIGINT/SIGTERM; return the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
+    args, net = parse_module_args(parser, argv)
     try:
         cfg = PerceptionConfig(vehicle=args.vehicle, speed=args.speed, max_wait_s=args.max_wait, road_method=args.road_method)
     except ValidationError as exc:

@@ -6,9 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from runtime.args import setup_logging
-from runtime import run_module
-from wire.flags import add_network_args, network_from_args
+from runtime import module_parser, parse_module_args, run_module
 
 from eddie.annotated_map import AnnotatedMapError, AnnotationDatabase, load_annotations
 from eddie.map_manager.map_manager import MapManager
@@ -21,24 +19,20 @@ __all__ = ["main", "build_parser"]
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the map manager's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m eddie.map_manager", description=__doc__)
+    p = module_parser("eddie.map_manager", __doc__)
     p.add_argument("--annotated-map", required=True, help="annotated map file (GeoJSON, `sidewalk eddie annotate`)")
     p.add_argument("--controller", default="controller", help="the controller module's name (its state stream)")
     p.add_argument("--navigator", default="navigator", help="the navigator module's name (its world_from_local stream)")
-    p.add_argument("--name", default="map_manager", help="module name")
     p.add_argument("--state", default=None, metavar="FILE",
                    help="keep the used flags and the vehicle's last position here, and take them up when started again "
                         "(a restart then fires the triggers crossed meanwhile; delete the file to start afresh)")
-    add_network_args(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Parse flags, load the annotated map and run the manager until SIGINT/SIGTERM; return the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
+    args, net = parse_module_args(parser, argv)
     try:
         db = AnnotationDatabase(load_annotations(args.annotated_map))
     except AnnotatedMapError as exc:

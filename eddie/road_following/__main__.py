@@ -6,15 +6,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from eddie.modules.args import parse_pose
 from eddie.road_following.road_following_module import RoadFollowing
 from eddie.toolkit.module import Module, endpoint
 from modules.map_navigator import load_map
 from modules.road_following import RoadFollowingError
 from modules.road_following.road_method import ROAD_METHODS, load_alvinn_weights
-from runtime.args import setup_logging
-from runtime import run_module
-from wire.flags import add_network_args, network_from_args
+from runtime import add_seed, add_start_pose, add_vehicle, module_parser, parse_module_args, run_module
 
 __all__ = ["main", "build_parser"]
 
@@ -23,28 +20,25 @@ _DESCRIPTION = 'Vision road following as an EDDIE process: sees the road, plans 
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the module's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m eddie.road_following", description=_DESCRIPTION)
-    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="terregator")
+    p = module_parser("eddie.road_following", _DESCRIPTION)
+    add_vehicle(p)
     p.add_argument("--map", required=True, help="the robot's map file (the objects PERCEPTION looks for)")
-    p.add_argument("--start-pose", default="0,0,0", help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
-    p.add_argument("--seed", type=int, default=0)
+    add_start_pose(p, help="X,Y,YAW: world←local until the navigator says [m, m, rad]")
+    add_seed(p)
     p.add_argument("--asleep", action="store_true", help="start asleep (a trigger wakes it)")
     p.add_argument("--road-method", choices=ROAD_METHODS, default="perception",
                    help="how the road is found: PERCEPTION's colored-range segmentation, or the SCARF, YARF or ALVINN follower")
     p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
     p.add_argument("--keep", choices=["centre", "right", "left"], default="centre",
                    help="drive on the road's centre or keep right / left (a quarter of its width off the centre): the mission step's side")
-    add_network_args(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Parse flags and run vision road following until SIGINT/SIGTERM; return the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
-    start = parse_pose(parser, args.start_pose)
+    args, net = parse_module_args(parser, argv)
+    start = args.start_pose
     try:
         map_data = load_map(args.map)
     except (FileNotFoundError, ValueError) as exc:
@@ -60,7 +54,7 @@ def main(argv: list[str] | None = None) -> int:
         await RoadFollowing(m, map_data, vehicle=args.vehicle, seed=args.seed, start=start, awake=not args.asleep,
                             method=args.road_method, alvinn_net=alvinn_net, keep=args.keep).run()
 
-    return run_module("road_following", endpoint(body), net)
+    return run_module(args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

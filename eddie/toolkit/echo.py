@@ -9,8 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from runtime import run_module
-from wire.flags import add_network_args, network_from_args
+from runtime import add_network_args, network_from_args, run_module
 
 from eddie.errors import BadMessage
 from eddie.toolkit.message import Message, message_type

@@ -1,16 +1,22 @@
 """Blackboard benchmark: node and client in separate processes on loopback, beside the raw-Zenoh floor.
 
-Three processes: the blackboard node (`python -m blackboard`), a floor process (`python -m
+Four processes, as a system deploys them (`wire.flags`): the router (`sidewalk up router`), and as
+its clients the blackboard node (`python -m blackboard`), a floor process (`python -m
 bench.blackboard floor`) with a raw queryable that answers at once and a raw relay that re-puts
-every sample, and this client. Latencies are measured with the same asyncio client harness for
-the node and for the floor (reply/sample callback → `call_soon_threadsafe` → future), and the two
-are sampled interleaved so machine noise hits both alike. Figures in microseconds.
+every sample, and this client. Every message travels through the router, the floor's as the node's
+(before session 25 the node and the floor listened and the client was their peer: one hop less).
+Latencies are measured with the same asyncio client harness for the node and for the floor
+(reply/sample callback → `call_soon_threadsafe` → future), and the two are sampled interleaved so
+machine noise hits both alike. Figures in microseconds.
 
 Keys: notify_p50_us/p99 vs zenoh_relay_p50_us/p99 (post→monitor event through the node vs a raw
-put relayed by a third process), post_ack_p50_us/p99 vs zenoh_get_p50_us/p99, retrieve_100k_p50_us/p99
-(within-polygon spec returning about 50 of `tokens`), post_throughput_per_s (pipelined,
-acknowledged), transform_10k_points_us p50/p99 (vehicle@t → world by a client keeping a frame cache,
-`blackboard.frame_cache`; beside it transform_10k_points_node_us, each lookup asked of the node).
+put relayed by a third process); post_ack_p50_us/p99 against both floors, sampled interleaved with it:
+zenoh_get_p50_us (a raw get: `post_vs_zenoh_get`) and post_ack_zenoh_relay_p50_us (a put answered by
+a put, as a post and its acknowledgement travel: `post_ack_vs_zenoh_relay`, the matching floor);
+retrieve_100k_p50_us/p99 (within-polygon spec returning about 50 of `tokens`), post_throughput_per_s
+(pipelined, acknowledged), transform_10k_points_us p50/p99 (vehicle@t → world as the modules do it:
+`BlackboardClient.transform`, each lookup asked of the node; beside it transform_10k_points_cache_us,
+a client keeping a frame cache, `blackboard.frame_cache`, which no module uses).
 """
 
 from __future__ import annotations
@@ -18,7 +24,6 @@ from __future__ import annotations
 import argparse
 import asyncio
 import gc
-import json
 import math
 import os
 import select
@@ -44,9 +49,11 @@ from blackboard import (
     token_type,
 )
 from blackboard.testing import start_node
+from bench.eddie import _spawn, _stop
 from wire.keys import Keys
 from wire.ports import free_port
 from wire.session import Query, open_session
+from wire.summary import percentiles
 
 __all__ = ["run", "BenchItem", "BenchNote"]
 
@@ -71,16 +78,12 @@ class BenchNote(BaseModel):
 _WORLD = 1000.0  # side of the square the 100k points are spread over [m]
 
 
-def _pct(xs: list[float]) -> tuple[float, float]:
-    a = np.asarray(xs) * 1e6
-    return float(np.percentile(a, 50)), float(np.percentile(a, 99))
-
-
 # ---------------------------------------------------------------------- floor process
 def _floor_main(endpoint: str, ns: str) -> None:
-    """Serve the raw floors through wire's thinnest path (raw Zenoh-thread callbacks, no asyncio)."""
+    """Serve the raw floors through wire's thinnest path (raw Zenoh-thread callbacks, no asyncio), a client of the router at `endpoint`."""
     keys = Keys(ns)
-    s = open_session(NetworkConfig(namespace=ns, listen=(endpoint,)))
+    s = open_session(NetworkConfig(namespace=ns, mode="client", connect=(endpoint,)))
+    s.wait_connected(20.0, name="floor")
     pub = s.publisher(keys.bench("floor-out"))
 
     def on_query(q: Query) -> None:
@@ -109,19 +112,18 @@ def _floor_main(endpoint: str, ns: str) -> None:
     s.close()
 
 
-def _start_floor(ns: str) -> tuple[subprocess.Popen, str]:
-    ep = f"tcp/127.0.0.1:{free_port()}"
+def _start_floor(ns: str, ep: str) -> subprocess.Popen:
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = {**os.environ, "PYTHONPATH": root + os.pathsep + os.environ.get("PYTHONPATH", "")}
     p = subprocess.Popen([sys.executable, "-m", "bench.blackboard", "floor", "--endpoint", ep, "--ns", ns],
                          stdout=subprocess.PIPE, text=True, env=env)
     assert p.stdout is not None
-    r, _, _ = select.select([p.stdout], [], [], 20)
+    r, _, _ = select.select([p.stdout], [], [], 60)  # a loaded machine starts Python slowly
     line = p.stdout.readline() if r else ""
     if not line.startswith("floor ready"):
         p.kill()
         raise BenchError(f"floor process failed to start: {line!r}")
-    return p, ep
+    return p
 
 
 # ---------------------------------------------------------------------- measurements
@@ -154,9 +156,8 @@ class _Floor:
         await asyncio.wait_for(self.waiter, 10)
 
 
-async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, samples: int) -> dict:
+async def _bench(net: NetworkConfig, ns: str, tokens: int, samples: int) -> dict:
     out: dict = {}
-    net = net.model_copy(update={"connect": net.connect + (floor_ep,)})
     async with BlackboardClient(net, source="bench", timeout=60) as bb:
         floor = _Floor(bb, ns)
         note_payload = {"op": "post", "type": "bench_note", "attrs": {"seq": 0}, "frame": "world", "stamp": 0.0,
@@ -172,8 +173,8 @@ async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, sample
 
         gc.collect()
         gc.freeze()
-        # --- post ack vs raw get (interleaved)
-        pa, zg = [], []
+        # --- post ack vs a raw get and a raw relay (interleaved): a post is a put answered by a put
+        pa, zg, zp = [], [], []
         pc = time.perf_counter
         for i in range(samples):
             t0 = pc()
@@ -181,11 +182,16 @@ async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, sample
             t1 = pc()
             await floor.get(floor_payload)
             t2 = pc()
+            await floor.relay(floor_payload)
+            t3 = pc()
             pa.append(t1 - t0)
             zg.append(t2 - t1)
-        out["post_ack_p50_us"], out["post_ack_p99_us"] = _pct(pa)
-        out["zenoh_get_p50_us"], out["zenoh_get_p99_us"] = _pct(zg)
+            zp.append(t3 - t2)
+        out["post_ack_p50_us"], out["post_ack_p99_us"] = percentiles(pa, (50, 99), scale=1e6)
+        out["zenoh_get_p50_us"], out["zenoh_get_p99_us"] = percentiles(zg, (50, 99), scale=1e6)
+        out["post_ack_zenoh_relay_p50_us"], out["post_ack_zenoh_relay_p99_us"] = percentiles(zp, (50, 99), scale=1e6)
         out["post_vs_zenoh_get"] = out["post_ack_p50_us"] / out["zenoh_get_p50_us"]
+        out["post_ack_vs_zenoh_relay"] = out["post_ack_p50_us"] / out["post_ack_zenoh_relay_p50_us"]
 
         # --- notify vs relay (interleaved)
         nt, zr = [], []
@@ -204,8 +210,8 @@ async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, sample
                 t3 = pc()
                 nt.append(t1 - t0)
                 zr.append(t3 - t2)
-        out["notify_p50_us"], out["notify_p99_us"] = _pct(nt)
-        out["zenoh_relay_p50_us"], out["zenoh_relay_p99_us"] = _pct(zr)
+        out["notify_p50_us"], out["notify_p99_us"] = percentiles(nt, (50, 99), scale=1e6)
+        out["zenoh_relay_p50_us"], out["zenoh_relay_p99_us"] = percentiles(zr, (50, 99), scale=1e6)
         out["notify_vs_zenoh_relay"] = out["notify_p50_us"] / out["zenoh_relay_p50_us"]
 
         # --- throughput: pipelined, acknowledged posts (the client coalesces them into messages of at most
@@ -260,7 +266,7 @@ async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, sample
             t1 = pc()
             rt.append(t1 - t0)
             counts.append(len(got))
-        out["retrieve_100k_p50_us"], out["retrieve_100k_p99_us"] = _pct(rt)
+        out["retrieve_100k_p50_us"], out["retrieve_100k_p99_us"] = percentiles(rt, (50, 99), scale=1e6)
         out["retrieve_tokens_in_store"] = tokens
         out["retrieve_mean_matches"] = float(np.mean(counts))
         out["retrieve_vs_zenoh_get"] = out["retrieve_100k_p50_us"] / out["zenoh_get_p50_us"]
@@ -280,17 +286,17 @@ async def _bench(net: NetworkConfig, floor_ep: str, ns: str, tokens: int, sample
                 tt.append(pc() - t0)
             return tt, res
 
+        # the modules' path (the PILOT, PERCEPTION): each lookup asked of the node
         tt, res = await transforms(bb)
         assert res.shape == (10_000, 2)
-        out["transform_10k_points_node_us"], out["transform_10k_points_node_p99_us"] = _pct(tt)
-        # the same with the client's frame cache (blackboard.frame_cache): the node's tree kept here, no round trip
+        out["transform_10k_points_us"], out["transform_10k_points_p99_us"] = percentiles(tt, (50, 99), scale=1e6)
+        # the same with the client's frame cache (blackboard.frame_cache; the monitor's): the node's tree kept here
         async with BlackboardClient(net, source="bench-frames", timeout=60, frame_cache=True) as cached:
             tt, got = await transforms(cached)
             np.testing.assert_array_equal(got, res)  # the node's answer, to the bit
             fc = cached.frame_cache.stats
             out["transform_cache_hits"], out["transform_cache_misses"] = fc.hits, fc.misses
-        out["transform_10k_points_us"], out["transform_10k_points_p99_us"] = _pct(tt)
-        out["transform_10k_points_p50_us"] = out["transform_10k_points_us"]
+        out["transform_10k_points_cache_us"], out["transform_10k_points_cache_p99_us"] = percentiles(tt, (50, 99), scale=1e6)
 
         st = await bb.stats()
         out.update({f"node_{k}": v for k, v in st.model_dump().items()})
@@ -307,11 +313,14 @@ def run(tokens: int = 100_000, samples: int = 2000, dispatch: str = "inline") ->
         raise ValueError("tokens must be ≥ 1 and samples ≥ 10")
     ns = f"bench{os.getpid()}"
     tmp = tempfile.mkdtemp(prefix="bb-bench-")
-    node = start_node(namespace=ns, types=("bench.blackboard",), db=os.path.join(tmp, "bench.sqlite"), dispatch=dispatch)
-    floor, floor_ep = None, ""
+    ep = f"tcp/127.0.0.1:{free_port()}"
+    router = _spawn(["-m", "sidewalk", "up", "router", "--ns", ns, "--listen", ep], "router ready")
+    node = floor = None
     try:
-        floor, floor_ep = _start_floor(ns)
-        out = asyncio.run(_bench(node.client_net(), floor_ep, ns, tokens, samples))
+        node = start_node(namespace=ns, types=("bench.blackboard",), db=os.path.join(tmp, "bench.sqlite"), dispatch=dispatch,
+                          router=ep, timeout=60.0)
+        floor = _start_floor(ns, ep)
+        out = asyncio.run(_bench(node.client_net(), ns, tokens, samples))
         out["node_dispatch"] = dispatch
         out["node_db"] = "sqlite file, WAL, synchronous=NORMAL"
         return out
@@ -324,7 +333,9 @@ def run(tokens: int = 100_000, samples: int = 2000, dispatch: str = "inline") ->
                 floor.kill()
             if floor.stdout:
                 floor.stdout.close()
-        node.stop()
+        if node is not None:
+            node.stop()
+        _stop(router)
         shutil.rmtree(tmp, ignore_errors=True)
 
 
@@ -342,7 +353,9 @@ def _main(argv: list[str] | None = None) -> int:
     if a.cmd == "floor":
         _floor_main(a.endpoint, a.ns)
     else:
-        print(json.dumps(run(a.tokens, a.samples, a.dispatch), sort_keys=True))
+        from sidewalk.json_out import dumps
+
+        print(dumps(run(a.tokens, a.samples, a.dispatch), sort_keys=True))
     return 0
 
 

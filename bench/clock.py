@@ -97,7 +97,7 @@ def run(rtf: float = 50.0, seconds: float = 4.0, nap_s: float = 0.2) -> dict:
     ep = f"tcp/127.0.0.1:{free_port()}"
     sim = _spawn(["-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator", "--rtf", str(rtf),
                   "--seed", "0", "--ns", ns, "--mode", "router", "--listen", ep], "ready sim", timeout=180.0)
-    net = NetworkConfig(namespace=ns, connect=(ep,))
+    net = NetworkConfig(namespace=ns, mode="client", connect=(ep,))  # a client of the router, as a deployed module
     try:
         floor, ticks = _floor(net, seconds)
         waiting, _ = asyncio.run(_eddie(net, seconds, 0.0))
@@ -121,6 +121,6 @@ def run(rtf: float = 50.0, seconds: float = 4.0, nap_s: float = 0.2) -> dict:
 
 
 if __name__ == "__main__":
-    import json
+    from sidewalk.json_out import dumps
 
-    print(json.dumps(run(*(float(a) for a in sys.argv[1:3])), sort_keys=True))
+    print(dumps(run(*(float(a) for a in sys.argv[1:3])), sort_keys=True))

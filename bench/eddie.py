@@ -2,7 +2,8 @@
 
 Processes on loopback: the simulator (as the router), the controller (`python -m eddie.controller`)
 and a floor process (`python -m bench.eddie floor`) whose plain queryable answers at once, on the
-Zenoh thread, with as many bytes as a position reply. This process asks both through the same
+Zenoh thread, with as many bytes as a position reply; each a client of the router, as a system
+deploys them (`wire.flags`; before session 25 they were peers linked directly, one hop less). This process asks both through the same
 session and asyncio harness (`wire.aio.Link.get` under `eddie.toolkit.Module.request`), interleaved.
 
 Keys: position_query_p50_us/p99 vs zenoh_get_p50_us/p99, their ratio position_query_vs_zenoh_get,
@@ -23,13 +24,12 @@ import threading
 import time
 from pathlib import Path
 
-import numpy as np
-
 from bench.errors import BenchError
 from wire.keys import Keys
 from wire.network import NetworkConfig
 from wire.ports import free_port
 from wire.session import open_session
+from wire.summary import percentiles
 
 from eddie.messages.controller import Position, PositionQuery
 from eddie.toolkit import Module
@@ -42,14 +42,9 @@ ROOT = Path(__file__).resolve().parents[1]
 FLOOR_READY = "floor ready"
 
 
-def _pct(xs: list[float]) -> tuple[float, float]:
-    a = np.asarray(xs)
-    return float(np.percentile(a, 50)), float(np.percentile(a, 99))
-
-
 def _floor_main(endpoint: str, ns: str, size: int) -> None:
     """Answer `bench/eddie-floor` with `size` bytes at once, on the Zenoh thread (no asyncio)."""
-    s = open_session(NetworkConfig(namespace=ns, connect=(endpoint,)))
+    s = open_session(NetworkConfig(namespace=ns, mode="client", connect=(endpoint,)))
     payload = b"x" * size
 
     def on_query(q) -> None:  # noqa: ANN001 - wire.session.Query
@@ -157,8 +152,8 @@ async def _trigger_bench(net: NetworkConfig, path: Path, n: int) -> dict:
                 raise BenchError(f"expected the trigger of gate {k - 1}, got {msg!r}")
             from_manager.append((t_arr - msg.crossed_wall) * 1e3)
             from_state.append((t_arr - t_pub) * 1e3)
-    m50, m99 = _pct(from_manager)
-    s50, _ = _pct(from_state)
+    m50, m99 = percentiles(from_manager, (50, 99))
+    s50, _ = percentiles(from_state, (50, 99))
     return {"trigger_latency_p50_ms": m50, "trigger_latency_p99_ms": m99, "trigger_latency_from_state_p50_ms": s50,
             "trigger_samples": n - 1}
 
@@ -193,7 +188,7 @@ def measure_trigger_latency(net: NetworkConfig, samples: int) -> dict:
 
 
 async def _bench(ns: str, ep: str, samples: int) -> dict:
-    net = NetworkConfig(namespace=ns, connect=(ep,))
+    net = NetworkConfig(namespace=ns, mode="client", connect=(ep,))
     async with Module("bench", net) as me:
         await me.wait_connected(10.0)
         deadline = time.monotonic() + 30.0
@@ -223,8 +218,8 @@ async def _bench(ns: str, ep: str, samples: int) -> dict:
                 raise BenchError("the floor process did not answer")
             pos_us.append((t1 - t0) * 1e6)
             floor_us.append((t2 - t1) * 1e6)
-    p50, p99 = _pct(pos_us)
-    f50, f99 = _pct(floor_us)
+    p50, p99 = percentiles(pos_us, (50, 99))
+    f50, f99 = percentiles(floor_us, (50, 99))
     return {
         "position_query_p50_us": p50, "position_query_p99_us": p99,
         "zenoh_get_p50_us": f50, "zenoh_get_p99_us": f99,
@@ -246,7 +241,7 @@ def run(samples: int = 2000) -> dict:
         size = len(encode_envelope("controller", Position(stamp=1.0, x=1.0, y=1.0, yaw=1.0, v=1.0), 1.0))
         procs.append(_spawn(["-m", "bench.eddie", "floor", "--endpoint", ep, "--ns", ns, "--size", str(size)], FLOOR_READY))
         out = asyncio.run(_bench(ns, ep, samples))
-        out.update(measure_trigger_latency(NetworkConfig(namespace=ns, connect=(ep,)), samples))
+        out.update(measure_trigger_latency(NetworkConfig(namespace=ns, mode="client", connect=(ep,)), samples))
         return out
     finally:
         for p in reversed(procs):
@@ -265,9 +260,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.what == "floor":
         _floor_main(args.endpoint, args.ns, args.size)
         return 0
-    import json
+    from sidewalk.json_out import dumps
 
-    print(json.dumps(run(args.samples), sort_keys=True))
+    print(dumps(run(args.samples), sort_keys=True))
     return 0
 
 

@@ -12,7 +12,6 @@ Run: `sidewalk bench secure --json` (or `python -m bench.secure`).
 from __future__ import annotations
 
 import asyncio
-import json
 import os
 import sys
 import tempfile
@@ -24,16 +23,12 @@ from bench.blackboard import BenchNote
 from sidewalk.supervisor import ProcessPlan, Supervisor
 from wire.network import NetworkConfig, SecureConfig
 from wire.ports import free_port
+from wire.summary import percentiles
 
 __all__ = ["run", "CONFIGS"]
 
 #: The deployments measured, in order.
 CONFIGS = ("plain_peer", "plain_client", "secure")
-
-
-def _pct(xs: list[float]) -> tuple[float, float]:
-    s = sorted(xs)
-    return 1e6 * s[len(s) // 2], 1e6 * s[min(len(s) - 1, int(0.99 * len(s)))]
 
 
 async def _measure(net: NetworkConfig, samples: int) -> dict[str, float]:
@@ -54,8 +49,8 @@ async def _measure(net: NetworkConfig, samples: int) -> dict[str, float]:
                 notify.append(t1 - t0)
                 ack.append(t2 - t0)
     out: dict[str, float] = {}
-    out["notify_p50_us"], out["notify_p99_us"] = _pct(notify)
-    out["post_ack_p50_us"], out["post_ack_p99_us"] = _pct(ack)
+    out["notify_p50_us"], out["notify_p99_us"] = percentiles(notify, (50, 99), method="rank", scale=1e6)
+    out["post_ack_p50_us"], out["post_ack_p99_us"] = percentiles(ack, (50, 99), method="rank", scale=1e6)
     return out
 
 
@@ -97,4 +92,6 @@ def run(samples: int = 1000) -> dict:
 
 
 if __name__ == "__main__":
-    print(json.dumps(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1000), sort_keys=True))
+    from sidewalk.json_out import dumps
+
+    print(dumps(run(int(sys.argv[1]) if len(sys.argv) > 1 else 1000), sort_keys=True))

@@ -25,6 +25,8 @@ import time
 
 import numpy as np
 
+from wire.summary import percentile
+
 __all__ = ["run", "path_poses"]
 
 
@@ -52,10 +54,6 @@ def path_poses(world, n: int) -> list[tuple[float, float, float]]:  # noqa: ANN0
                 break
             d -= L
     return out
-
-
-def _pct(xs: list[float], q: float) -> float:
-    return float(np.percentile(np.asarray(xs), q))
 
 
 def run(world: str = "campus", frames: int = 100) -> dict:
@@ -131,15 +129,15 @@ def run(world: str = "campus", frames: int = 100) -> dict:
         "world": w.name,
         "frames": frames,
         "scene_build_s": round(build_s, 3),
-        "render_ms_p50": round(_pct(render, 50), 2),
-        "render_ms_p95": round(_pct(render, 95), 2),
-        "render_cpu_ms_p50": round(_pct(render_cpu, 50), 2),
+        "render_ms_p50": percentile(render, 50, digits=2),
+        "render_ms_p95": percentile(render, 95, digits=2),
+        "render_cpu_ms_p50": percentile(render_cpu, 50, digits=2),
         "load_avg_1min": round(os.getloadavg()[0], 2),
-        "laser_ms_p50": round(_pct(laser, 50), 2),
-        "camera_ms_p50": round(_pct(camera, 50), 2),
-        "obstacle_check_ms_p50": round(_pct(check, 50), 2),
-        "step_us_p50": round(_pct(steps, 50), 1),
-        "step_us_p95": round(_pct(steps, 95), 1),
+        "laser_ms_p50": percentile(laser, 50, digits=2),
+        "camera_ms_p50": percentile(camera, 50, digits=2),
+        "obstacle_check_ms_p50": percentile(check, 50, digits=2),
+        "step_us_p50": percentile(steps, 50, digits=1),
+        "step_us_p95": percentile(steps, 95, digits=1),
         "rtf_reached": round(sim_seconds / wall, 1),
         "rtf_physics_only": round(rtf_physics, 1),
         "rtf_captures_hz_sim": 2.0,

@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -34,6 +35,7 @@ from pydantic import BaseModel, ConfigDict
 from bench.errors import BenchError
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec, token_type
 from blackboard.testing import start_node
+from wire.summary import percentiles
 
 __all__ = ["run", "SoakItem"]
 
@@ -53,13 +55,6 @@ class SoakItem(BaseModel):
     seq: int
     lane: int
     sent: float
-
-
-def _pct(values: list[float]) -> tuple[float, float]:
-    if not values:
-        return float("nan"), float("nan")
-    a = np.asarray(values) * 1e3
-    return round(float(np.percentile(a, 50)), 3), round(float(np.percentile(a, 99)), 3)
 
 
 async def _watch(net: NetworkConfig, monitors: int) -> None:
@@ -208,9 +203,9 @@ def run(*, minutes: float = 10.0, rate: float = 1000.0, monitors: int = 20, keep
         if seq in lat:
             buckets[m].append(lat[seq])
     for m in range(n_min):
-        p50, p99 = _pct(buckets[m])
+        p50, p99 = percentiles(buckets[m], (50, 99), scale=1e3, digits=3, empty=math.nan)
         per_minute.append({"minute": m + 1, "posts": counts[m], "p50_ms": p50, "p99_ms": p99})
-    all_p50, all_p99 = _pct(list(lat.values()))
+    all_p50, all_p99 = percentiles(list(lat.values()), (50, 99), scale=1e3, digits=3, empty=math.nan)
     mb = 1024 * 1024
     return {
         "minutes": minutes, "rate_target_per_s": rate, "monitors": monitors, "keep_tokens": keep,

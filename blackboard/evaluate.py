@@ -17,10 +17,11 @@ import numpy as np
 import shapely
 
 from blackboard.errors import BlackboardError, ExtrapolationError, UnknownFrameError
-from blackboard.frames import SE2, FrameTree, apply_se2
+from blackboard.frames import FrameTree
 from blackboard.geometry import Polygon, geometry_coords, polygon_shape, to_shapely
 from blackboard.spec import AttrPredicate, Intersects, Near, Nearest, Spec, Within
 from blackboard.store import Record, Store
+from wire.se2 import SE2, transform_points
 
 __all__ = ["Evaluator", "attr_get", "attr_match", "MISSING"]
 
@@ -152,10 +153,10 @@ class _Region:
         pidx = [i for i, r in enumerate(recs) if r.kind == "point"]
         if pidx:
             xy = np.concatenate([recs[i].xy for i in pidx])
-            mask[pidx] = self.test_points(xy if T is None else apply_se2(T, xy))
+            mask[pidx] = self.test_points(xy if T is None else transform_points(T, xy))
         if len(pidx) < n:
             oidx = [i for i, r in enumerate(recs) if r.kind != "point"]
-            shapes = [recs[i].shape() if T is None else to_shapely(recs[i].kind, apply_se2(T, recs[i].xy)) for i in oidx]
+            shapes = [recs[i].shape() if T is None else to_shapely(recs[i].kind, transform_points(T, recs[i].xy)) for i in oidx]
             mask[oidx] = self.test(shapes)
         return mask
 
@@ -198,7 +199,7 @@ class Evaluator:
             T = self.frames.lookup(frame, stamp, rec.frame, rec.stamp)
             if cache is not None:
                 cache[key] = T
-        return to_shapely(rec.kind, apply_se2(T, rec.xy))
+        return to_shapely(rec.kind, transform_points(T, rec.xy))
 
     def _geo_select(self, region: _Region, spec: Spec, tail_ok: Callable[[Record], bool]) -> list[Record]:
         """Return the records satisfying the region (not nearest), the plain filters and `tail_ok`."""
@@ -215,7 +216,7 @@ class Evaluator:
                 except BlackboardError:
                     continue
                 identity = T == (0.0, 0.0, 0.0)
-                xy = region.xy if identity else apply_se2(T, region.xy)
+                xy = region.xy if identity else transform_points(T, region.xy)
                 xs, ys, pad = xy[:, 0].tolist(), xy[:, 1].tolist(), region.pad
                 # widened by a rounding margin: the exact test below is made in the region's frame
                 minx, miny = (v - pad - 1e-9 * (1.0 + abs(v)) for v in (min(xs), min(ys)))
@@ -225,7 +226,7 @@ class Evaluator:
                 if len(prids):
                     # the geometric test first, on every point (of the types asked for) at once; then the
                     # per-token filters on what passed
-                    inside = region.test_points(pxy if Tinv is None else apply_se2(Tinv, pxy))
+                    inside = region.test_points(pxy if Tinv is None else transform_points(Tinv, pxy))
                     if not spec.where and not spec.any_of:
                         hits.extend(prids[inside].tolist())
                     else:
@@ -280,7 +281,7 @@ class Evaluator:
                     Tinv = self.frames.lookup(region.frame, 0.0, gframe, 0.0)
                 except BlackboardError:
                     continue
-                c = apply_se2(T, region.xy)[0]
+                c = transform_points(T, region.xy)[0]
                 r = 1.0
                 n_frame = len(rids)
                 while True:
@@ -290,7 +291,7 @@ class Evaluator:
                         if rec is None or rec.frame != gframe or (types is not None and rec.type not in types):
                             continue
                         if self._plain_ok(spec, rec) and tail_ok(rec):
-                            shp = rec.shape() if Tinv == (0.0, 0.0, 0.0) else to_shapely(rec.kind, apply_se2(Tinv, rec.xy))
+                            shp = rec.shape() if Tinv == (0.0, 0.0, 0.0) else to_shapely(rec.kind, transform_points(Tinv, rec.xy))
                             d = float(shapely.distance(pt, shp))
                             if d <= r:
                                 found.append((d, rid, rec))
@@ -374,7 +375,7 @@ class Evaluator:
         if rec.kind is None:
             return {**w, "frame": frame}
         T = self.frames.lookup(frame, rec.stamp if stamp is None else stamp, rec.frame, rec.stamp)
-        xy = apply_se2(T, rec.xy)
+        xy = transform_points(T, rec.xy)
         from blackboard.geometry import coords_to_wire
 
         return {**w, "frame": frame, "geometry": coords_to_wire(rec.kind, xy)}

@@ -29,7 +29,8 @@ import logging
 from typing import Any
 
 from blackboard.errors import BlackboardError
-from blackboard.frames import SE2, FrameTree
+from blackboard.frames import FrameTree
+from wire.se2 import SE2
 
 __all__ = ["FrameCache", "FrameCacheStats"]
 

@@ -11,7 +11,8 @@ ancestor. Otherwise it goes through a *fixed frame*: the deepest common ancestor
 (default `local`, then `world`; REP-105's odom and map), or the root — so `vehicle@t1 → vehicle@t2`
 uses odometry alone and `vehicle@t → world` composes `world←local(t) ∘ local←vehicle(t)`.
 
-Dynamic edges interpolate linearly in x, y and along the shorter arc in yaw; they keep a bounded
+The algebra is the one of `wire.se2` (on `SE2` tuples). Dynamic edges interpolate linearly in x, y
+and along the shorter arc in yaw (`interpolate_tuple`); they keep a bounded
 history (`history` [s] behind the newest sample, at most `max_samples`). Times before the oldest
 sample raise PastExtrapolationError, after the newest FutureExtrapolationError (unless within the
 edge's `hold` [s]: then the newest sample answers, for low-rate corrections). Static edges answer
@@ -33,27 +34,12 @@ from blackboard.errors import (
     UnknownFrameError,
 )
 from blackboard.geometry import Pose2D
+from wire.se2 import IDENTITY, SE2, compose_tuple, interpolate_tuple, inverse_tuple, transform_points
 
-__all__ = ["FrameTree", "SE2", "DEFAULT_INERTIAL_FRAMES"]
+__all__ = ["FrameTree", "DEFAULT_INERTIAL_FRAMES"]
 
 DEFAULT_INERTIAL_FRAMES = ("world", "local")
 _EPS = 1e-9
-
-SE2 = tuple[float, float, float]  # (x [m], y [m], yaw [rad]) of child in parent
-
-
-def _compose(a: SE2, b: SE2) -> SE2:
-    c, s = math.cos(a[2]), math.sin(a[2])
-    yaw = a[2] + b[2]
-    return (a[0] + c * b[0] - s * b[1], a[1] + s * b[0] + c * b[1], math.atan2(math.sin(yaw), math.cos(yaw)))
-
-
-def _inverse(a: SE2) -> SE2:
-    c, s = math.cos(a[2]), math.sin(a[2])
-    return (-(c * a[0] + s * a[1]), -(-s * a[0] + c * a[1]), -a[2])
-
-
-_IDENTITY: SE2 = (0.0, 0.0, 0.0)
 
 
 @dataclass
@@ -91,15 +77,8 @@ class _Edge:
         if i >= len(ts):
             return (self.xs[-1], self.ys[-1], self.yaws[-1])
         t0, t1 = ts[i - 1], ts[i]
-        a = (t - t0) / (t1 - t0)
-        y0, y1 = self.yaws[i - 1], self.yaws[i]
-        dyaw = math.atan2(math.sin(y1 - y0), math.cos(y1 - y0))
-        yaw = y0 + a * dyaw
-        return (
-            self.xs[i - 1] + a * (self.xs[i] - self.xs[i - 1]),
-            self.ys[i - 1] + a * (self.ys[i] - self.ys[i - 1]),
-            math.atan2(math.sin(yaw), math.cos(yaw)),
-        )
+        return interpolate_tuple((self.xs[i - 1], self.ys[i - 1], self.yaws[i - 1]), (self.xs[i], self.ys[i], self.yaws[i]),
+                                 (t - t0) / (t1 - t0))
 
 
 class FrameTree:
@@ -242,9 +221,9 @@ class FrameTree:
 
     def _down(self, path: list[str], t: float) -> SE2:
         """Return T_{top←path[0]}(t) for path = [frame, parent, ..., (child of top)]."""
-        T = _IDENTITY
+        T = IDENTITY
         for f in reversed(path):
-            T = _compose(T, self._edges[f].at(t, f))
+            T = compose_tuple(T, self._edges[f].at(t, f))
         return T
 
     def _latest(self, path: list[str]) -> float:
@@ -278,14 +257,14 @@ class FrameTree:
         A None stamp means the newest time the history answers for that frame.
         """
         if target == source and (target_stamp == source_stamp or target not in self._edges):
-            return _IDENTITY
+            return IDENTITY
         same = target_stamp is not None and source_stamp is not None and abs(target_stamp - source_stamp) <= _EPS
         fixed, pa, pb = self._fixed(target, source, same_time=same)
         ta = self._latest(pa) if target_stamp is None else float(target_stamp)
         tb = self._latest(pb) if source_stamp is None else float(source_stamp)
         Ta = self._down(pa, ta)
         Tb = self._down(pb, tb)
-        return _compose(_inverse(Ta), Tb)
+        return compose_tuple(inverse_tuple(Ta), Tb)
 
     def lookup_pose(self, parent: str, child: str, stamp: float | None = None) -> Pose2D:
         """Return the pose of `child` in `parent` at `stamp` [s] (None: newest)."""
@@ -304,27 +283,10 @@ class FrameTree:
         self, points: np.ndarray, src: str, src_stamp: float | None, dst: str, dst_stamp: float | None
     ) -> np.ndarray:
         """Map (N,2) float64 points [m] from `src@src_stamp` into `dst@dst_stamp`."""
-        return apply_se2(self.lookup(dst, dst_stamp, src, src_stamp), points)
-
-
-def apply_se2(T: SE2, points: np.ndarray) -> np.ndarray:
-    """Map (N,2) float64 points [m] by the SE(2) transform T (child → parent)."""
-    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
-    c, s = math.cos(T[2]), math.sin(T[2])
-    out = np.empty_like(pts)
-    x, y = pts[:, 0], pts[:, 1]
-    np.multiply(x, c, out=out[:, 0])
-    out[:, 0] -= s * y
-    out[:, 0] += T[0]
-    np.multiply(x, s, out=out[:, 1])
-    out[:, 1] += c * y
-    out[:, 1] += T[1]
-    return out
+        return transform_points(self.lookup(dst, dst_stamp, src, src_stamp), points)
 
 
 def _check_pose(p: tuple) -> None:
     if len(p) != 3 or not all(isinstance(v, float) and math.isfinite(v) for v in p):
         raise InvalidTokenError(f"pose {p!r} must be three finite numbers (x [m], y [m], yaw [rad])")
 
-
-__all__ += ["apply_se2"]

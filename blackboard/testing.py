@@ -25,10 +25,12 @@ class NodeProcess:
     namespace: str
     ready_line: str
     args: list[str] = field(default_factory=list)
+    #: the node is a client of the router at `endpoint` (as in a deployed system), not a peer listening there
+    via_router: bool = False
 
     def client_net(self) -> NetworkConfig:
-        """Return the NetworkConfig a client uses to reach this node."""
-        return NetworkConfig(namespace=self.namespace, connect=(self.endpoint,))
+        """Return the NetworkConfig a client uses to reach this node (a client of the router when there is one)."""
+        return NetworkConfig(namespace=self.namespace, mode="client" if self.via_router else "peer", connect=(self.endpoint,))
 
     def kill(self) -> None:
         """SIGKILL the node and reap it."""
@@ -63,14 +65,19 @@ def start_node(
     db: str = ":memory:",
     sync: str = "normal",
     types: tuple[str, ...] = (),
-    timeout: float = 20.0,
+    timeout: float = 60.0,
     extra_env: dict[str, str] | None = None,
     dispatch: str = "inline",
+    router: str | None = None,
 ) -> NodeProcess:
-    """Start `python -m blackboard` listening on tcp/127.0.0.1:<port>; return once it prints "ready"."""
-    port = port or free_port()
-    endpoint = f"tcp/127.0.0.1:{port}"
-    args = [sys.executable, "-m", "blackboard", "--ns", namespace, "--listen", endpoint, "--db", db, "--sync", sync, "--dispatch", dispatch]
+    """Start `python -m blackboard` listening on tcp/127.0.0.1:<port>, or a client of `router` (an endpoint); return once it prints "ready"."""
+    if router is None:
+        endpoint = f"tcp/127.0.0.1:{port or free_port()}"
+        where = ["--listen", endpoint]
+    else:
+        endpoint = router
+        where = ["--connect", router]
+    args = [sys.executable, "-m", "blackboard", "--ns", namespace, *where, "--db", db, "--sync", sync, "--dispatch", dispatch]
     for t in types:
         args += ["--types", t]
     env = {**os.environ, **(extra_env or {})}
@@ -95,4 +102,4 @@ def start_node(
             raise RuntimeError(f"blackboard node exited with code {rc} before ready: {buf!r}")
         buf += line
         if line.startswith("blackboard ready"):
-            return NodeProcess(proc, endpoint, namespace, line.strip(), args)
+            return NodeProcess(proc, endpoint, namespace, line.strip(), args, via_router=router is not None)

@@ -18,6 +18,7 @@ from eddie.toolkit.message import Message, decode_body
 from sidewalk.run_record import FiredTrigger
 from wire.aio import Link
 from wire.keys import EddieKeys
+from wire.se2 import PoseFields
 
 __all__ = ["LocalPoseView", "TransformView", "TriggerView", "subscribe_eddie", "STREAMS"]
 
@@ -30,7 +31,7 @@ STREAMS = {"state": ("controller", "state"), "transform": ("navigator", "world_f
 _VIEW = ConfigDict(frozen=True, extra="ignore")
 
 
-class LocalPoseView(Message):
+class LocalPoseView(PoseFields, Message):
     """The controller's state as the observer needs it: the dead-reckoned pose in `local` at `stamp` [s] sim."""
 
     model_config = _VIEW
@@ -41,7 +42,7 @@ class LocalPoseView(Message):
     yaw: float
 
 
-class TransformView(Message):
+class TransformView(PoseFields, Message):
     """The navigator's `world` ← `local` (x [m], y [m], yaw [rad]) as of `stamp` [s] sim (its newest fix)."""
 
     model_config = _VIEW
@@ -86,9 +87,9 @@ def subscribe_eddie(link: Link, keys: EddieKeys, pose: Any, triggers: list[Fired
     n_mod, n_stream = STREAMS["transform"]
     t_mod, t_stream = STREAMS["triggers"]
     link.subscribe(keys.topic(c_mod, c_stream), _reader(
-        LocalPoseView, f"{c_mod}/{c_stream}", lambda m: pose.set_local(m.stamp, (m.x, m.y, m.yaw))))
+        LocalPoseView, f"{c_mod}/{c_stream}", lambda m: pose.set_local(m.stamp, m.to_pose2d().as_tuple())))
     link.subscribe(keys.topic(n_mod, n_stream), _reader(
-        TransformView, f"{n_mod}/{n_stream}", lambda m: pose.set_world_from_local((m.x, m.y, m.yaw), m.stamp)))
+        TransformView, f"{n_mod}/{n_stream}", lambda m: pose.set_world_from_local(m.to_pose2d().as_tuple(), m.stamp)))
     link.subscribe(keys.topic(t_mod, t_stream), _reader(
         TriggerView, f"{t_mod}/{t_stream}", lambda m: m.event == "fired" and triggers.append(FiredTrigger(
             sim_s=m.stamp, x=m.x, y=m.y, annotation=m.annotation_id, kind=m.trigger_type, destination=m.destination, text=m.text))))

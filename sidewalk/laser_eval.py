@@ -21,6 +21,7 @@ from shapely.geometry import Point, Polygon
 
 from modules.perception.landmarks import landmark_observations
 from modules.perception.obstacles import LaserScan, detect_obstacles
+from wire.summary import percentile
 
 __all__ = ["LaserEvaluation", "truth_obstacles", "score_frame", "BANDS"]
 
@@ -81,10 +82,10 @@ class LaserEvaluation:
             "obstacle_visible": self.visible,
             "by_distance": bands,
             "landmark_observations": int(len(le)),
-            "landmark_error_m_p50": float(np.percentile(le, 50)) if len(le) else float("nan"),
-            "landmark_error_m_p95": float(np.percentile(le, 95)) if len(le) else float("nan"),
-            "laser_ms_p50": float(np.percentile(ms, 50)) if len(ms) else float("nan"),
-            "laser_ms_p95": float(np.percentile(ms, 95)) if len(ms) else float("nan"),
+            "landmark_error_m_p50": percentile(le, 50, empty=math.nan),
+            "landmark_error_m_p95": percentile(le, 95, empty=math.nan),
+            "laser_ms_p50": percentile(ms, 50, empty=math.nan),
+            "laser_ms_p95": percentile(ms, 95, empty=math.nan),
         }
 
 

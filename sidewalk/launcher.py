@@ -27,14 +27,17 @@ from sidewalk.errors import SidewalkError
 from sidewalk.compare.faults import FaultSpec, inject_fault  # issue 10: fault injection
 
 from modules.captain.missionfile import MissionFileError, load_mission
-from modules.vocabulary import Destination, Mission, MissionStepSpec
+from modules.vocabulary import Destination, Mission
+from sidewalk.lane_goal import judged_goals
 from sidewalk.map_error import MapErrorSummary, measure_map_error
+from sidewalk.missions import mission_path
+from sidewalk.robot_map import map_beside
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
 from sidewalk.run_record import FaultEvent, RecordedPlan, RunRecord, save_record
 from sidewalk.supervisor import ProcessPlan, ProcessStartError, RestartPolicy
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
-from vehicle_sim.worldfile import WORLDS_DIR, World, load_world, world_path
+from vehicle_sim.worldfile import WORLDS_DIR, World, WorldFileError, load_world, world_path
 from wire.timemode import LOCKSTEP_ENV, lockstep_env
 from wire.ports import free_port
 
@@ -126,20 +129,6 @@ class Progress:
     endpoint: str = ""
 
 
-def mission_path(name_or_path: str | Path) -> Path:
-    """Resolve a mission name ("campus-tour") to worlds/<name>.yaml, or return an existing file path."""
-    p = Path(name_or_path)
-    if p.suffix in (".yaml", ".yml", ".json") or p.exists():
-        if not p.exists():
-            raise FileNotFoundError(f"mission file {p} does not exist")
-        return p
-    candidate = WORLDS_DIR / f"{name_or_path}.yaml"
-    if not candidate.exists():
-        known = sorted(q.stem for q in WORLDS_DIR.glob("*.yaml"))
-        raise FileNotFoundError(f"no mission named {str(name_or_path)!r} (looked for {candidate}); known: {known}")
-    return candidate
-
-
 class RunSetup(BaseModel):
     """What a run needs before anything starts: world (truth), mission, the map file the robot gets, start poses.
 
@@ -160,6 +149,8 @@ class RunSetup(BaseModel):
     start_belief: tuple[float, float, float]
     destinations: tuple[Optional[tuple[float, float]], ...]
     lane_offsets: tuple[float, ...] = ()
+    #: each step's point the truth verdict judges (`sidewalk.lane_goal`; None: a destination the world lacks)
+    goal_points: tuple[Optional[tuple[float, float]], ...] = ()
 
 
 def _with_pose_error(pose: tuple[float, float, float], cfg: RunConfig) -> tuple[float, float, float]:
@@ -183,8 +174,8 @@ def _map(world: World, cfg: RunConfig, out: Path) -> tuple[Path, World]:
         except (FileNotFoundError, ValueError) as exc:
             raise LaunchError(f"--map {cfg.map_file}: {exc}") from None
     if cfg.map_error_m is None:
-        path = world_path(cfg.world, kind="map")
         try:
+            path = map_beside(cfg.world)
             return path, load_world(path, kind="map")
         except (FileNotFoundError, ValueError) as exc:
             raise LaunchError(str(exc)) from None
@@ -212,34 +203,6 @@ def _destination_xy(world: World, dest: Destination) -> Optional[tuple[float, fl
     return n.x, n.y
 
 
-def _lane_offset(world: World, step: MissionStepSpec) -> float:
-    """Return the signed offset [m] (+ left of travel) of the lane a step keeps to at its destination.
-
-    Keeping right on a path of width w ends w/4 right of its centre, as the MAP NAVIGATOR plans it;
-    the width is the widest path edge meeting the destination (the nearest edge for a point).
-    """
-    keep = step.constraints.keep
-    if keep is None or not world.edges:
-        return 0.0
-    dest = step.destination
-    if dest.xy is not None:
-        p = Point(dest.xy)
-        width = min(world.edges, key=lambda e: LineString(e.coords).distance(p)).width
-    else:
-        node = None
-        for look in (world.place, world.node):
-            try:
-                node = look(dest.place)
-                break
-            except KeyError:
-                continue
-        widths = [e.width for e in world.edges if node is not None and node.id in (e.from_node, e.to_node)]
-        if not widths:
-            return 0.0
-        width = max(widths)
-    return -width / 4.0 if keep == "right" else width / 4.0
-
-
 def _object_outlines(world: World) -> list[tuple[str, np.ndarray]]:
     out = []
     for o in world.objects:
@@ -250,12 +213,27 @@ def _object_outlines(world: World) -> list[tuple[str, np.ndarray]]:
     return out
 
 
+def _one_line(exc: Exception) -> str:
+    """Return a file error in one line: the problems of a world or map file joined (the first three)."""
+    if isinstance(exc, WorldFileError):
+        more = f"; and {len(exc.problems) - 3} more" if len(exc.problems) > 3 else ""
+        return "; ".join(str(p) for p in exc.problems[:3]) + more
+    return str(exc)
+
+
 def preflight(cfg: RunConfig) -> tuple[World, Mission, Path]:
     """Load and check the world and the mission before anything starts; raise LaunchError."""
     try:
         world = load_world(cfg.world)
+        if cfg.map_file is None and cfg.map_error_m is None:  # the robot's map: beside the world, never the world
+            map_beside(cfg.world)
     except (FileNotFoundError, ValueError) as exc:
         raise LaunchError(str(exc)) from None
+    if cfg.map_file is not None:
+        try:
+            load_world(cfg.map_file, kind="map")
+        except (FileNotFoundError, ValueError) as exc:
+            raise LaunchError(f"--map {cfg.map_file}: {_one_line(exc)}") from None
     try:
         mpath = mission_path(cfg.mission)
         mission = load_mission(mpath)
@@ -298,12 +276,16 @@ def prepare_run(cfg: RunConfig) -> RunSetup:
         told = (map_.start.x, map_.start.y, math.radians(map_.start.yaw_deg))
     else:
         raise LaunchError(f"the map {map_file} has no start pose and mission {mission.name!r} gives none (add start: {{x, y, yaw_deg}})")
+    vehicle = cfg.vehicle or mission.vehicle or "terregator"
+    dests = tuple(_destination_xy(world, s.destination) for s in mission.steps)
+    true_start = start_truth or ((world.start.x, world.start.y, 0.0) if world.start is not None else told)
+    goals = judged_goals(world, mission.steps, dests, true_start[:2], vehicle=vehicle)
     return RunSetup(
-        world=world, mission=mission, mission_file=mpath, vehicle=cfg.vehicle or mission.vehicle or "terregator",
+        world=world, mission=mission, mission_file=mpath, vehicle=vehicle,
         map_file=map_file, map_error=measure_map_error(world, map_, requested_m=cfg.map_error_m),
         start_truth=start_truth, start_belief=_with_pose_error(told, cfg),
-        destinations=tuple(_destination_xy(world, s.destination) for s in mission.steps),
-        lane_offsets=tuple(_lane_offset(world, s) for s in mission.steps),
+        destinations=dests, lane_offsets=tuple(0.0 if g is None else g.offset_m for g in goals),
+        goal_points=tuple(None if g is None else g.point for g in goals),
     )
 
 
@@ -364,8 +346,9 @@ def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[
     route is the road's centre line, and road following drives in the lane (every method).
     """
     keep = ()
-    if setup is not None and setup.lane_offsets and setup.lane_offsets[0] != 0.0:
-        keep = ("--keep", "right" if setup.lane_offsets[0] < 0.0 else "left")
+    first = setup.mission.steps[0].constraints.keep if setup is not None and setup.mission.steps else None
+    if first in ("right", "left"):
+        keep = ("--keep", first)
     if cfg.road_method == "perception":
         return keep
     weights = () if cfg.alvinn_weights is None else ("--alvinn-weights", str(Path(cfg.alvinn_weights).resolve()))
@@ -413,6 +396,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
         architecture=cfg.arch, mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
         perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
         rtf_requested=cfg.rtf, time_mode=cfg.time_mode, destinations=setup.destinations, lane_offsets=setup.lane_offsets,
+        goal_points=setup.goal_points,
         submitted_wall_s=round(submitted_wall, 6), submitted_sim_s=submitted_sim,
         ended_wall_s=round(ended_wall, 6), ended_sim_s=ended_sim, rest_sim_s=rest,
         stop_reason=stop_reason,

@@ -1,7 +1,10 @@
 """The processes of a run that only watch it: the recorder (always) and the NAVIGATION MONITOR (`--monitor`).
 
-They start right after the blackboard node and before the simulator and the modules, so that they
-see the run from its first message; they stop after them.
+They start right after the blackboard node (the recorder monitors its tokens; under EDDIE right after
+the router) and before the simulator and the modules, so that they see the run from its first message;
+they stop after them. Every process is a client of the router (`wire.flags`), and a client's session
+opens with the router's subscriptions already declared to it: a module's very first message reaches
+the recorder (as peers, the first could leave before a new peer had learnt of the recorder).
 """
 
 from __future__ import annotations

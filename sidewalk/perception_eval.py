@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
+from typing import Iterable
 
 import numpy as np
 
@@ -24,6 +24,8 @@ from modules.perception.pipeline import PerceptionPipeline, PipelineOutput
 from modules.perception.results import build_result
 from modules.perception.sensor_frame import SensorFrame, colored_range_image
 from modules.vocabulary import DrivingUnitDescription, MapObject
+from wire.se2 import wrap_angle
+from wire.summary import percentile
 
 __all__ = [
     "EvalFrame",
@@ -138,8 +140,6 @@ class EvaluationReport:
     def as_dict(self) -> dict:
         """Return the report as JSON-ready data."""
 
-        def pct(v: Sequence[float], q: float) -> float | None:
-            return float(np.percentile(v, q)) if len(v) else None
 
         pts = [f for f in self.fixes if f.kind == "point"]
         lines = [f for f in self.fixes if f.kind == "line"]
@@ -148,12 +148,12 @@ class EvaluationReport:
             hd = [abs(f.heading) for f in fs if f.heading is not None]
             return {
                 "count": len(fs),
-                "translation_m_p50": pct([f.translation for f in fs], 50),
-                "translation_m_p95": pct([f.translation for f in fs], 95),
-                "heading_deg_p50": math.degrees(pct(hd, 50)) if hd else None,
-                "heading_deg_p95": math.degrees(pct(hd, 95)) if hd else None,
-                "prior_translation_m_p50": pct([f.prior_translation for f in fs], 50),
-                "prior_heading_deg_p50": math.degrees(pct([abs(f.prior_heading) for f in fs], 50)) if fs else None,
+                "translation_m_p50": percentile([f.translation for f in fs], 50),
+                "translation_m_p95": percentile([f.translation for f in fs], 95),
+                "heading_deg_p50": math.degrees(percentile(hd, 50)) if hd else None,
+                "heading_deg_p95": math.degrees(percentile(hd, 95)) if hd else None,
+                "prior_translation_m_p50": percentile([f.prior_translation for f in fs], 50),
+                "prior_heading_deg_p50": math.degrees(percentile([abs(f.prior_heading) for f in fs], 50)) if fs else None,
             }
 
         return {
@@ -164,13 +164,13 @@ class EvaluationReport:
             "mean_iou_focus": self.mean_focus,
             "position_fix": {"point": fixstats(pts), "line": fixstats(lines), "failed": len(self.failures),
                              "failure_reasons": sorted(set(self.failures))[:10]},
-            "cycle_ms_p50": pct(self.cycle_ms, 50),
-            "cycle_ms_p95": pct(self.cycle_ms, 95),
-            "cycle_cpu_ms_p50": pct(self.cycle_cpu_ms, 50),
-            "capture_ms_p50": pct(self.capture_ms, 50),
-            "capture_ms_p95": pct(self.capture_ms, 95),
-            "segment_ms_p50": {k: pct(v, 50) for k, v in self.segment_ms.items()},
-            "segment_ms_p95": {k: pct(v, 95) for k, v in self.segment_ms.items()},
+            "cycle_ms_p50": percentile(self.cycle_ms, 50),
+            "cycle_ms_p95": percentile(self.cycle_ms, 95),
+            "cycle_cpu_ms_p50": percentile(self.cycle_cpu_ms, 50),
+            "capture_ms_p50": percentile(self.capture_ms, 50),
+            "capture_ms_p95": percentile(self.capture_ms, 95),
+            "segment_ms_p50": {k: percentile(v, 50) for k, v in self.segment_ms.items()},
+            "segment_ms_p95": {k: percentile(v, 95) for k, v in self.segment_ms.items()},
             "resolution_steps": {str(k): v for k, v in self.resolution_steps.items()},
         }
 
@@ -180,10 +180,6 @@ def _iou_dict(acc: IouAccumulator, names: tuple[str, ...], keep: Iterable[str]) 
     return {n: round(float(iou[names.index(n)]), 4) for n in keep if n in names and not np.isnan(iou[names.index(n)])}
 
 
-def _angle(a: float) -> float:
-    return (a + math.pi) % (2 * math.pi) - math.pi
-
-
 def fix_errors(out: PipelineOutput, truth: tuple[float, float, float], prior: tuple[float, float, float]) -> FixErrors | None:
     """Compare a pipeline's fix with the true pose."""
     cal = out.calibration
@@ -191,13 +187,13 @@ def fix_errors(out: PipelineOutput, truth: tuple[float, float, float], prior: tu
         return None
     d = np.array(cal.pose[:2]) - np.array(truth[:2])
     prior_t = float(math.hypot(prior[0] - truth[0], prior[1] - truth[1]))
-    prior_h = _angle(prior[2] - truth[2])
+    prior_h = wrap_angle(prior[2] - truth[2])
     if cal.kind == "line":
         n = np.array([-math.sin(cal.line_direction), math.cos(cal.line_direction)])
         trans = float(abs(d @ n))
     else:
         trans = float(np.linalg.norm(d))
-    heading = _angle(cal.pose[2] - truth[2]) if cal.yaw_known else None
+    heading = wrap_angle(cal.pose[2] - truth[2]) if cal.yaw_known else None
     return FixErrors(cal.kind, trans, heading, prior_t, prior_h)
 
 

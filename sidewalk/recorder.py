@@ -161,7 +161,7 @@ class Recorder:
         if self.bb is None:
             return None
         pose = await self.bb.lookup_pose(parent="world", child="vehicle", stamp=at)
-        return pose.x, pose.y, pose.yaw
+        return pose.as_tuple()
 
     def _on_event(self, _key: str, payload: bytes) -> None:
         try:

@@ -1,7 +1,9 @@
 """The run report: `report.json`, built by `build_report` from a recorded run alone, and `trajectory.png`.
 
 `success` is judged from truth: every step's destination truly reached within its tolerance when
-the step ended, and no collision. The robot's own verdict is `claimed_success`; when the two
+the step ended, and no collision. A step kept to a side is judged at its destination in that lane,
+on the route's direction of travel (`RunRecord.goal_points`, `sidewalk.lane_goal`), never by the
+vehicle's heading. The robot's own verdict is `claimed_success`; when the two
 disagree, `reason` says how. Times are spans from the mission's submission [s]; cross-track error
 is measured against each step's first route plan (the route centreline, so a keep-right offset
 counts), replans separately: their number, and the error against the plan in force at each moment.
@@ -9,7 +11,6 @@ counts), replans separately: their number, and the error against the plan in for
 
 from __future__ import annotations
 
-import json
 import math
 from collections import Counter
 from pathlib import Path
@@ -19,6 +20,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from modules.vocabulary import MissionStatus, StepOutcome
+from sidewalk.json_out import dumps
 from sidewalk.map_error import MapErrorSummary
 from sidewalk.metrics import cross_track_errors, interpolate_track, path_length, position_errors
 from sidewalk.run_record import FaultEvent, FiredTrigger, RunRecord
@@ -223,16 +225,16 @@ def _bb_usage(stats: dict[str, int | float] | None) -> BlackboardUsage | None:
     return BlackboardUsage(**usage)
 
 
-def _distance_to(truth: np.ndarray, dest: tuple[float, float], lane_offset: float = 0.0) -> np.ndarray:
-    """Return the distance [m] of each track row (N,4: t, x, y, yaw) from `dest` (x, y) [m] in its lane.
+def _distance_to(truth: np.ndarray, point: tuple[float, float]) -> np.ndarray:
+    """Return the distance [m] of each track row (N,4: t, x, y, yaw) from `point` (x, y) [m]; the heading plays no part."""
+    return np.hypot(truth[:, 1] - point[0], truth[:, 2] - point[1])
 
-    A step that keeps to a side ends in that lane: the point judged is `dest` moved `lane_offset` [m]
-    to the left of the vehicle's heading at that row (negative: to the right).
-    """
-    yaw = truth[:, 3]
-    lx = dest[0] - lane_offset * np.sin(yaw)
-    ly = dest[1] + lane_offset * np.cos(yaw)
-    return np.hypot(truth[:, 1] - lx, truth[:, 2] - ly)
+
+def _goal_point(rec: RunRecord, i: int) -> Optional[tuple[float, float]]:
+    """Return where step i is judged: its point in its lane (`RunRecord.goal_points`), else its destination."""
+    if i < len(rec.goal_points):
+        return rec.goal_points[i]
+    return rec.destinations[i]
 
 
 def _step_report(rec: RunRecord, i: int, outcomes: dict[int, StepOutcome], origin: float, truth: np.ndarray,
@@ -251,18 +253,17 @@ def _step_report(rec: RunRecord, i: int, outcomes: dict[int, StepOutcome], origi
     last = i == len(rec.mission.steps) - 1
     nxt = outcomes.get(i + 1)
     judged_until = settled if last else (nxt.finished_at if nxt is not None and nxt.finished_at is not None else settled)
-    dest = rec.destinations[i]
-    lane = rec.lane_offsets[i] if i < len(rec.lane_offsets) else 0.0
+    dest = _goal_point(rec, i)
     distance = at_claim = None
     if started is not None and dest is not None and len(truth):
         if last:
             rest = _window(truth, started, settled)
-            distance = float(_distance_to(rest[-1:], dest, lane)[0]) if len(rest) else None
+            distance = float(_distance_to(rest[-1:], dest)[0]) if len(rest) else None
         else:
             seen = _window(truth, started, judged_until)
-            distance = float(_distance_to(seen, dest, lane).min()) if len(seen) else None
+            distance = float(_distance_to(seen, dest).min()) if len(seen) else None
         if finished is not None and len(truth):
-            at_claim = round(float(_distance_to(_true_pose_at(truth, finished), dest, lane)[0]), 3)
+            at_claim = round(float(_distance_to(_true_pose_at(truth, finished), dest)[0]), 3)
     plans = sorted((p for p in rec.plans if p.step_index == i), key=lambda p: p.revision)
     cte_first = cte_newest = np.zeros(0)
     if plans and started is not None:
@@ -325,10 +326,10 @@ def build_report(rec: RunRecord) -> RunReport:
     claimed = final is not None and final.state == "succeeded"
     success = all(s.success for s in steps) and collisions == 0
     claimed_reason = rec.stop_reason or (final.reason if final is not None else "no mission status was ever seen")
-    goal = rec.destinations[-1]
+    goal = _goal_point(rec, len(rec.destinations) - 1)
     goal_error = None
     if goal is not None and len(truth):
-        goal_error = round(float(_distance_to(truth[-1:], goal, rec.lane_offsets[-1] if rec.lane_offsets else 0.0)[0]), 3)
+        goal_error = round(float(_distance_to(truth[-1:], goal)[0]), 3)
     # the mission's span by the CAPTAIN's clock, which also stamps the steps; RTF over what the launcher saw
     if final is not None and final.submitted_at is not None and final.finished_at is not None:
         sim_span = final.finished_at - final.submitted_at
@@ -396,7 +397,7 @@ def write_report(report: RunReport, out_dir: Path) -> Path:
     """Write `report.json` into out_dir and return its path."""
     out_dir.mkdir(parents=True, exist_ok=True)
     path = out_dir / "report.json"
-    path.write_text(json.dumps(report.model_dump(mode="json"), indent=2, sort_keys=False) + "\n")
+    path.write_text(dumps(report.model_dump(mode="json"), indent=2, sort_keys=False) + "\n")
     return path
 
 

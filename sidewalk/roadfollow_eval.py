@@ -28,6 +28,8 @@ from typing import Callable, Iterable, Iterator
 import numpy as np
 
 from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
+from wire.se2 import PoseFields, wrap_angle
+from wire.summary import percentile
 
 __all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
            "centre_at_origin", "score_frame", "evaluate", "summarise"]
@@ -37,7 +39,7 @@ FAIL_HEADING_DEG = 10.0
 
 
 @dataclass(frozen=True)
-class DrivePose:
+class DrivePose(PoseFields):
     """A true pose on the drive: leg index, world pose (x [m], y [m], yaw [rad]), sim time [s]."""
 
     leg: int
@@ -111,9 +113,7 @@ def plan_drive(legs: list[np.ndarray], frames: int, rng: np.random.Generator, *,
 
 def to_vehicle(xy: np.ndarray, pose: DrivePose) -> np.ndarray:
     """Map world points (N, 2) [m] into the `vehicle` frame of `pose`."""
-    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
-    d = np.asarray(xy, float) - (pose.x, pose.y)
-    return np.stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1]], axis=1)
+    return pose.to_pose2d().apply_inverse(xy)
 
 
 def centre_at_origin(centre_v: np.ndarray) -> tuple[float, float] | None:
@@ -160,7 +160,7 @@ def _ahead_at(centre_v: np.ndarray, dist: float) -> np.ndarray | None:
 
 
 def _angle_deg(a: float) -> float:
-    return math.degrees(math.remainder(a, 2.0 * math.pi))
+    return math.degrees(wrap_angle(a))
 
 
 def score_frame(obs: RoadObservation, centre_v: np.ndarray, cpu_ms: float) -> FrameScore | None:
@@ -197,7 +197,7 @@ def evaluate(frames: Iterable[EvalFrame], make_follower: Callable[[EvalFrame], R
         else:
             d = to_vehicle(np.array([[p.x, p.y]]), prev.pose)[0]
             motion = VehicleMotion(dx=float(d[0] + rng.normal(0.0, odometry_noise[0])), dy=float(d[1] + rng.normal(0.0, odometry_noise[0])),
-                                   dyaw=float(math.remainder(p.yaw - prev.pose.yaw, 2 * math.pi) + rng.normal(0.0, odometry_noise[1])))
+                                   dyaw=float(wrap_angle(p.yaw - prev.pose.yaw) + rng.normal(0.0, odometry_noise[1])))
         c0 = time.thread_time()
         obs = follower.observe(fr.image, stamp=p.stamp, motion=motion)
         cpu = (time.thread_time() - c0) * 1e3
@@ -214,19 +214,16 @@ def summarise(scores: list[FrameScore]) -> dict:
     fails = sum(1 for s in scores if not s.found or not math.isfinite(s.lateral_err_m) or s.lateral_err_m > FAIL_LATERAL_M
                 or s.heading_err_deg > FAIL_HEADING_DEG)
 
-    def pct(vals: list[float], q: float) -> float | None:
-        return round(float(np.percentile(vals, q)), 4) if vals else None
-
     lat = [s.lateral_err_m for s in ok]
     hd = [s.heading_err_deg for s in ok]
     return {
         "frames": n,
         "frames_with_road": len(ok),
-        "lateral_error_m_p50": pct(lat, 50),
-        "lateral_error_m_p95": pct(lat, 95),
-        "heading_error_deg_p50": pct(hd, 50),
-        "heading_error_deg_p95": pct(hd, 95),
+        "lateral_error_m_p50": percentile(lat, 50, digits=4),
+        "lateral_error_m_p95": percentile(lat, 95, digits=4),
+        "heading_error_deg_p50": percentile(hd, 50, digits=4),
+        "heading_error_deg_p95": percentile(hd, 95, digits=4),
         "failure_rate": round(fails / n, 4) if n else None,
-        "ms_per_frame_p50": pct([s.wall_ms for s in scores], 50),
-        "cpu_ms_per_frame_p50": pct([s.cpu_ms for s in scores], 50),
+        "ms_per_frame_p50": percentile([s.wall_ms for s in scores], 50, digits=4),
+        "cpu_ms_per_frame_p50": percentile([s.cpu_ms for s in scores], 50, digits=4),
     }

@@ -104,7 +104,9 @@ class RunRecord(BaseModel):
     """Everything measured during one run, for `build_report`.
 
     `destinations` are the steps' true destinations (x, y) [m] in `world`, resolved from the world
-    file (None: a place the world lacks); `lane_offsets` move each to the lane its step keeps to. `submitted_*` is when the CAPTAIN accepted the mission and
+    file (None: a place the world lacks); `goal_points` are where the verdict judges each step: its
+    destination moved into the lane it keeps to (`lane_offsets`), on the route's direction of travel on
+    the world's path graph (`sidewalk.lane_goal`). `submitted_*` is when the CAPTAIN accepted the mission and
     `ended_*` when the launcher saw it end (or gave up); `*_wall_s` [s] since the run started, `*_sim_s`
     the sim clock [s] then; `rest_sim_s` [s] when the vehicle was seen standing still after the end
     (None: not seen); the truth goes on until then. `stop_reason` says why the launcher gave up
@@ -128,6 +130,9 @@ class RunRecord(BaseModel):
     #: per step, the lane the mission asked for: the signed offset [m] from the path centre at the
     #: destination, + left of travel (keep right on a 6 m road: −1.5); empty: every step on the centre
     lane_offsets: tuple[float, ...] = ()
+    #: per step, the point judged (x, y) [m] `world` (None: a place the world lacks); empty (records before issue 36):
+    #: the destinations themselves
+    goal_points: tuple[Optional[tuple[float, float]], ...] = ()
     submitted_wall_s: float
     submitted_sim_s: float
     ended_wall_s: float

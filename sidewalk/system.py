@@ -51,8 +51,9 @@ class SystemRun:
         self.ns = ns
         #: the simulator steps in lock-step: the recorder samples the estimate on a fixed grid of sim time
         self.lockstep = lockstep
-        # under --secure the observer is `evaluation` (it reads truth) and submits as the `operator`
-        self.net = NetworkConfig(namespace=ns, connect=(endpoint,),
+        # a client of the router as every process of the system (wire.flags); under --secure the observer is
+        # `evaluation` (it reads truth) and submits as the `operator`
+        self.net = NetworkConfig(namespace=ns, mode="client", connect=(endpoint,),
                                  secure=None if secure is None else SecureConfig(dir=secure, role="evaluation"))
         self._operator: Link | None = None
         self.sup = Supervisor(log_dir)

@@ -18,6 +18,7 @@ from typing import Literal, Protocol, Union
 from pydantic import BaseModel, ConfigDict
 
 from wire.drive import VehicleLimits
+from wire.se2 import wrap_angle
 
 __all__ = [
     "VehicleState",
@@ -172,10 +173,6 @@ def integrate_arc(x: float, y: float, yaw: float, ds: float, dyaw: float) -> tup
     return x + chord * math.cos(h), y + chord * math.sin(h), yaw + dyaw
 
 
-def _wrap(a: float) -> float:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
 def step_navlab(state: VehicleState, command: Actuation, dt: float, params: NavlabParams = NAVLAB) -> VehicleState:
     """Advance the Navlab by `dt` [s] towards the commanded speed [m/s] and curvature [1/m]."""
     v_cmd = _clip(command.speed, -params.max_reverse_speed, params.max_speed)
@@ -189,7 +186,7 @@ def step_navlab(state: VehicleState, command: Actuation, dt: float, params: Navl
     ds = 0.5 * (v0 + v1) * dt
     dyaw = 0.5 * (k0 + k1) * ds
     x, y, yaw = integrate_arc(state.x, state.y, state.yaw, ds, dyaw)
-    return VehicleState(x=x, y=y, yaw=_wrap(yaw), v=v1, kappa=k1, omega=v1 * k1)
+    return VehicleState(x=x, y=y, yaw=wrap_angle(yaw), v=v1, kappa=k1, omega=v1 * k1)
 
 
 def step_terregator(state: VehicleState, command: Actuation, dt: float, params: TerregatorParams = TERREGATOR) -> VehicleState:
@@ -214,7 +211,7 @@ def step_terregator(state: VehicleState, command: Actuation, dt: float, params: 
     dyaw = 0.5 * (w0 + w1) * dt
     x, y, yaw = integrate_arc(state.x, state.y, state.yaw, ds, dyaw)
     kappa = w1 / v1 if abs(v1) > 1e-3 else 0.0
-    return VehicleState(x=x, y=y, yaw=_wrap(yaw), v=v1, kappa=kappa, omega=w1)
+    return VehicleState(x=x, y=y, yaw=wrap_angle(yaw), v=v1, kappa=kappa, omega=w1)
 
 
 def step(state: VehicleState, command: Actuation, dt: float, params: VehicleParams = NAVLAB) -> VehicleState:

@@ -146,7 +146,8 @@ def map_with_error(world: World, max_m: float, rng: np.random.Generator) -> Worl
     at most `MISSING_MAX`). One unit draw of all of it is scaled until the largest displacement of
     any vertex kept in the map (the start pose included) is `max_m`. A vertex moves at most 45 % of
     its polygon's clearance (the distance from a vertex to the nearest other side), so thin walls
-    keep a valid outline. Geometry stays in the `world` frame; randomness comes only from `rng`.
+    keep a valid outline. Like every map it states no appearance, markings, weather or actors (world-only).
+    Geometry stays in the `world` frame; randomness comes only from `rng`.
     """
     if not (max_m >= 0.0 and math.isfinite(max_m)):
         raise ValueError(f"map error must be a finite distance >= 0 [m], got {max_m!r}")
@@ -279,6 +280,8 @@ class _UnitError:
                 update["center"] = tup(self.move(_corners(o), k))[0]
             if isinstance(o.shape, (SlopeShape, StairsShape)):
                 update["shape"] = o.shape.model_copy(update={"axis_deg": o.shape.axis_deg + rot_deg})
+            update["appearance"] = None  # a map states colour type and nominal colour, never how the surface looks
+            update["markings"] = ()
             objects.append(WorldObject(**{**{f: getattr(o, f) for f in WorldObject.model_fields}, **update}))
         nodes, moved = [], {}
         for n in world.nodes:

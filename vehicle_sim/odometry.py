@@ -19,6 +19,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from vehicle_sim.kinematics import integrate_arc
+from wire.se2 import wrap_angle
 
 __all__ = ["OdometryModel", "OdometryState", "DEFAULT_ODOMETRY", "PERFECT_ODOMETRY", "odometry_step", "NoiseSource"]
 
@@ -81,7 +82,7 @@ def odometry_step(state: OdometryState, ds: float, dyaw: float, dt: float, model
     sig_yaw = math.sqrt(model.heading_noise ** 2 * ads + model.turn_noise ** 2 * adyaw)
     dyaw_m = (1.0 + model.yaw_scale_error) * dyaw + model.heading_bias * ads + sig_yaw * noise[1]
     x, y, yaw = integrate_arc(state.x, state.y, state.yaw, ds_m, dyaw_m)
-    yaw = (yaw + math.pi) % (2.0 * math.pi) - math.pi
+    yaw = wrap_angle(yaw)
     return OdometryState(
         x=x, y=y, yaw=yaw, distance=state.distance + abs(ds_m),
         v=ds_m / dt if dt > 0 else 0.0, omega=dyaw_m / dt if dt > 0 else 0.0,

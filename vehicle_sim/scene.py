@@ -46,6 +46,7 @@ from vehicle_sim.worldfile import (
     TreeShape,
     World,
 )
+from wire.se2 import wrap_angle
 
 if TYPE_CHECKING:
     from vehicle_sim.actors import ActorSet
@@ -564,7 +565,7 @@ class Scene:
         dy = centres[:, 1] - oy
         d = np.hypot(dx, dy)
         bearing = np.arctan2(dy, dx)
-        off = np.abs((bearing - az_mid + np.pi) % (2 * np.pi) - np.pi)
+        off = np.abs(wrap_angle(bearing - az_mid))
         spread = np.arcsin(np.clip(radii / np.maximum(d, 1e-9), 0.0, 1.0))
         keep = (d - radii < reach) & ((d <= radii) | (off <= az_half + spread))
         return np.flatnonzero(keep)

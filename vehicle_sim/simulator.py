@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from wire.drive import DriveCommand, Odometry, SimClock, SimEvent, TruthPose, VehicleLimits
+from wire.se2 import compose_tuple, wrap_angle
 from vehicle_sim.actors import ActorSet
 from vehicle_sim.kinematics import VehicleParams, VehicleState, limits_of, params_for, step
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, NoiseSource, OdometryModel, OdometryState, odometry_step
@@ -190,7 +191,7 @@ class Simulator:
         if len(self.actors) and self._check_actors(new) and self.config.collisions_block:
             new = VehicleState(x=prev.x, y=prev.y, yaw=prev.yaw, v=0.0, kappa=prev.kappa, omega=0.0)
             ds = 0.0
-        dyaw = (new.yaw - prev.yaw + math.pi) % (2.0 * math.pi) - math.pi
+        dyaw = wrap_angle(new.yaw - prev.yaw)
         self.odom = odometry_step(self.odom, ds, dyaw, self.dt, self.config.odometry, self._noise.pair())
         self.state = new
         return self.drain_events()
@@ -202,9 +203,8 @@ class Simulator:
         the odometry jumps with it, whatever the architecture does with position fixes.
         """
         o = self.odom
-        c, s = math.cos(o.yaw), math.sin(o.yaw)
-        yaw = (o.yaw + dyaw + math.pi) % (2.0 * math.pi) - math.pi
-        self.odom = OdometryState(x=o.x + c * dx - s * dy, y=o.y + s * dx + c * dy, yaw=yaw, distance=o.distance, v=o.v, omega=o.omega)
+        x, y, yaw = compose_tuple((o.x, o.y, o.yaw), (dx, dy, dyaw))
+        self.odom = OdometryState(x=x, y=y, yaw=yaw, distance=o.distance, v=o.v, omega=o.omega)
         self.slips += 1
 
     def advance(self, duration: float) -> list[SimEvent]:

@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from wire.errors import PayloadError
 from wire.health import Heartbeat
+from wire.se2 import PoseFields
 
 __all__ = [
     "DriveCommand",
@@ -104,7 +105,7 @@ class DriveCommand(BaseModel):
         return self
 
 
-class Odometry(BaseModel):
+class Odometry(PoseFields, BaseModel):
     """Dead-reckoned pose of `vehicle` in the `local` frame at sim time `stamp` [s]: x, y [m], yaw [rad].
 
     `v` [m/s] and `omega` [rad/s] are the measured speed and yaw rate; `distance` [m] the odometer.
@@ -123,7 +124,7 @@ class Odometry(BaseModel):
     child_frame: Literal["vehicle"] = "vehicle"
 
 
-class TruthPose(BaseModel):
+class TruthPose(PoseFields, BaseModel):
     """True pose of `vehicle` in the `world` frame at sim time `stamp` [s] (evaluation and monitor only).
 
     x, y, z [m] (z = ground height), yaw [rad], v [m/s], omega [rad/s], curvature [1/m] actually driven.

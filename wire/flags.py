@@ -3,8 +3,14 @@
 Defined once (`FLAGS`) and offered to both command-line front ends: Typer (`with_network`, the
 `sidewalk` CLI) and argparse (`add_network_args` / `network_from_args`, the module entry points).
 Each flag has an environment variable. The default mode depends on the command's role: a `router`
-listens, a `peer` (modules, the blackboard node, the simulator) connects to the router, a `tool`
-(status, submit, cancel, bb …) is a client of the router.
+listens; a `peer` (modules, the blackboard node, the simulator, the recorder, the monitor) is a
+client of the router it connects to, and a Zenoh peer only when it listens itself (`--listen`:
+others connect to it); a `tool` (status, submit, cancel, bb …) is a client of the router.
+
+Why clients: peers linked to one another directly (learnt through the router's gossip) lose those
+links when one of them stops past its lease, and a peer up all the while may never hear the other
+again once it continues (eclipse-zenoh/zenoh#498). Through the router, the router re-declares
+everything to the returning client, at the cost of one hop. `--mode peer` still gives direct links.
 
 `--secure DIR` (see docs/security.md) switches the session to mutual TLS with a user/password and
 makes every process a client of the router, whose access control enforces DIR/rules.yaml. The
@@ -32,7 +38,7 @@ __all__ = ["FLAGS", "Flag", "Role", "network_config", "with_network", "add_netwo
 
 Role = Literal["router", "peer", "tool"]
 
-_ROLE_MODE = {"router": "router", "peer": "peer", "tool": "client"}
+_ROLE_MODE = {"router": "router", "peer": "client", "tool": "client"}
 
 
 @dataclass(frozen=True)
@@ -51,7 +57,7 @@ FLAGS: tuple[Flag, ...] = (
     Flag("ns", "", "SIDEWALK_NS", "Namespace: keys live under sidewalk/<ns>/… (default: default)"),
     Flag("connect", "-e", "SIDEWALK_CONNECT", "Endpoint to connect to (repeatable), e.g. tcp/10.0.0.2:7447 (default: tcp/127.0.0.1:7447)", True),
     Flag("listen", "-l", "SIDEWALK_LISTEN", "Endpoint to listen on (repeatable)", True),
-    Flag("mode", "-m", "SIDEWALK_MODE", "Zenoh mode: peer, client or router (default: by command — router for `up router`, client for tools, peer otherwise)"),
+    Flag("mode", "-m", "SIDEWALK_MODE", "Zenoh mode: peer, client or router (default: by command — router for `up router`, peer for a process that listens, client otherwise)"),
     Flag("secure", "", "SIDEWALK_SECURE", "Secure directory from `sidewalk security init`: mutual TLS, password and the router's access control"),
     Flag("role", "", "", "Identity under --secure (default: the command's — helm, sim, monitor, router…; operator for tools)"),
 )
@@ -86,7 +92,8 @@ def network_config(*, ns: str | None, connect: list[str] | None, listen: list[st
         connect = [e for e in env.get("SIDEWALK_CONNECT", "").split(",") if e]
     if listen is None:
         listen = [e for e in env.get("SIDEWALK_LISTEN", "").split(",") if e]
-    mode = mode if mode is not None else env.get("SIDEWALK_MODE") or _ROLE_MODE[role]
+    if mode is None:
+        mode = env.get("SIDEWALK_MODE") or ("peer" if role == "peer" and listen else _ROLE_MODE[role])
     try:
         net = NetworkConfig(namespace=ns, mode=mode, connect=tuple(connect), listen=tuple(listen), secure=sec)
     except ValidationError as exc:

@@ -1,10 +1,13 @@
 """Network settings shared by every Sidewalk process: namespace, Zenoh mode and endpoints.
 
 The deployment (see README "Several hosts"): one Zenoh **router** per system (`sidewalk up router`,
-started first by `sidewalk run`) listens on the system's endpoint; every module, the blackboard node
-and the simulator are **peers** that connect to it, learn about each other through its gossip and
-then talk directly (each peer listens on an ephemeral port); command-line tools (`status`, `submit`,
-`cancel`, `bb …`) are **clients** of the router. Multicast scouting is off: endpoints are explicit.
+started first by `sidewalk run`) listens on the system's endpoint; every module, the blackboard node,
+the simulator, the observers and the command-line tools (`status`, `submit`, `cancel`, `bb …`) are
+**clients** of it, and every message travels through it (`wire.flags`: direct peer links did not
+survive a process stopped past its lease, eclipse-zenoh/zenoh#498). A process that listens itself
+is a **peer** (others connect to it; tests and benchmarks do so without a router), and `--mode peer`
+still gives peers that link to one another directly (each listens on an ephemeral port). Multicast
+scouting is off: endpoints are explicit.
 """
 
 from __future__ import annotations

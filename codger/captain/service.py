@@ -2,7 +2,10 @@
 blackboard one at a time, and keeps each mission's status (seed §2.3.1).
 
 It never sees perception or the vehicle: it writes `mission`, `mission_step` and `mission_status`
-tokens and reads `step_result` tokens.
+tokens and reads `step_result` tokens. To answer where a running mission is (`sidewalk status`), it
+looks every `progress_every_s` [s sim] at what the other modules posted: the step's newest `route_plan`,
+the newest `position_estimate` (the robot's belief), and, while no progress is made, the newest
+`obstacle_report` and `local_path_plan` (`modules.captain.progress`).
 """
 
 from __future__ import annotations
@@ -16,10 +19,13 @@ from typing import Any
 from blackboard import AttrPredicate, BlackboardError, Spec, VersionConflictError
 
 from modules.captain.missionfile import MissionFileError, MissionProblem, parse_mission, rejection_from
+from modules.captain.progress import RouteProgress
 from modules.captain.sequencer import MissionRun
 from wire.mission import MissionRequestError, Rejection, SubmitAccepted, new_mission_id, parse_cancel
 from runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
-from modules.vocabulary import MapPlaces, Mission, MissionStatus, StepResult
+from modules.vocabulary import (
+    LocalPathPlan, MapPlaces, Mission, MissionStatus, ObstacleReport, PositionEstimate, RoutePlan, StepResult, Waiting,
+)
 
 __all__ = ["Captain", "CaptainOptions"]
 
@@ -36,6 +42,10 @@ class CaptainOptions:
     step_timeout_s: float | None = None
     ack_timeout_s: float | None = 60.0
     keep_finished: int = 100
+    #: how often [s sim] the running step's progress is looked at
+    progress_every_s: float = 2.0
+    #: an obstacle report older than this [s sim] holds nothing any more
+    obstacle_fresh_s: float = 2.0
 
 
 @dataclass
@@ -44,6 +54,12 @@ class _Entry:
     status_token: Any = None
     cancel: asyncio.Event = field(default_factory=asyncio.Event)
     cancel_reason: str = ""
+    #: the running step's progress along its route, the newest believed pose (x, y [m], yaw [rad] in `world`),
+    #: its plan's revision, and why the vehicle waits
+    track: RouteProgress | None = None
+    revision: int = -1
+    pose: tuple[float, float, float] | None = None
+    waiting: Waiting = ""
 
 
 class Captain:
@@ -209,7 +225,12 @@ class Captain:
         await self._publish(e)
         while True:
             step_tok = await self.bb.post(step, stamp=self._now())
-            outcome = await self._await_result(e, step.step_index)
+            follow = asyncio.ensure_future(self._follow(e, step.step_index))
+            try:
+                outcome = await self._await_result(e, step.step_index)
+            finally:
+                follow.cancel()
+                e.track, e.revision, e.waiting = None, -1, ""
             if isinstance(outcome, StepResult):
                 nxt = run.step_finished(outcome, self._now())
                 if nxt.kind == "wait":
@@ -235,6 +256,64 @@ class Captain:
                 return
             assert nxt.step is not None
             step = nxt.step
+
+    # ---- where the running step is (the robot's belief) ----------------------------------
+
+    async def _follow(self, e: _Entry, index: int) -> None:
+        """Look at step `index`'s progress every `progress_every_s` [s sim] until cancelled."""
+        while True:
+            try:
+                await self._look(e, index)
+            except BlackboardError as exc:  # the node away: look again later
+                log.debug("progress of %s step %d: %s", e.run.mission.mission_id, index, exc)
+            await self.rt.clock.sleep(self.options.progress_every_s)
+
+    async def _newest(self, type_: str, *where: AttrPredicate) -> Any:
+        found = await self.bb.retrieve(Spec(type=type_, where=where, newest=True))
+        return found[0] if found else None
+
+    async def _look(self, e: _Entry, index: int) -> None:
+        """Update the step's progress from its newest route plan and position estimate; say why it waits."""
+        now = self._now()
+        mid = e.run.mission.mission_id
+        plan = await self._newest("route_plan", AttrPredicate(path="mission_id", op="==", value=mid),
+                                  AttrPredicate(path="step_index", op="==", value=index))
+        rp = plan.attrs if plan is not None and isinstance(plan.attrs, RoutePlan) and len(plan.attrs.polyline) >= 2 else None
+        if rp is not None and (e.track is None or rp.revision != e.revision):
+            if e.track is None:
+                started = e.run.status.steps[index].started_at if index < len(e.run.status.steps) else None
+                e.track = RouteProgress(index, rp.polyline, now if started is None else started)
+            else:
+                e.track.reroute(rp.polyline)
+            e.revision = rp.revision
+        est = await self._newest("position_estimate")
+        pe = est.attrs if est is not None and isinstance(est.attrs, PositionEstimate) else None
+        if pe is not None:
+            e.pose = (pe.pose.x, pe.pose.y, pe.pose.yaw)
+            if e.track is not None:
+                e.track.note(now, e.track.left(e.pose[:2]))
+        e.waiting = await self._waiting(e, now, pe)
+
+    async def _waiting(self, e: _Entry, now: float, pe: PositionEstimate | None) -> Waiting:
+        """Return why the vehicle waits: an obstacle on the plan, nothing planned for the step yet, or no perception."""
+        if e.track is None:
+            return "planning"  # the MAP NAVIGATOR has not planned the step's route yet
+        if e.track.since(now) >= self.options.progress_every_s:  # not getting farther: look for why
+            obs = await self._newest("obstacle_report")
+            rep = obs.attrs if obs is not None and isinstance(obs.attrs, ObstacleReport) else None
+            if rep is not None and rep.blocked and now - rep.sensed_at <= self.options.obstacle_fresh_s:
+                return "obstacle hold"
+            lpp = await self._newest("local_path_plan")
+            if lpp is None or not isinstance(lpp.attrs, LocalPathPlan) or lpp.stamp < e.track.best_at:
+                return "planning"  # the PILOT has given the HELM nothing since the last progress
+        return "dead reckoning" if pe is not None and pe.source == "dead-reckoning" else ""
+
+    def answered(self, st: MissionStatus) -> MissionStatus:
+        """Return `st` as a status query is answered: a running mission's with where it is (`StepProgress`)."""
+        e = self._entries.get(st.mission_id)
+        if st.state != "running" or e is None or e.track is None:
+            return st
+        return st.model_copy(update={"progress": e.track.report(self._now(), e.pose, e.waiting)})
 
     async def _withdraw(self, tok: Any, step: Any) -> None:
         for _ in range(3):
@@ -333,11 +412,11 @@ class Captain:
         mid = req.key.rsplit("/", 1)[-1]
         if mid in ("*", "**"):
             return QueryAnswer(as_json=True, ok=True, replies=tuple(
-                (self.rt.keys.mission_status(s.mission_id), s.model_dump_json().encode()) for s in self.statuses()))
+                (self.rt.keys.mission_status(s.mission_id), self.answered(s).model_dump_json().encode()) for s in self.statuses()))
         st = self.status(mid)
         if st is None:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid[:80]!r} known to this CAPTAIN").to_bytes())
-        return QueryAnswer(as_json=True, ok=True, payload=st.model_dump_json().encode(), key=self.rt.keys.mission_status(mid))
+        return QueryAnswer(as_json=True, ok=True, payload=self.answered(st).model_dump_json().encode(), key=self.rt.keys.mission_status(mid))
 
     async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
         """Answer a cancel request (mission id text or JSON) with the mission's status, or a rejection."""

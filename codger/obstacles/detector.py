@@ -95,7 +95,7 @@ class ObstacleDetector:
         while True:
             try:
                 p = await self.rt.bb.lookup_pose(parent="local", child="vehicle", stamp=stamp)
-                return (p.x, p.y, p.yaw)
+                return p.as_tuple()
             except BlackboardError:
                 if self.rt.clock.now() >= deadline:
                     raise
@@ -112,7 +112,7 @@ class ObstacleDetector:
             wl = await self.rt.bb.lookup_pose(parent="world", child="local", stamp=None)
         except BlackboardError:
             return None  # no perceived position yet
-        prior = compose(np.array([wl.x, wl.y, wl.yaw]), np.asarray(pose_local, np.float64))
+        prior = compose(wl.as_array(), np.asarray(pose_local, np.float64))
         near = [m for m in self.landmarks if math.hypot(m.x - prior[0], m.y - prior[1]) <= self.cfg.landmark.max_range + 5.0]
         matches = match_landmarks(obs, near, (float(prior[0]), float(prior[1]), float(prior[2])),
                                   pose_cov=np.eye(2) * self.cfg.prior_sigma_m ** 2, cfg=self.cfg.landmark)

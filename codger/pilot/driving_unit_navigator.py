@@ -2,7 +2,7 @@
 
 Plots the local path constraints from PERCEPTION's regions (the map's where PERCEPTION did not
 see) and the driving constraints the MAP NAVIGATOR gave the segment (keep right/left, lateral
-offset, speed limit), with `navigator.local_constraints` as its core, and posts them as a
+offset, speed limit), with `local_path_constraints.local_constraints` as its core, and posts them as a
 `local_path_constraints` token. Geometry is `world` [m].
 """
 
@@ -16,7 +16,7 @@ from shapely.geometry.base import BaseGeometry
 
 from blackboard import Polygon as BbPolygon
 from modules.pilot.config import PilotConfig
-from modules.pilot.navigator import ConstraintError, LocalConstraints, local_constraints
+from modules.pilot.local_path_constraints import ConstraintError, LocalConstraints, local_constraints
 from modules.pilot.segment import SegmentDriver, as_ring
 from modules.vocabulary import LocalPathConstraints, RouteSegmentDescription
 

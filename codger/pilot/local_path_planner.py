@@ -20,7 +20,7 @@ from modules.pilot.config import PilotConfig
 from modules.pilot.planner import LocalPathPlanner, PlannedPath
 from modules.pilot.speed_profile import speed_profile
 from modules.vocabulary import LocalPathPlan, PlanPose, RouteSegmentDescription
-from wire.se2 import inverse, transform_points
+from wire.se2 import inverse, transform_points, wrap_angle
 
 __all__ = ["LocalPathPlanning"]
 
@@ -63,7 +63,7 @@ class LocalPathPlanning:
         yaw = path.poses[:, 2] + local_world[2]
         self.seq += 1
         poses = tuple(
-            PlanPose(x=float(px), y=float(py), yaw=float(math.atan2(math.sin(a), math.cos(a))), speed=float(sp))
+            PlanPose.from_pose2d((px, py, wrap_angle(a)), speed=float(sp))
             for (px, py), a, sp in zip(xy, yaw, v)
         )
         plan = LocalPathPlan(seq=self.seq, segment_id=seg.segment_id, unit_ids=unit_ids, frame="local", poses=poses,

@@ -18,13 +18,14 @@ import math
 
 from blackboard import Spec
 from blackboard.errors import BlackboardError
+from modules.captain.arrival import REST_TIMEOUT_S, RestDetector
 from modules.pilot.config import PilotConfig
 from runtime.watch import HeartbeatWatch
 from codger.pilot.driving_monitor import DrivingMonitor
 from codger.pilot.driving_unit_finder import DrivingUnitFinder
 from codger.pilot.driving_unit_navigator import DrivingUnitNavigator, UnitConstraints
 from codger.pilot.local_path_planner import LocalPathPlanning
-from modules.pilot.navigator import ConstraintError
+from modules.pilot.local_path_constraints import ConstraintError
 from modules.pilot.planner import PlannedPath, PlanningError
 from modules.pilot.polyline import PolylineError
 from codger.pilot.position_estimator import PositionEstimator
@@ -55,6 +56,8 @@ class Pilot:
         self.helm = HeartbeatWatch(rt.link, rt.keys, cfg.helm) if getattr(rt, "link", None) is not None else None
         self._resyncs = getattr(rt.bb, "resyncs", 0)
         self._was_stalled = False
+        #: whether the vehicle stands still, from its odometry: a segment that stops is reported at rest
+        self.rest = RestDetector()
 
     @property
     def stats(self) -> dict[str, int]:
@@ -157,6 +160,8 @@ class Pilot:
             if drv.exited(estimator.pose[:2]):
                 # Before planning: a fix that moved the estimate into the exit would otherwise have
                 # the vehicle manoeuvre to a goal the segment no longer needs.
+                if seg.constraints.stop_at_exit:  # the vehicle stops here: arrival is claimed at rest
+                    return await self._come_to_rest(seg, f"exit reached ({mode})", start_distance)
                 await monitor.report(seg, True, f"exit reached ({mode})", start_distance)
                 return None
             if drv.needs_plan():
@@ -191,6 +196,46 @@ class Pilot:
                 await monitor.cancel_units()
                 return None
             await clock.sleep(cfg.tick_s)
+        return None
+
+    async def _feed_rest(self) -> None:
+        """Feed the rest detector the odometry (`local←vehicle`) of one tick ago, if the HELM has posted that far.
+
+        The pose at a time, not the newest: a HELM held up posts nothing new, and a repeated pose is no rest.
+        """
+        t = self.rt.clock.now() - self.cfg.tick_s
+        try:
+            p = await self.bb.lookup_pose(parent="local", child="vehicle", stamp=t)
+        except BlackboardError:  # not posted that far yet (or the node away): no evidence either way
+            return
+        self.rest.feed(t, p.x, p.y, p.yaw)
+
+    async def _come_to_rest(self, seg: RouteSegmentDescription, reason: str, start_distance: float):
+        """Report the exit of a segment that stops there once the vehicle is at rest (`modules.captain.arrival`).
+
+        Meanwhile the HELM drives out the plan, which stops at its end, and the estimate stays current;
+        return a newer segment that pre-empts this one (None once reported).
+        """
+        clock, estimator = self.rt.clock, self.estimator
+        arrived = clock.now()
+        self.rest = RestDetector()
+        while not self.rt.stopping:
+            await self._feed_rest()
+            now = clock.now()
+            if self.rest.at_rest(now):
+                await self.monitor.report(seg, True, f"{reason}; at rest", start_distance)
+                return None
+            if now - arrived >= REST_TIMEOUT_S:
+                await self.monitor.report(seg, True, f"{reason}; not at rest {REST_TIMEOUT_S:.0f} s after (claimed anyway)",
+                                          start_distance)
+                return None
+            await clock.sleep(self.cfg.tick_s)
+            await estimator.step()
+            change = await self.monitor.change(seg)
+            if change is not None:
+                return change.by
+            fixed = await self.landmark_fixes() is not None
+            await estimator.post(force=fixed, source="perception" if fixed else "dead-reckoning")
         return None
 
     async def landmark_fixes(self) -> float | None:

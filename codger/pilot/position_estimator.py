@@ -102,7 +102,7 @@ class PositionEstimator:
             p = await self.bb.lookup_pose(parent="local", child="vehicle", stamp=None)
         except BlackboardError:
             return None
-        return Odometry(stamp=self.clock.now(), pose=np.array([p.x, p.y, p.yaw]))
+        return Odometry(stamp=self.clock.now(), pose=p.as_array())
 
     async def _wait_odometry(self) -> Odometry:
         while True:
@@ -117,7 +117,7 @@ class PositionEstimator:
             then = await self.bb.lookup_pose(parent="local", child="vehicle", stamp=stamp)
         except BlackboardError:
             return np.zeros(3)
-        return PoseFilter.motion(np.array([then.x, then.y, then.yaw]), self.odom.pose)
+        return PoseFilter.motion(then.as_array(), self.odom.pose)
 
     # -- estimation ----------------------------------------------------------------------------
     async def start(self, first_segment: RouteSegmentDescription | None) -> bool:
@@ -133,7 +133,7 @@ class PositionEstimator:
             edge = info.edge("world", "local")
             if edge is not None and edge.newest is not None and edge.newest <= self.clock.now() + 1.0:
                 wl = await self.bb.lookup_pose(parent="world", child="local", stamp=None)
-                start = compose(np.array([wl.x, wl.y, wl.yaw]), self.odom.pose)
+                start = compose(wl.as_array(), self.odom.pose)
                 how = "previous world←local correction"
         except BlackboardError:
             pass

@@ -196,7 +196,7 @@ class IntegratedController:
         od = self.odom
         cmd = _STOP
         if od is not None and self.path is not None:
-            cmd = self.tracker.command(np.array([od.x, od.y, od.yaw]), dt)
+            cmd = self.tracker.command(od.to_pose2d().as_array(), dt)
             if cmd.done:
                 self._event(now, "path_done", self.path.client, self.path.mode)
                 self.path = None
@@ -220,7 +220,7 @@ class IntegratedController:
         then: tuple[DriveStep, ...] = ()
         if moving and not nudged and od is not None and self.path is not None:
             velocity = copy.copy(self.velocity)  # the look ahead ramps a copy of the speed
-            ahead = self.lookahead.steps(now, self.tracker, np.array([od.x, od.y, od.yaw]), act,
+            ahead = self.lookahead.steps(now, self.tracker, od.to_pose2d().as_array(), act,
                                          lambda c, step: self._shape(c, step, velocity))
             if ahead:
                 duration = period

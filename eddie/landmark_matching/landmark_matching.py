@@ -16,11 +16,12 @@ from eddie.messages.navigator import LineFixMessage, LocalPose, PointFixMessage
 from modules.perception import ColoredRangeImage, PerceptionPipeline
 from modules.perception.pipeline import PipelineOutput
 from modules.vocabulary import MapObject
+from wire.se2 import PoseFields
 
 __all__ = ["LandmarkFix", "landmark_fix", "calibration_fix", "fix_message"]
 
 
-class LandmarkFix(BaseModel):
+class LandmarkFix(PoseFields, BaseModel):
     """A fix: the vehicle's pose in `world` (x, y [m], yaw [rad]) at capture `stamp` [s] sim, its covariance (3×3, row-major).
 
     `kind` "point" fixes the position; "line" leaves it free along `line_direction` [rad] (`world`).
@@ -52,19 +53,18 @@ def calibration_fix(out: PipelineOutput, stamp: float) -> LandmarkFix | None:
     cal = out.calibration
     if cal is None:
         return None
-    x, y, yaw = cal.pose
-    return LandmarkFix(stamp=stamp, x=float(x), y=float(y), yaw=float(yaw),
-                       covariance=tuple(float(v) for v in cal.covariance.reshape(-1)), kind=cal.kind,
-                       line_direction=float(cal.line_direction), yaw_known=bool(cal.yaw_known), n_used=int(cal.n_used))
+    return LandmarkFix.from_pose2d(cal.pose, stamp=stamp,
+                                   covariance=tuple(float(v) for v in cal.covariance.reshape(-1)), kind=cal.kind,
+                                   line_direction=float(cal.line_direction), yaw_known=bool(cal.yaw_known), n_used=int(cal.n_used))
 
 
 def fix_message(fix: LandmarkFix, local: tuple[float, float, float], source: str) -> PointFixMessage | LineFixMessage:
     """Return the navigator's fix message for `fix`, with the controller's `local` pose (x, y [m], yaw [rad]) at its capture."""
-    at = LocalPose(x=float(local[0]), y=float(local[1]), yaw=float(local[2]))
+    at = LocalPose.from_pose2d(local)
     sx = math.sqrt(max(fix.covariance[0], fix.covariance[4], 1e-4))
     syaw = math.sqrt(max(fix.covariance[8], 1e-6))
     if fix.kind == "point":
-        return PointFixMessage(stamp=fix.stamp, x=fix.x, y=fix.y, yaw=fix.yaw, sigma_xy=sx, sigma_yaw=syaw, local=at, source=source)
+        return PointFixMessage.from_pose2d(fix.to_pose2d(), stamp=fix.stamp, sigma_xy=sx, sigma_yaw=syaw, local=at, source=source)
     return LineFixMessage(stamp=fix.stamp, x=fix.x, y=fix.y, angle=fix.line_direction, sigma_cross=sx,
                           yaw=fix.yaw if fix.yaw_known else None, sigma_yaw=syaw if fix.yaw_known else None,
                           local=at, source=source)

@@ -13,6 +13,7 @@ from typing import Literal
 from pydantic import Field, model_validator
 
 from eddie.toolkit.message import Finite, Message, message_type
+from wire.se2 import PoseFields
 
 __all__ = [
     "XY", "MAX_TRAIL", "CommandMode", "ControllerMode", "PathCommand", "DeadReckon", "SpeedLimit", "Nudge", "Stop", "Release",
@@ -124,7 +125,7 @@ class PositionQuery(Message):
 
 
 @message_type("controller.position")
-class Position(Message):
+class Position(PoseFields, Message):
     """The vehicle's dead-reckoned pose in `local` at sim time `stamp` [s]: x, y [m], yaw [rad], speed `v` [m/s]."""
 
     stamp: float
@@ -152,7 +153,7 @@ class RecordedPath(Message):
 
 
 @message_type("controller.state")
-class ControllerState(Message):
+class ControllerState(PoseFields, Message):
     """What the controller does at sim time `stamp` [s]: pose in `local`, speed [m/s], curvature [1/m], client, mode."""
 
     stamp: float

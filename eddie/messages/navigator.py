@@ -10,6 +10,7 @@ from __future__ import annotations
 from pydantic import Field
 
 from eddie.toolkit.message import Finite, Message, message_type
+from wire.se2 import PoseFields
 
 __all__ = ["LocalPose", "PointFixMessage", "LineFixMessage", "WorldFromLocal", "WorldFromLocalQuery"]
 
@@ -17,7 +18,7 @@ __all__ = ["LocalPose", "PointFixMessage", "LineFixMessage", "WorldFromLocal", "
 _F = Finite
 
 
-class LocalPose(Message):
+class LocalPose(PoseFields, Message):
     """The controller's local←vehicle pose at a fix's time: x, y [m], yaw [rad] in `local`."""
 
     x: _F
@@ -26,7 +27,7 @@ class LocalPose(Message):
 
 
 @message_type("navigator.point_fix")
-class PointFixMessage(Message):
+class PointFixMessage(PoseFields, Message):
     """A full fix: world←vehicle x, y [m], yaw [rad] at sim time `stamp` [s], with standard deviations [m], [rad]."""
 
     stamp: float = Field(ge=0.0)
@@ -55,7 +56,7 @@ class LineFixMessage(Message):
 
 
 @message_type("navigator.world_from_local")
-class WorldFromLocal(Message):
+class WorldFromLocal(PoseFields, Message):
     """The transform world←local: x, y [m], yaw [rad], valid from sim time `stamp` [s]; fixes used so far."""
 
     stamp: float

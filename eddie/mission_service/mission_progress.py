@@ -5,13 +5,16 @@ drives the route the triggers shape. The mission service only keeps the mission'
 CAPTAIN's sequencer, `modules.captain.sequencer.MissionRun`, so `sidewalk submit` reads the same
 states) and judges each step by where the robot believes it is (navigator `world` ← `local` ∘
 controller `local` pose): reached within `reach_m` less a margin of the step's goal (or, for a step kept
-to a side, of the goal moved into the lane of the route's last direction or of the believed heading, as
-the truth verdict judges it), at the closest approach (the route's end, or the belief passing the goal or
-stopping closing on it), or (as the PILOT judges arrival under CODGER: along its path, within
-`progress_m` of the end) projected within `progress_m` of the step route's end while within 2·`reach_m`
-of the goal (within `reach_m` of it or its lane's goal for a step kept to a side), or past the route's
-end and along the next step's route within `reach_m` of it (the goal went by between two looks)
-→ succeeded; no progress for `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
+to a side, of the goal moved into the lane of the road the route arrives on, on the kept side of the
+route's last direction: the mission read on the robot's map, `eddie.missions.lane`), at the closest
+approach (the route's end, or the belief passing the goal or stopping closing on it), or (as the PILOT
+judges arrival under CODGER: along its path, within `progress_m` of the end) projected within
+`progress_m` of the step route's end while within 2·`reach_m` of the goal (within `reach_m` of it or
+its lane's goal for a step kept to a side), or on the next step's route, within `reach_m` of it and
+`progress_m` along it, while within 2·`reach_m` of the goal or past the route's end (the goal went by
+between two looks, or the vehicle turned onto the next route at a corner) → succeeded, at once for a step driven
+through and, for one the vehicle stops at (the last; a `stop` or `wait` trigger's with obstacle stop holding it
+there), once the vehicle is at rest (`modules.captain.arrival`, from the controller's odometry); no progress for `stall_s` [s] sim → failed (progress: the route left to drive, the believed position projected
 onto the step's route, shrinking by `progress_m`). Routes come from the MAP NAVIGATOR's route selection on the robot's map,
 one step after the other from the previous goal, as the mission compiler lays them out.
 """
@@ -27,9 +30,11 @@ from pydantic import BaseModel, ConfigDict, Field
 from eddie.missions.destination import destination_object, destination_point
 from eddie.missions.lane import goal_kept_offset, goal_lane_offset, kept_lane_offset, lane_point, shift_into_lane
 from eddie.modules.errors import EddieModuleError
+from modules.captain.arrival import REST_TIMEOUT_S, RestDetector
+from modules.captain.progress import RouteProgress
 from modules.captain.sequencer import MissionRun, Next
 from modules.map_navigator import MapData, RouteError, RouteOptions, select_route
-from modules.vocabulary import Mission, MissionStatus, MissionStep, MissionStepSpec, StepResult
+from modules.vocabulary import Mission, MissionStatus, MissionStep, MissionStepSpec, StepProgress, StepResult, Waiting
 
 __all__ = ["StepGoal", "MissionRouteError", "step_goals", "mission_route", "MissionProgress"]
 
@@ -56,10 +61,8 @@ class StepGoal(BaseModel):
     speed_mps: float | None = None
     #: how close [m] to the goal counts as reached (the step's tolerance)
     reach_m: float = Field(1.0, gt=0.0)
-    #: the offset [m] left (+) of the heading of the lane the step keeps to (a quarter of the road's width; None: no
-    #: side): a road follower drives in the lane (issue 13), and the truth verdict judges the kept side from the
-    #: heading at each moment, so a vehicle that turns onto the next step's route short of the goal (a corner cut)
-    #: is in its lane on the side it now faces
+    #: the offset [m] left (+) of the route's last direction of the lane the step keeps to (a quarter of the width of
+    #: the road the route arrives on; None: no side): a road follower drives in the lane (issue 13), and ends in it
     lane_offset_m: float | None = None
 
     @property
@@ -86,7 +89,7 @@ def step_goals(map_data: MapData, start_xy: tuple[float, float], mission: Missio
         _obj, obj_xy = destination_object(map_data, step.destination.place, route.goal_xy)
         goal = destination_point(route.goal_xy, obj_xy, line)  # beside its object, if any
         out.append(StepGoal(step_index=i, route=tuple(line), goal=goal, speed_mps=step.constraints.speed_limit,
-                            reach_m=step.tolerance, lane_offset_m=goal_lane_offset(map_data, goal, step.constraints.keep)))
+                            reach_m=step.tolerance, lane_offset_m=goal_lane_offset(route, step.constraints.keep)))
         at = route.goal_xy
     return out
 
@@ -98,8 +101,8 @@ def mission_route(map_data: MapData, goals: list[StepGoal], steps: list[MissionS
 
     The route is the roads' centre line, each step's after the other. A step kept to a side is driven in its lane
     (`kept_lane_offset` of the nearest road's width at each vertex, at most `keep_offset_m` [m], leaving `edge_keep_m` [m]
-    inside the road's edge), as the PILOT plans it, and ends in its goal's lane (`goal_kept_offset`: where the truth
-    verdict judges it, a wide plaza's not a walk's); 0 elsewhere. A step's speed is its limit, at most `speed_mps`.
+    inside the road's edge), as the PILOT plans it, and ends in its goal's lane (`goal_kept_offset`: a wide plaza's,
+    not a walk's); 0 elsewhere. A step's speed is its limit, at most `speed_mps`.
     `in_lane`: the points moved by their offsets (`shift_into_lane`).
     """
     pts: list[tuple[float, float]] = []
@@ -132,15 +135,21 @@ class MissionProgress:
     """Sequence one mission's steps by the believed pose; pure (the caller publishes `status` when it changes)."""
 
     def __init__(self, mission: Mission, goals: list[StepGoal], *, submitted_at: float | None = None,
-                 margin_m: float = 0.3, stall_s: float = 60.0, progress_m: float = 0.5) -> None:
-        """Judge steps by `goals`: reached `margin_m` [m] inside a goal's reach (the robot's belief is not truth); failed after `stall_s` [s] sim without `progress_m` [m] of progress."""
+                 margin_m: float = 0.3, stall_s: float = 60.0, progress_m: float = 0.5, stops_at_steps: bool = True) -> None:
+        """Judge steps by `goals`: reached `margin_m` [m] inside a goal's reach (the robot's belief is not truth); failed after `stall_s` [s] sim without `progress_m` [m] of progress.
+
+        A step the vehicle stops at is claimed once it is at rest (`modules.captain.arrival`): the last step, and with
+        `stops_at_steps` (obstacle stop holds the vehicle at a `stop` or `wait` trigger's object) every such step.
+        """
         if len(goals) != len(mission.steps):
             raise ValueError(f"{len(goals)} goals for {len(mission.steps)} steps")
         self.run = MissionRun(mission, submitted_at=submitted_at)
         self.goals = goals
         self.margin_m, self.stall_s, self.progress_m = margin_m, stall_s, progress_m
-        self._best = math.inf
-        self._best_at = 0.0
+        self.stops_at_steps = stops_at_steps
+        self.rest = RestDetector()
+        self._arrived: tuple[str, float] | None = None  # a stopping step's arrival (reason, when [s sim]) awaiting rest
+        self._track: RouteProgress | None = None  # the current step's progress along its route
         self._closest, self._closest_at = math.inf, 0.0  # the nearest the belief came to the goal inside the reach [m], when [s]
         self._wait_until: float | None = None
         self._lines: dict[int, LineString] = {}
@@ -152,21 +161,71 @@ class MissionProgress:
 
     def start(self, now: float) -> MissionStep:
         """Start at sim time `now` [s]; return the first step."""
-        self._best, self._best_at = math.inf, now
+        step = self.run.start(now)
+        self._begin(step.step_index, now)
+        return step
+
+    def _begin(self, i: int, now: float) -> None:
+        self._track = RouteProgress(i, self.goals[i].route, now, progress_m=self.progress_m)
         self._closest, self._closest_at = math.inf, now
-        return self.run.start(now)
+        self._arrived = None
+
+    @property
+    def arrival(self) -> tuple[str, float] | None:
+        """Return the current step's arrival awaiting rest (why, when [s sim]), else None."""
+        return self._arrived
+
+    def _stops(self, i: int) -> bool:
+        """Return whether the vehicle comes to rest at step `i`'s goal (so that its arrival is claimed at rest)."""
+        return i == len(self.goals) - 1 or (self.stops_at_steps and self.run.mission.steps[i].trigger.action != "continue")
+
+    def _arrive(self, i: int, reason: str, now: float) -> bool:
+        """Step `i` reached its goal at sim time `now` [s]: end it, or, if the vehicle stops there, once it is at rest."""
+        if not self._stops(i):
+            return self._finish(i, reason, now)
+        if self._arrived is None:
+            self._arrived = (reason, now)
+        return self._settle(i, now)
+
+    def _settle(self, i: int, now: float) -> bool:
+        assert self._arrived is not None
+        reason, at = self._arrived
+        if self.rest.at_rest(now):
+            return self._finish(i, f"{reason}; at rest", now)
+        if now - at >= REST_TIMEOUT_S:
+            return self._finish(i, f"{reason}; not at rest {REST_TIMEOUT_S:.0f} s after (claimed anyway)", now)
+        return False
+
+    def _finish(self, i: int, reason: str, now: float) -> bool:
+        return self._apply(self.run.step_finished(StepResult(
+            mission_id=self.run.mission.mission_id, step_index=i, success=True, reason=reason), now), now)
 
     def _apply(self, nxt: Next, now: float) -> bool:
         if nxt.kind == "wait":
             self._wait_until = nxt.until
         elif nxt.kind == "step":
-            self._best, self._best_at = math.inf, now
-            self._closest, self._closest_at = math.inf, now
+            assert nxt.step is not None
+            self._begin(nxt.step.step_index, now)
         return True
 
-    def update(self, now: float, world_xy: tuple[float, float] | None, yaw: float | None = None) -> bool:
+    def progress(self, now: float, pose: tuple[float, float, float] | None, waiting: Waiting = "") -> StepProgress | None:
+        """Return where the running step is at sim time `now` [s] with the believed `pose` (`world`; None: unknown), else None."""
+        if self.run.finished or self.run.current_step is None or self._track is None:
+            return None
+        return self._track.report(now, pose, waiting)
+
+    def update(self, now: float, world_xy: tuple[float, float] | None, yaw: float | None = None,
+               odometry: tuple[float, float, float, float] | None = None) -> bool:
         """Take the believed position (`world` [m], None: not known) and heading (`yaw` [rad], None: not known) at sim
-        time `now` [s]; return whether the status changed."""
+        time `now` [s]; return whether the status changed.
+
+        `odometry` (stamp [s sim], x, y [m], yaw [rad] in `local`) tells whether the vehicle is at rest; without it the
+        believed position does (a position fix moving it counts as motion).
+        """
+        if odometry is not None:
+            self.rest.feed(*odometry)
+        elif world_xy is not None:
+            self.rest.feed(now, world_xy[0], world_xy[1], yaw or 0.0)
         if self.run.finished or self.run.current_step is None:
             return False
         i = self.run.current_step
@@ -176,13 +235,15 @@ class MissionProgress:
                 return False
             self._wait_until = None
             return self._apply(self.run.wait_over(now), now)
+        if self._arrived is not None:  # arrived at a stop: claimed once at rest
+            return self._settle(i, now)
         if world_xy is not None:
             sg = self.goals[i]
             lane_goal = sg.lane_goal
-            heading_lane = None if yaw is None or not sg.lane_offset_m else lane_point(sg.goal, sg.lane_offset_m, yaw)
-            d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (sg.goal, lane_goal, heading_lane) if g is not None)
+            d = min(math.hypot(world_xy[0] - g[0], world_xy[1] - g[1]) for g in (sg.goal, lane_goal) if g is not None)
             # progress is measured along the route: a route may lead away from its goal for a while
-            left = self._route_left(i, world_xy)
+            assert self._track is not None
+            left = self._track.left(world_xy)
             inside = d <= max(self.goals[i].reach_m - self.margin_m, 0.2)
             if inside and d < self._closest - CLOSING_M:
                 self._closest, self._closest_at = d, now
@@ -191,33 +252,30 @@ class MissionProgress:
             # not at the reach's edge (the belief is not truth)
             if not math.isinf(self._closest) and (not inside or left <= self.progress_m or d > self._closest + PASSED_M
                                                   or now - self._closest_at >= SETTLE_S):
-                return self._apply(self.run.step_finished(StepResult(
-                    mission_id=mid, step_index=i, success=True,
-                    reason=f"reached within {min(d, self._closest):.2f} m of the goal"), now), now)
+                return self._arrive(i, f"reached within {min(d, self._closest):.2f} m of the goal", now)
             # a step kept to a side ends on that side: the other lane projects onto the route's end too, so
             # there the belief must be within the reach of the goal or its lane's goal
             near_end = d <= (sg.reach_m if lane_goal is not None else 2.0 * sg.reach_m)
             if left <= self.progress_m and near_end:
                 # the belief may be off across the route by more than the reach (a wide plaza gives vision
                 # no edges); driving to the route's end is arrival, as the PILOT's along-path test
-                return self._apply(self.run.step_finished(StepResult(
-                    mission_id=mid, step_index=i, success=True,
-                    reason=f"reached the end of its route ({d:.2f} m from the goal, believed)"), now), now)
-            if left <= self.progress_m and i + 1 < len(self.goals):
+                return self._arrive(i, f"reached the end of its route ({d:.2f} m from the goal, believed)", now)
+            if (left <= self.progress_m or d <= 2.0 * sg.reach_m) and i + 1 < len(self.goals):
                 # the next step's route starts at this goal, and the vehicle drives on into it: a belief past this
                 # route's end, within the reach of the next route and along it, went through the goal between two
-                # looks (at RTF 50 a look can come seconds of sim apart, and a pass-by takes a few)
+                # looks (at RTF 50 a look can come seconds of sim apart, and a pass-by takes a few); one near the
+                # goal and near the next route's start turned onto it short of the corner
                 nxt = self._line(i + 1)
                 p = Point(world_xy)
                 along = float(nxt.project(p))
-                if self.progress_m <= along and nxt.distance(p) <= self.goals[i].reach_m:
-                    return self._apply(self.run.step_finished(StepResult(
-                        mission_id=mid, step_index=i, success=True,
-                        reason=f"passed its goal onto the next step's route ({along:.1f} m along it, believed)"), now), now)
-            if left < self._best - self.progress_m:
-                self._best, self._best_at = left, now
-        if now - self._best_at > self.stall_s:
-            left = "" if math.isinf(self._best) else f"; {self._best:.1f} m of its route left"
+                went_by = left <= self.progress_m or along <= 2.0 * sg.reach_m
+                if self.progress_m <= along and went_by and nxt.distance(p) <= sg.reach_m:
+                    return self._arrive(i, f"passed its goal onto the next step's route ({along:.1f} m along it, believed)", now)
+            self._track.note(now, left)
+        assert self._track is not None
+        if self._track.since(now) > self.stall_s:
+            best = self._track.best_left
+            left = "" if math.isinf(best) else f"; {best:.1f} m of its route left"
             why = f"no progress along the route for {self.stall_s:.0f} s (the believed position, navigator ∘ controller{left})"
             return self._apply(self.run.step_finished(StepResult(mission_id=mid, step_index=i, success=False, reason=why), now), now)
         return False
@@ -227,11 +285,6 @@ class MissionProgress:
         if line is None:
             line = self._lines[i] = LineString(self.goals[i].route)
         return line
-
-    def _route_left(self, i: int, world_xy: tuple[float, float]) -> float:
-        """Return how much of step `i`'s route [m] is left past the believed position's projection onto it."""
-        line = self._line(i)
-        return float(line.length - line.project(Point(world_xy)))
 
     def cancel(self, now: float, reason: str = "cancelled by request") -> None:
         """Cancel the mission at sim time `now` [s]."""

@@ -25,6 +25,7 @@ import numpy as np
 from eddie.messages.controller import PathCommand, Stop
 from eddie.missions.lane import KERB_MARGIN_M
 from eddie.messages.modules import MissionRoute, ModuleSwitch
+from eddie.obstacle_stop.obstacle_stop_module import CLIENT as OBSTACLE_CLIENT
 from eddie.mission_service.mission_progress import MissionProgress, MissionRouteError, mission_route, step_goals
 from eddie.modules.sensing import Belief
 from eddie.toolkit.module import Incoming
@@ -32,6 +33,7 @@ from eddie.toolkit.module import Module
 from modules.captain.missionfile import MissionFileError, parse_mission, rejection_from
 from modules.pilot import pilot_config_for
 from modules.map_navigator import MapData
+from modules.vocabulary import Waiting
 from wire.aio import QueryAnswer, QueryRequest
 from wire.keys import MissionKeys
 from wire.mission import MissionRequestError, Rejection, SubmitAccepted, new_mission_id, parse_cancel
@@ -109,7 +111,7 @@ class MissionService:
             goals = step_goals(self.map, start, mission, vehicle=self.vehicle)
         except MissionRouteError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="no_route", message=str(exc)).to_bytes())
-        prog = MissionProgress(mission, goals, submitted_at=self._now())
+        prog = MissionProgress(mission, goals, submitted_at=self._now(), stops_at_steps=self.perception)
         ahead = len(self.queue) + sum(1 for p in self.missions.values() if p.status.state == "running")
         self.missions[mission.mission_id] = prog
         self.queue.append(mission.mission_id)
@@ -119,17 +121,43 @@ class MissionService:
         acc = SubmitAccepted(mission_id=mission.mission_id, name=mission.name, steps=len(mission.steps), queued_behind=ahead)
         return QueryAnswer(as_json=True, ok=True, payload=acc.model_dump_json().encode())
 
+    def waiting(self) -> Waiting:
+        """Return why the vehicle is not driving on what vision sees, from the controller's newest state ("": it is).
+
+        Obstacle stop holding the controller stopped or capped at 0 → "obstacle hold"; the controller
+        following a recorded path, or the mission service driving the route without vision → "dead reckoning";
+        no path to track yet → "planning".
+        """
+        b = self.belief
+        if b.client == OBSTACLE_CLIENT and (b.mode == "stopped" or b.speed_limit == 0.0):
+            return "obstacle hold"
+        if b.mode == "dead_reckon" or (not self.perception and b.mode == "tracking"):
+            return "dead reckoning"
+        if b.mode == "idle":
+            return "planning"
+        return ""
+
+    def answered(self, prog: MissionProgress) -> bytes:
+        """Return `prog`'s status as a status query is answered: with where it is when it runs (`StepProgress`)."""
+        st = prog.status
+        if st.state == "running":
+            pose = self.belief.world()
+            now = self._now()
+            st = st.model_copy(update={"progress": prog.progress(
+                now, None if pose is None else (float(pose[0]), float(pose[1]), float(pose[2])), self.waiting())})
+        return st.model_dump_json().encode()
+
     async def on_status(self, req: QueryRequest) -> QueryAnswer:
-        """Answer `…/mission/status/<id>` (or `*`) with MissionStatus JSON."""
+        """Answer `…/mission/status/<id>` (or `*`) with MissionStatus JSON (a running mission's with its progress)."""
         mid = req.key.rsplit("/", 1)[-1]
         if mid in ("*", "**"):
             return QueryAnswer(as_json=True, ok=True, replies=tuple(
-                (self.keys.status(k), p.status.model_dump_json().encode()) for k, p in self.missions.items()))
+                (self.keys.status(k), self.answered(p)) for k, p in self.missions.items()))
         prog = self.missions.get(mid)
         if prog is None:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(
                 error="unknown_mission", message=f"no mission {mid!r} known to this mission service").to_bytes())
-        return QueryAnswer(as_json=True, ok=True, payload=prog.status.model_dump_json().encode(), key=self.keys.status(mid))
+        return QueryAnswer(as_json=True, ok=True, payload=self.answered(prog), key=self.keys.status(mid))
 
     async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
         """Answer a cancel request: stop the vehicle if the mission runs, and return its status."""
@@ -190,8 +218,11 @@ class MissionService:
             while not prog.status.terminal:
                 await self.m.clock.sleep(self.tick_s)
                 pose = self.belief.world()
+                b = self.belief
+                odom = None if b.local is None or b.local_stamp is None else (
+                    float(b.local_stamp), float(b.local[0]), float(b.local[1]), float(b.local[2]))
                 if prog.update(self._now(), None if pose is None else (float(pose[0]), float(pose[1])),
-                               None if pose is None else float(pose[2])):
+                               None if pose is None else float(pose[2]), odom):
                     self._publish(prog)
             await self._end(prog)
 

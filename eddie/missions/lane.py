@@ -1,8 +1,9 @@
 """The lane a step keeps to: a quarter of the road's width to the kept side of its centre line.
 
 As the MAP NAVIGATOR plans "keep right" under CODGER (`modules.map_navigator.describe.lateral_offset`):
-the route is the road's centre line, and a step kept to a side ends, and is driven, in that lane.
-Frames: `world` [m].
+the route is the road's centre line, and a step kept to a side ends, and is driven, in that lane. A
+step's goal is in the lane of the road the route arrives on, on the kept side of the route's last
+direction: EDDIE's own reading of the mission on the robot's map. Frames: `world` [m].
 """
 
 from __future__ import annotations
@@ -10,7 +11,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from shapely.geometry import LineString, Point
 
 __all__ = ["KERB_MARGIN_M", "lane_goal", "goal_lane_offset", "lane_point", "lane_offset", "kept_lane_offset", "goal_kept_offset",
            "shift_into_lane"]
@@ -38,9 +38,9 @@ def kept_lane_offset(keep: str | None, width_m: float, keep_offset_m: float, edg
 def goal_kept_offset(lane_offset_m: float | None, edge_keep_m: float) -> float:
     """Return the offset [m] left (+) of the route a step kept to a side ends at (0: no side).
 
-    Its goal's lane (`lane_offset_m`: a quarter of the goal's road width, as the truth verdict judges
-    a kept side, `goal_lane_offset`) as far as the road there leaves `edge_keep_m` [m] inside its edge:
-    the plaza's 6 m give 1.4 m for the Terregator, a 3 m walk nothing (a 2 m vehicle fits only on its centre).
+    Its goal's lane (`lane_offset_m`: a quarter of the width of the road the route arrives on,
+    `goal_lane_offset`) as far as the road there leaves `edge_keep_m` [m] inside its edge: a 6 m plaza
+    gives 1.4 m for the Terregator, a 3 m walk nothing (a 2 m vehicle fits only on its centre).
     """
     if not lane_offset_m:
         return 0.0
@@ -48,23 +48,23 @@ def goal_kept_offset(lane_offset_m: float | None, edge_keep_m: float) -> float:
     return math.copysign(max(0.0, min(abs(lane_offset_m), room)), lane_offset_m)
 
 
-def goal_lane_offset(map_data, goal: tuple[float, float], keep: str | None) -> float | None:
-    """Return the offset [m] left (+) of the heading of the lane `keep` at `goal`: a quarter of the nearest path's width (None: no side)."""
-    if keep not in ("right", "left") or not map_data.world.edges:
+def goal_lane_offset(route, keep: str | None) -> float | None:
+    """Return the offset [m] left (+) of the route's last direction of the lane `keep` at the end of `route` (the MAP
+    NAVIGATOR's `Route` on the robot's map): a quarter of the width of the road its last leg drives (None: no side)."""
+    if keep not in ("right", "left") or not route.legs:
         return None
-    p = Point(goal)
-    width = min(map_data.world.edges, key=lambda e: LineString(e.coords).distance(p)).width
-    return lane_offset(keep, width)
+    return lane_offset(keep, route.legs[-1].width)
 
 
 def lane_point(goal: tuple[float, float], offset_m: float, yaw: float) -> tuple[float, float]:
-    """Return `goal` moved `offset_m` [m] to the left (+) of heading `yaw` [rad] (`world`), as the truth verdict judges a kept side."""
+    """Return `goal` moved `offset_m` [m] to the left (+) of direction `yaw` [rad] (`world`)."""
     return goal[0] - offset_m * math.sin(yaw), goal[1] + offset_m * math.cos(yaw)
 
 
-def lane_goal(map_data, line, goal: tuple[float, float], keep: str | None) -> tuple[float, float] | None:
-    """Return `goal` moved a quarter of the nearest path's width to the kept side of the route's last direction (None: no side)."""
-    off = goal_lane_offset(map_data, goal, keep) if len(line) >= 2 else None
+def lane_goal(route, goal: tuple[float, float], keep: str | None) -> tuple[float, float] | None:
+    """Return `goal` moved into the lane `keep` of `route`'s last direction (`goal_lane_offset`; None: no side)."""
+    line = route.polyline()
+    off = goal_lane_offset(route, keep) if len(line) >= 2 else None
     if off is None:
         return None
     (ax, ay), (bx, by) = line[-2], line[-1]

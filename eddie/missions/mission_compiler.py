@@ -153,8 +153,8 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
         goal = route.goal_xy
         obj, obj_xy = destination_object(m, step.destination.place, goal)
         at = destination_point(goal, obj_xy, list(line.coords))  # beside the object, if any
-        # a step kept to a side stops in its lane, as it is judged
-        stop_xy = lane_goal(m, list(line.coords), at, step.constraints.keep) or at
+        # a step kept to a side stops in its goal's lane: the kept side of the road the route arrives on
+        stop_xy = lane_goal(route, at, step.constraints.keep) or at
         out.append(trigger(f"{sp}.stop", "stop_at_object", gate(line, max(0.0, line.length - STOP_LEAD_M), width),
                            StopAtObject(object_id=obj, x=stop_xy[0], y=stop_xy[1], object_xy=obj_xy, tolerance=step.tolerance,
                                         action=step.trigger.action, wait_s=step.trigger.wait_s),

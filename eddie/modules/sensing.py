@@ -15,7 +15,7 @@ import math
 import numpy as np
 from shapely.geometry import Point, Polygon
 
-from eddie.messages.controller import ControllerState
+from eddie.messages.controller import ControllerMode, ControllerState
 from eddie.messages.navigator import WorldFromLocal
 from eddie.modules.errors import EddieModuleError
 from eddie.navigator.local_pose_buffer import LocalPoseBuffer
@@ -94,6 +94,10 @@ class Belief:
         self.local: np.ndarray | None = None
         self.local_stamp: float | None = None
         self.speed = 0.0
+        #: the controller's mode, the client holding it and its speed cap [m/s] (None: none), from its newest state
+        self.mode: ControllerMode = "idle"
+        self.client = ""
+        self.speed_limit: float | None = None
         self.fixes_used = 0
         self.history = LocalPoseBuffer(span_s=30.0)
         self._waiting: list[tuple[float, asyncio.Future[None]]] = []
@@ -101,7 +105,8 @@ class Belief:
         m.subscribe("navigator", "world_from_local", WorldFromLocal, self._on_transform)
 
     def _on_state(self, st: ControllerState) -> None:
-        self.local, self.local_stamp, self.speed = np.array([st.x, st.y, st.yaw]), st.stamp, st.v
+        self.local, self.local_stamp, self.speed = st.to_pose2d().as_array(), st.stamp, st.v
+        self.mode, self.client, self.speed_limit = st.mode, st.client, st.speed_limit
         for t, x, y, yaw in st.trail:  # the periods a held-up controller missed
             self.history.add(t, x, y, yaw)
         self.history.add(st.stamp, st.x, st.y, st.yaw)
@@ -134,7 +139,7 @@ class Belief:
             self._waiting = [w for w in self._waiting if w[1] is not fut]
 
     def _on_transform(self, t: WorldFromLocal) -> None:
-        self.world_from_local, self.fixes_used = np.array([t.x, t.y, t.yaw]), t.fixes_used
+        self.world_from_local, self.fixes_used = t.to_pose2d().as_array(), t.fixes_used
 
     def world(self) -> np.ndarray | None:
         """Return the believed pose (3,) in `world` (None before the controller spoke)."""

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import bisect
-import math
 from collections import deque
 
 import numpy as np
 
-from wire.se2 import wrap_angle
+from wire.se2 import interpolate_tuple
 
 __all__ = ["LocalPoseBuffer"]
 
@@ -44,7 +43,4 @@ class LocalPoseBuffer:
         j = bisect.bisect_left(ts, stamp)
         if ts[j] == stamp:
             return np.array(self._p[j])
-        a, b = self._p[j - 1], self._p[j]
-        f = (stamp - ts[j - 1]) / (ts[j] - ts[j - 1])
-        yaw = a[2] + f * wrap_angle(b[2] - a[2])
-        return np.array([a[0] + f * (b[0] - a[0]), a[1] + f * (b[1] - a[1]), math.remainder(yaw, 2 * math.pi)])
+        return np.array(interpolate_tuple(self._p[j - 1], self._p[j], (stamp - ts[j - 1]) / (ts[j] - ts[j - 1])))

@@ -83,11 +83,11 @@ class Navigator:
         if self.filter is None or self.local is None:
             return None
         w = self.filter.world_from_local(self.local)
-        return WorldFromLocal(stamp=self.stamp, x=float(w[0]), y=float(w[1]), yaw=float(w[2]), fixes_used=self.fixes_used)
+        return WorldFromLocal.from_pose2d(w, stamp=self.stamp, fixes_used=self.fixes_used)
 
     def _local_at(self, msg: PointFixMessage | LineFixMessage) -> np.ndarray:
         if msg.local is not None:
-            return np.array([msg.local.x, msg.local.y, msg.local.yaw])
+            return msg.local.to_pose2d().as_array()
         pose = self.buffer.at(msg.stamp)
         if pose is None:
             raise BadMessage(f"fix from {msg.source or '?'} at {msg.stamp:.2f} s: no local pose given and none buffered then",
@@ -103,7 +103,7 @@ class Navigator:
         try:
             if isinstance(msg, PointFixMessage):
                 cov = np.diag([msg.sigma_xy**2, msg.sigma_xy**2, msg.sigma_yaw**2])
-                self.filter.update_point(PointFix(pose=np.array([msg.x, msg.y, msg.yaw]), cov=cov), motion_since=motion)
+                self.filter.update_point(PointFix(pose=msg.to_pose2d().as_array(), cov=cov), motion_since=motion)
             else:
                 self.filter.update_line(LineFix(point=np.array([msg.x, msg.y]), angle=msg.angle, cross_var=msg.sigma_cross**2,
                                                 yaw=msg.yaw, yaw_var=None if msg.sigma_yaw is None else msg.sigma_yaw**2),
@@ -125,4 +125,4 @@ class Navigator:
         """Return the world pose (3,) of a local pose under the current world←local."""
         w = self.world_from_local()
         assert w is not None
-        return compose(np.array([w.x, w.y, w.yaw]), np.asarray(local, dtype=np.float64))
+        return compose(w.to_pose2d().as_array(), np.asarray(local, dtype=np.float64))

@@ -22,7 +22,7 @@ from eddie.modules.errors import NoRoadPath
 from modules.road_following import RoadObservation
 from modules.road_following.road_seen import NoRoadSeen, drive_line
 from modules.pilot import LocalPathPlanner, PlanningError
-from wire.se2 import inverse, transform_points
+from wire.se2 import inverse, transform_points, wrap_angle
 
 __all__ = ["RoadFollowingConfig", "RoadPath", "region_in_local", "route_goal", "plan_road_path", "route_to_local", "route_ahead",
            "MapRoad", "map_road_at", "route_lane_offset", "follower_path", "road_line_fix"]
@@ -167,7 +167,7 @@ def map_road_at(edges, xy: tuple[float, float], yaw: float) -> MapRoad | None:
     a, b = line.interpolate(max(s - 0.5, 0.0)), line.interpolate(min(s + 0.5, line.length))
     th = math.atan2(b.y - a.y, b.x - a.x)
     if math.cos(th - yaw) < 0.0:
-        th = math.remainder(th + math.pi, 2.0 * math.pi)
+        th = wrap_angle(th + math.pi)
     return MapRoad(x=float(q.x), y=float(q.y), direction_rad=th, width_m=width)
 
 
@@ -223,6 +223,6 @@ def road_line_fix(obs: RoadObservation, road: MapRoad, at_capture_local: tuple[f
         return None
     th = road.direction_rad
     d = -obs.lateral_offset_m * math.cos(obs.heading_rad)
-    at = LocalPose(x=float(at_capture_local[0]), y=float(at_capture_local[1]), yaw=float(at_capture_local[2]))
+    at = LocalPose.from_pose2d(at_capture_local)
     return LineFixMessage(stamp=stamp, x=road.x - d * math.sin(th), y=road.y + d * math.cos(th), angle=th, sigma_cross=sigma_cross_m,
-                          yaw=float(math.remainder(th - obs.heading_rad, 2.0 * math.pi)), sigma_yaw=sigma_yaw_rad, local=at, source=source)
+                          yaw=float(wrap_angle(th - obs.heading_rad)), sigma_yaw=sigma_yaw_rad, local=at, source=source)

@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import math
 
 import numpy as np
 
@@ -46,7 +45,7 @@ from modules.road_following.road_method import CameraRoadFollower
 from modules.perception import PerceptionPipeline, ResolutionTable, colored_range_image
 from modules.perception.monitor import SENSORS
 from modules.pilot import LocalPathPlanner, pilot_config_for
-from wire.se2 import inverse, transform_points
+from wire.se2 import inverse, transform_points, wrap_angle
 
 __all__ = ["RoadFollowing"]
 
@@ -216,7 +215,7 @@ class RoadFollowing:
             else:
                 # across the road: the lane it is to keep (the belief can be a lane off after dead reckoning through an
                 # intersection, and a prior a lane off locks YARF on an edge stripe); along it: the map road's direction
-                self.follower.reset(self.lane_offset_m, math.remainder(road.direction_rad - prior[2], 2.0 * math.pi))
+                self.follower.reset(self.lane_offset_m, wrap_angle(road.direction_rad - prior[2]))
                 self.follower.road_width_m = road.width_m
             self._lost_run = 0
         lane = self.lane_offset_m  # a trigger may reset it while this cycle waits

@@ -19,6 +19,7 @@ import shapely
 
 from modules.map_navigator.mapdata import MapData
 from modules.map_navigator.route import Leg, Route, _sub_line
+from wire.se2 import wrap_angle
 
 __all__ = ["SegmentPlan", "SegmentOptions", "segment_route", "heading_change", "fillet_radius", "fillet_corner", "TURN_THRESHOLD_RAD"]
 
@@ -69,9 +70,9 @@ def _direction(coords: tuple[tuple[float, float], ...], at_end: bool) -> float:
 
 
 def heading_change(before: tuple[tuple[float, float], ...], after: tuple[tuple[float, float], ...]) -> float:
-    """Return the signed heading change [rad] in (-π, π] from the end of `before` to the start of `after`."""
+    """Return the signed heading change [rad] in [-π, π) from the end of `before` to the start of `after`."""
     d = _direction(after, at_end=False) - _direction(before, at_end=True)
-    return math.atan2(math.sin(d), math.cos(d))
+    return wrap_angle(d)
 
 
 def fillet_radius(turn_radius: float, width: float) -> float:
@@ -98,7 +99,7 @@ def fillet_corner(coords: tuple[tuple[float, float], ...], s_corner: float, tang
     after = _sub_line(pts, min(L, s_corner + tangent), L)
     h_a = _direction(before, at_end=True) if math.dist(before[0], before[-1]) > 1e-6 else _direction(_sub_line(pts, 0.0, s_corner), True)
     h_b = _direction(after, at_end=False) if math.dist(after[0], after[-1]) > 1e-6 else _direction(_sub_line(pts, s_corner, L), False)
-    theta = math.atan2(math.sin(h_b - h_a), math.cos(h_b - h_a))
+    theta = wrap_angle(h_b - h_a)
     if abs(theta) < 1e-3:
         return coords
     side = 1.0 if theta > 0 else -1.0  # centre on the left for a left turn

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from modules.perception.errors import PerceptionError
+from wire.se2 import wrap_angle
 
 __all__ = [
     "EdgeObservation",
@@ -260,7 +261,7 @@ def calibrate(
         H = Jw.T @ J
         gvec = Jw.T @ r
         prior_res = x - prior_arr
-        prior_res[2] = (prior_res[2] + math.pi) % (2 * math.pi) - math.pi
+        prior_res[2] = wrap_angle(prior_res[2])
         step = np.linalg.solve(H + prior_info, -(gvec + prior_info @ prior_res))
         x = x + step
         rms = float(np.sqrt(np.sum(w * r * r) / max(np.sum(w), 1e-9)))
@@ -289,7 +290,7 @@ def calibrate(
         across = np.array([-along[1], along[0]])
         evals = np.array([float(across @ cov[:2, :2] @ across), float(along @ cov[:2, :2] @ along)])
     yaw_known = math.sqrt(max(cov[2, 2], 0.0)) < yaw_sigma
-    x[2] = (x[2] + math.pi) % (2 * math.pi) - math.pi
+    x[2] = wrap_angle(x[2])
     return CalibrationResult(
         pose=(float(x[0]), float(x[1]), float(x[2])),
         covariance=cov,

@@ -17,6 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
+from wire.se2 import wrap_angle
+
 __all__ = [
     "TrackerConfig",
     "WorldObservation",
@@ -102,7 +104,7 @@ def in_view(pose: tuple[float, float, float], xy: np.ndarray, half_angle: float,
     """Return True when the `world` point xy [m] lies inside the sensor's view from the vehicle pose (x, y [m], yaw [rad])."""
     dx, dy = float(xy[0]) - pose[0], float(xy[1]) - pose[1]
     r = math.hypot(dx, dy)
-    b = (math.atan2(dy, dx) - pose[2] + math.pi) % (2 * math.pi) - math.pi
+    b = wrap_angle(math.atan2(dy, dx) - pose[2])
     return min_range <= r <= max_range and abs(b) <= half_angle
 
 

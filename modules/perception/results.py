@@ -104,7 +104,7 @@ def position_fix(cal: CalibrationResult | None) -> PointFix | LineFix | None:
     if cal.kind == "point":
         flat = tuple(float(v) for v in cov.reshape(-1))
         flat = tuple(0.5 * (flat[3 * i + j] + flat[3 * j + i]) for i in range(3) for j in range(3))
-        return PointFix(pose=Pose(x=cal.pose[0], y=cal.pose[1], yaw=cal.pose[2]), covariance=flat)
+        return PointFix(pose=Pose.from_pose2d(cal.pose), covariance=flat)
     lateral = float(cal.lateral_var + LINE_COV_FLOOR[0, 0])
     if cal.yaw_known:
         yaw_var = float(np.asarray(cal.covariance, dtype=np.float64)[2, 2] + LINE_COV_FLOOR[2, 2])

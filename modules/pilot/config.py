@@ -10,7 +10,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from modules.pilot.driving_units import DrivingUnitConfig
 from modules.pilot.fix_gate import FIX_GATE
 from modules.pilot.kalman import OdometryNoise
-from modules.pilot.navigator import NavigatorConfig
+from modules.pilot.local_path_constraints import NavigatorConfig
 from modules.pilot.planner import PlannerConfig
 from modules.pilot.speed_profile import SpeedConfig
 

@@ -15,6 +15,7 @@ import math
 import numpy as np
 
 from modules.road_following.follower import Branch
+from wire.se2 import wrap_angle
 
 __all__ = ["find_branches"]
 
@@ -72,7 +73,7 @@ def find_branches(p_road: np.ndarray, ground: np.ndarray, lateral_m: float, head
     while len(out) < max_branches:
         cand = (0.0, 0.0, None)
         for a in angles_rad:
-            if min(abs(math.remainder(float(a) - b.angle_rad, 2 * math.pi)) for b in out) < math.radians(40.0):
+            if min(abs(wrap_angle(float(a) - b.angle_rad)) for b in out) < math.radians(40.0):
                 continue
             sc, m = score(origin, float(a), taken)
             if sc > cand[0]:

@@ -19,6 +19,7 @@ from shapely.geometry.base import BaseGeometry
 from modules.road_following.errors import RoadFollowingError
 from modules.road_following.follower import RoadObservation, VehicleMotion
 from modules.road_following.spine_fit import Spine
+from wire.se2 import between_tuple
 
 __all__ = ["NoRoadSeen", "steering_arc", "drive_line", "road_region", "motion_between", "cross_section"]
 
@@ -89,9 +90,8 @@ def road_region(obs: RoadObservation, *, half_width_m: float, near_m: float = 1.
 
 def motion_between(before: tuple[float, float, float], after: tuple[float, float, float]) -> VehicleMotion:
     """Return the `VehicleMotion` from pose `before` to pose `after` (both x, y [m], yaw [rad] in one fixed frame)."""
-    c, s = math.cos(before[2]), math.sin(before[2])
-    dx, dy = after[0] - before[0], after[1] - before[1]
-    return VehicleMotion(dx=c * dx + s * dy, dy=-s * dx + c * dy, dyaw=math.remainder(after[2] - before[2], 2.0 * math.pi))
+    dx, dy, dyaw = between_tuple(before, after)
+    return VehicleMotion(dx=dx, dy=dy, dyaw=dyaw)
 
 
 def cross_section(road: BaseGeometry, pose: tuple[float, float, float], reach_m: float = 20.0) -> tuple[float, float] | None:

@@ -39,7 +39,7 @@ from modules.vocabulary.mapdata import (
 )
 from modules.vocabulary.mission import (
     DEFAULT_TOLERANCE_M, TERMINAL_STATES, Destination, KeepSide, Mission, MissionStart, MissionState, MissionStatus,
-    MissionStep, MissionStepSpec, StepConstraints, StepOutcome, StepResult, Trigger, TriggerAction,
+    MissionStep, MissionStepSpec, StepConstraints, StepOutcome, StepProgress, StepResult, Trigger, TriggerAction, Waiting,
 )
 from modules.vocabulary.perception import (
     DetectedObject, LineFix, PerceptionResult, PointFix, PositionFix, ResultFrame, SensorMode, SurfaceType,
@@ -78,7 +78,8 @@ __all__ = [
     "ColourType", "MapColour", "FlatShape", "MapObject", "MapPlaces", "ObjectRole", "PostShape", "PrismShape", "Shape", "SlopeShape",
     "StairsShape", "TreeShape",
     "DEFAULT_TOLERANCE_M", "TERMINAL_STATES", "Destination", "KeepSide", "Mission", "MissionStart", "MissionState",
-    "MissionStatus", "MissionStep", "MissionStepSpec", "StepConstraints", "StepOutcome", "StepResult", "Trigger", "TriggerAction",
+    "MissionStatus", "MissionStep", "MissionStepSpec", "StepConstraints", "StepOutcome", "StepProgress", "StepResult", "Trigger",
+    "TriggerAction", "Waiting",
     "DetectedObject", "LineFix", "PerceptionResult", "PointFix", "PositionFix", "ResultFrame", "SensorMode",
     "SurfaceType",
     "NAVIGATION_MODES", "DrivingConstraints", "ExitCondition", "NavigationMode", "RoutePlan",

@@ -8,6 +8,7 @@ from typing import Annotated
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
 from wire.token_types import declare, declared
+from wire.se2 import PoseFields
 
 __all__ = ["Frozen", "XY", "Ring", "Polyline2", "Pose", "Cov3", "finite", "NonNeg", "token_type", "register_token_types"]
 
@@ -68,7 +69,7 @@ def _check_cov(v: tuple[float, ...]) -> tuple[float, ...]:
 Cov3 = Annotated[tuple[finite, ...], AfterValidator(_check_cov)]
 
 
-class Pose(Frozen):
+class Pose(PoseFields, Frozen):
     """An SE(2) pose: position (x [m], y [m]) and heading yaw [rad] CCW from +x, in a named frame."""
 
     x: finite

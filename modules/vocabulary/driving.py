@@ -17,6 +17,7 @@ from pydantic import Field
 from modules.vocabulary._base import Cov3, Frozen, NonNeg, Polyline2, Pose, Ring, finite, token_type
 from modules.vocabulary.mapdata import MapObject
 from modules.vocabulary.route import NavigationMode
+from wire.se2 import PoseFields
 
 __all__ = [
     "UnitStatus", "DrivingUnitDescription", "PositionEstimate", "LocalPathConstraints", "PlanPose",
@@ -80,7 +81,7 @@ class LocalPathConstraints(Frozen):
     stop_at_end: bool = False
 
 
-class PlanPose(Frozen):
+class PlanPose(PoseFields, Frozen):
     """A pose of a local path plan with the speed to hold there [m/s] (negative: reversing)."""
 
     x: finite

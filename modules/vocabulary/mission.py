@@ -11,13 +11,13 @@ from typing import Annotated, Literal
 
 from pydantic import Field, model_validator
 
-from modules.vocabulary._base import XY, Frozen, NonNeg, finite, token_type
+from modules.vocabulary._base import XY, Frozen, NonNeg, Pose, finite, token_type
 
 __all__ = [
     "KeepSide", "TriggerAction", "MissionState", "Destination", "StepConstraints", "Trigger", "MissionStart",
     "DEFAULT_TOLERANCE_M",
     "MissionStepSpec", "Mission", "MissionStep", "StepResult", "StepOutcome", "MissionStatus",
-    "TERMINAL_STATES",
+    "TERMINAL_STATES", "StepProgress", "Waiting",
 ]
 
 #: Which side of the path to keep to; None = centre of the path.
@@ -158,9 +158,38 @@ class StepOutcome(Frozen):
     finished_at: float | None = None
 
 
+#: Why the vehicle of a running step is not driving on what it perceives: something stands on its path
+#: ("obstacle hold"), nothing to drive yet ("planning"), or it drives on its odometry alone ("dead reckoning").
+Waiting = Literal["", "obstacle hold", "planning", "dead reckoning"]
+
+
+class StepProgress(Frozen):
+    """Where a running mission is, as the robot believes it (never truth), when its mission service answered.
+
+    `sim_time_s` [s sim] of the answer; `route_done_m` / `route_left_m` [m] along the current step's route
+    (its newest plan, `world`) before and after the believed position's projection onto it (None: no route or
+    no estimate yet); `pose` the believed pose in `world` (None: none yet); `since_progress_s` [s sim] since the
+    believed position last got `progress_m` farther along the route (or since the step started); `waiting` why the
+    vehicle is not driving on what it perceives ("": it is).
+    """
+
+    sim_time_s: finite
+    step_index: Annotated[int, Field(ge=0)]
+    route_done_m: NonNeg | None = None
+    route_left_m: NonNeg | None = None
+    pose: Pose | None = None
+    since_progress_s: NonNeg | None = None
+    progress_m: NonNeg = 0.5
+    waiting: Waiting = ""
+
+
 @token_type("mission_status")
 class MissionStatus(Frozen):
-    """The CAPTAIN's view of a mission: state, current step, per-step outcomes, reason; times [s] sim."""
+    """The CAPTAIN's view of a mission: state, current step, per-step outcomes, reason; times [s] sim.
+
+    `progress` (a running mission's, in answers to status queries only; None in the posted token and the
+    events stream) is where the mission is as the robot believes it.
+    """
 
     mission_id: str
     name: str
@@ -171,6 +200,7 @@ class MissionStatus(Frozen):
     reason: str = ""
     submitted_at: float | None = None
     finished_at: float | None = None
+    progress: StepProgress | None = None
 
     @property
     def terminal(self) -> bool:

@@ -10,6 +10,7 @@ from typing import Annotated, Any, Awaitable, Callable, Optional
 import typer
 
 from blackboard import BlackboardClient, BlackboardError, NetworkConfig, TypeRegistry
+from sidewalk.json_out import dumps
 from wire.flags import with_network
 
 __all__ = ["bb_app"]
@@ -39,7 +40,7 @@ def _run(net: NetworkConfig, timeout: float, body: Callable[[BlackboardClient], 
 
 
 def _line(obj: Any) -> None:
-    sys.stdout.write(json.dumps(obj, sort_keys=True) + "\n")
+    sys.stdout.write(dumps(obj, sort_keys=True) + "\n")
     sys.stdout.flush()
 
 

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import importlib
-import json
 import os
 from types import ModuleType
 from typing import Annotated, Any
 
 import typer
+
+from sidewalk.json_out import dumps
 
 __all__ = ["bench_app"]
 
@@ -35,7 +36,7 @@ def _measure(mod: ModuleType, **kw: Any) -> dict:
 
 def _emit(result: dict, as_json: bool) -> None:
     if as_json:
-        typer.echo(json.dumps(result, sort_keys=True))
+        typer.echo(dumps(result, sort_keys=True))
         return
     from rich.console import Console
     from rich.table import Table
@@ -139,6 +140,16 @@ def bench_eddie(
         raise typer.BadParameter(f"--samples must be ≥ 10, got {samples}")
     mod = importlib.import_module("bench.eddie")
     _emit(_measure(mod, samples=samples), as_json)
+
+
+@bench_app.command("cli")
+def bench_cli(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    runs: Annotated[int, typer.Option(min=3, help="Runs of each command measured")] = 20,
+) -> None:
+    """The command line's startup: `sidewalk --help` and a `status` that finds nothing (p50/p95 wall), and the slowest imports."""
+    mod = importlib.import_module("bench.cli")
+    _emit(_measure(mod, runs=runs), as_json)
 
 
 @bench_app.command("soak")

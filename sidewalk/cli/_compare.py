@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import asyncio
-import json
 import math
 import shlex
 import sys
@@ -11,6 +10,8 @@ from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
+
+from sidewalk.json_out import dumps
 
 __all__ = ["register", "compare", "compare_check"]
 
@@ -119,7 +120,7 @@ def compare(
             console.print("[yellow]interrupted[/yellow]")
             raise typer.Exit(130) from None
     out.mkdir(parents=True, exist_ok=True)
-    (out / "compare.json").write_text(json.dumps(result.model_dump(mode="json"), indent=1) + "\n")
+    (out / "compare.json").write_text(dumps(result.model_dump(mode="json"), indent=1) + "\n")
     command = "sidewalk " + " ".join(shlex.quote(a) for a in sys.argv[1:])
     (out / "compare.md").write_text(render_markdown(result, command))
     plots = plot_comparison(result, out)
@@ -148,7 +149,7 @@ def compare_check(
     text = render_repeat(check)
     if out is not None:
         out.write_text(text)
-    print(check.model_dump_json(indent=1) if as_json else text, end="" if not as_json else "\n")
+    print(dumps(check.model_dump(mode="json"), indent=1) if as_json else text, end="" if not as_json else "\n")
     raise typer.Exit(0 if check.repeats else 1)
 
 

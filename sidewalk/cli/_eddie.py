@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import math
 from pathlib import Path
 from typing import Annotated, Optional
 
 import typer
+
+from sidewalk.json_out import dumps
 
 __all__ = ["eddie_app", "parse_polygon"]
 
@@ -35,7 +36,7 @@ def parse_polygon(text: str) -> tuple[tuple[float, float], ...]:
 
 @eddie_app.command("annotate")
 def annotate(
-    world: Annotated[str, typer.Option(help="World name (e.g. north_hills) or world file; its map file is used")],
+    world: Annotated[str, typer.Option(help="World name (e.g. north_hills) or world file; its map file (NAME.map.geojson beside it) is used, never the world")],
     mission: Annotated[str, typer.Option(help="Mission name from worlds/ or a mission YAML file")],
     out: Annotated[Path, typer.Option(help="Annotated map file to write (GeoJSON)")],
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file to route on (default: the world's)")] = None,
@@ -43,12 +44,11 @@ def annotate(
     intersections: Annotated[str, typer.Option(help="dead-reckon (then resume vision) or vision through intersections")] = "dead-reckon",
 ) -> None:
     """Compile a mission into trigger annotations along its route and write them as GeoJSON."""
-    from wire.mapfile import world_path
-
     from eddie.annotated_map import save_annotations
     from eddie.messages.map_manager import open_trigger_data
     from eddie.missions import MissionCompileError, compile_mission_files
-    from sidewalk.launcher import mission_path
+    from sidewalk.missions import mission_path
+    from sidewalk.robot_map import map_beside
 
     if vehicle is not None and vehicle not in ("terregator", "navlab"):
         raise _fail(f"--vehicle: {vehicle!r}: expected terregator or navlab")
@@ -56,7 +56,7 @@ def annotate(
         raise _fail(f"--intersections: {intersections!r}: expected dead-reckon or vision")
     try:
         mpath = mission_path(mission)
-        mfile = map_file if map_file is not None else world_path(world, kind="map")
+        mfile = map_file if map_file is not None else map_beside(world)
         if not Path(mfile).exists():
             raise FileNotFoundError(f"--map: {mfile} does not exist")
     except FileNotFoundError as exc:
@@ -108,7 +108,7 @@ def annotations(
             except Exception:  # noqa: BLE001 - opaque data need not be a message
                 row["data"] = None
             rows.append(row)
-        typer.echo(json.dumps(rows))
+        typer.echo(dumps(rows))
         return
     for a in hits:
         x0, y0, x1, y1 = a.location.bounds()

@@ -1,12 +1,13 @@
-"""`sidewalk mapbuild`: drive a route, build a map of the discrete objects the laser finds, score it against truth."""
+"""`sidewalk mapbuild`: drive a route by the robot's estimate, build a map of the discrete objects the laser finds, score it against truth."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
 import typer
+
+from sidewalk.json_out import dumps
 
 __all__ = ["register"]
 
@@ -21,20 +22,20 @@ def mapbuild(
     speed: Annotated[float, typer.Option(min=0.5, help="Driving speed [m/s]")] = 4.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
 ) -> None:
-    """Drive a route with the map's objects withheld, track what the laser sees, write a map a later run can use (--map)."""
+    """Drive a route by the robot's own estimate from the map's start, track what the laser sees, write a map a later run can use (--map)."""
     from modules.captain.missionfile import MissionFileError, load_mission
-    from sidewalk.launcher import mission_path
+    from sidewalk.missions import mission_path
     from sidewalk.mapbuild import MapBuildReport, build_map, route_polyline, score_map, write_map
+    from sidewalk.robot_map import map_beside
     from vehicle_sim.actors import ActorError, ActorSet, load_actors
-    from vehicle_sim.worldfile import load_world, world_path
+    from vehicle_sim.worldfile import load_world
 
     if vehicle not in ("navlab", "terregator"):
         raise typer.BadParameter(f"{vehicle!r} is not navlab or terregator", param_hint="--vehicle")
     try:
-        wpath = Path(world) if world.endswith(".geojson") else world_path(world)
-        w = load_world(wpath)
-        mpath = wpath.with_name(wpath.name.replace(".world.geojson", ".map.geojson"))
-        m = load_world(mpath, kind="map") if mpath.exists() and mpath != wpath else w
+        w = load_world(world)
+        mpath = map_beside(world)  # the robot drives on its map, never on the world
+        m = load_world(mpath, kind="map")
     except (FileNotFoundError, ValueError) as exc:
         raise typer.BadParameter(f"{exc}", param_hint="--world") from None
     try:
@@ -53,9 +54,10 @@ def mapbuild(
     sc = score_map(w, built, route_polyline(m, mission))
     rep = MapBuildReport(frames=built.frames, distance_m=round(built.distance_m, 2), built_objects=len(built.objects),
                          dropped_moving=built.dropped_moving, dropped_spurious=built.dropped_spurious,
-                         odometry_error_final_m=round(built.odometry_error_final_m, 3), map_file=str(path), **sc)
+                         odometry_error_final_m=round(built.odometry_error_final_m, 3), perception_fixes=built.perception_fixes,
+                         landmark_fixes=built.landmark_fixes, map_file=str(path), **sc)
     if as_json:
-        typer.echo(json.dumps(rep.model_dump(), sort_keys=True))
+        typer.echo(dumps(rep.model_dump(mode="json"), sort_keys=True))
     else:
         typer.echo(rep.model_dump_json(indent=2))
 

@@ -7,7 +7,6 @@ This file is the composition root for perception evaluation: it captures frames 
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass
@@ -16,6 +15,8 @@ from typing import Annotated, Iterator
 
 import numpy as np
 import typer
+
+from sidewalk.json_out import dumps
 
 __all__ = ["perception_app", "FrameSource"]
 
@@ -38,12 +39,13 @@ class FrameSource:
 
         from modules.map_navigator.mapdata import map_object
         from modules.perception.monitor import ResolutionTable
+        from sidewalk.robot_map import map_beside
 
         self.kinds = tuple(KINDS)
         path = Path(self.world_name) if self.world_name.endswith(".geojson") else world_path(self.world_name)
         self.world = load_world(path)
-        map_path = path.with_name(path.name.replace(".world.geojson", ".map.geojson"))
-        self.map = load_world(map_path) if (self.use_map and map_path.exists() and map_path != path) else self.world
+        # the map beside the world (never the world, unless a perfect map is asked for)
+        self.map = load_world(map_beside(path), kind="map") if self.use_map else self.world
         self.scene = Scene(self.world, seed=self.seed)
         self.request = CaptureRequest()
         laser = LaserConfig()
@@ -221,7 +223,7 @@ def eval_cmd(
     report.update({"frames_along": getattr(src, "routes_from", ""), "world": world, "vehicle": vehicle, "seed": seed, "map": "world" if perfect_map else "map", "pose_error": pose_error,
                    "error_allowance_m": allowance})
     if as_json:
-        typer.echo(json.dumps(report, sort_keys=True))
+        typer.echo(dumps(report, sort_keys=True))
         return
     from rich.console import Console
     from rich.table import Table
@@ -277,7 +279,7 @@ def _laser_eval(world: str, frames: int, seed: int, vehicle: str, actors: str, a
     report = ev.as_dict()
     report.update({"world": world, "vehicle": vehicle, "seed": seed, "actors": spec})
     if as_json:
-        typer.echo(json.dumps(report, sort_keys=True))
+        typer.echo(dumps(report, sort_keys=True))
     else:
         from rich.console import Console
 

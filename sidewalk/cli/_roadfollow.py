@@ -7,7 +7,6 @@ along the follow-road legs of the world's shipped missions (truth is allowed her
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from pathlib import Path
@@ -15,6 +14,8 @@ from typing import Annotated, Iterator, Optional
 
 import numpy as np
 import typer
+
+from sidewalk.json_out import dumps
 
 __all__ = ["roadfollow_app", "RouteFrames", "mission_legs", "lane_frame"]
 
@@ -182,7 +183,7 @@ def eval_cmd(
     report = {"method": method, "world": src.world.name, "seed": seed, **summarise(scores),
               "wall_s": round(time.perf_counter() - t0, 2)}
     if as_json:
-        typer.echo(json.dumps(report, sort_keys=True))
+        typer.echo(dumps(report, sort_keys=True))
         return
     for k, v in report.items():
         typer.echo(f"{k:>24}: {v}")
@@ -216,7 +217,7 @@ def dataset_cmd(
     np.savez_compressed(path, images=np.stack(images), centres=np.stack(centres).astype(np.float32),
                         camera_K=np.asarray(cap.camera_K, float), T_vehicle_camera=np.asarray(cap.T_vehicle_camera, float),
                         world=np.array(src.world.name), seed=np.array(seed), lane_offset=np.array(lane))
-    typer.echo(json.dumps({"dataset": str(path), "images": len(images), "world": src.world.name, "bytes": path.stat().st_size}))
+    typer.echo(dumps({"dataset": str(path), "images": len(images), "world": src.world.name, "bytes": path.stat().st_size}))
 
 
 def lane_frame(fr, lane_m: float):
@@ -252,6 +253,7 @@ def train_cmd(
 ) -> None:
     """Train ALVINN's net on the data set, each image also shifted and rotated with the corrected steering."""
     from modules.road_following import AlvinnNet, AlvinnShape, CameraGeometry, decode_steering, steering_targets, training_views
+    from wire.summary import percentile
 
     path = data / "dataset.npz" if data.is_dir() else data
     try:
@@ -280,9 +282,9 @@ def train_cmd(
     losses = net.train(x_tr, steering_targets(k_tr, shape), rng, epochs=epochs)
     pred, _ = decode_steering(net.forward(x_val), shape)
     written = net.save(out)
-    typer.echo(json.dumps({
+    typer.echo(dumps({
         "model": str(written), "images": int(len(images)), "samples": int(len(x_tr)), "final_mse": round(losses[-1], 5),
         "val_curvature_err_p50": round(float(np.median(np.abs(pred - k_val))), 5),
-        "val_curvature_err_p95": round(float(np.percentile(np.abs(pred - k_val), 95)), 5),
+        "val_curvature_err_p95": percentile(np.abs(pred - k_val), 95, digits=5),
         "train_s": round(time.perf_counter() - t0, 2),
     }))

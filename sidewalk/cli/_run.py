@@ -75,7 +75,7 @@ def _monitor_preflight(cfg, console) -> Optional[str]:  # noqa: ANN001 - RunConf
 
 
 def run(
-    world: Annotated[Optional[str], typer.Option(help="World name (worlds/<name>.world.geojson) or file (default: the mission's world, else campus)")] = None,
+    world: Annotated[Optional[str], typer.Option(help="World name (worlds/<name>.world.geojson) or file (default: the mission's world, else campus); the robot gets its map (NAME.map.geojson beside it), never the world")] = None,
     mission: Annotated[str, typer.Option(help="Mission name (worlds/<name>.yaml) or file")] = "campus-tour",
     vehicle: Annotated[Optional[str], typer.Option(help="terregator or navlab (default: the mission's, else terregator)")] = None,
     rtf: Annotated[float, typer.Option(help="Real-time factor of the simulator")] = 20.0,
@@ -250,7 +250,7 @@ def submit(
 ) -> None:
     """Send a mission to the CAPTAIN over Zenoh and follow its progress."""
     from modules.captain.missionfile import MissionFileError, load_mission
-    from sidewalk.launcher import mission_path
+    from sidewalk.missions import mission_path
 
     try:
         path = mission_path(file)
@@ -268,7 +268,8 @@ async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -
     from rich.console import Console
 
     from sidewalk.mission_client import MissionClient, MissionRejected, MissionServiceUnavailable
-    from runtime import ModuleKeys, Link
+    from wire.aio import Link
+    from wire.keys import ModuleKeys
 
     console = Console()
     link = Link.open(net)
@@ -316,15 +317,11 @@ def status(
 
 
 async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_json: bool) -> int:
-    import json as _json
+    from sidewalk.json_out import dumps
     import time as _time
 
-    from rich.console import Console
-    from rich.table import Table
-
-    from sidewalk.mission_client import MissionClient
-    from runtime import Link, ModuleKeys
-    from sidewalk.health import ModuleHealth, collect_heartbeats
+    from wire.aio import Link
+    from wire.keys import ModuleKeys
 
     keys = ModuleKeys(net.namespace)
     link = Link.open(net)
@@ -332,22 +329,34 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
         alive = await link.alive_keys(keys.alive_everything, timeout=timeout)
         names = sorted(k.rsplit("/", 1)[-1] for k in alive if "/bbclient/" not in k)
         clients = sum(1 for k in alive if "/bbclient/" in k)
-        beats = await collect_heartbeats(link, keys, set(names), heartbeat_wait) if heartbeat_wait > 0 else {}
-        now = _time.time()
-        health = [ModuleHealth.judge(n, beats.get(n), now, listened_s=heartbeat_wait) for n in names]
-        try:
-            sts = await MissionClient(link, keys, timeout=timeout).statuses() if names else []
-        except Exception:  # no CAPTAIN: nothing more to show
-            sts = []
+        health: list = []
+        sts: list = []
+        if names:
+            from sidewalk.health import ModuleHealth, collect_heartbeats
+
+            beats = await collect_heartbeats(link, keys, set(names), heartbeat_wait) if heartbeat_wait > 0 else {}
+            now = _time.time()
+            health = [ModuleHealth.judge(n, beats.get(n), now, listened_s=heartbeat_wait) for n in names]
+            try:
+                answers = [r for r in await link.get(keys.mission_status("*"), timeout=timeout) if r.ok]
+                if answers:  # the mission models (numpy, pydantic) only when a mission service answered
+                    from modules.vocabulary import MissionStatus
+
+                    sts = [MissionStatus.model_validate_json(r.payload) for r in answers]
+            except Exception:  # no CAPTAIN: nothing more to show
+                sts = []
         wedged = [h.name for h in health if h.state == "wedged"]
         no_node = [h.name for h in health if h.state == "no-node"]
         if as_json:
-            print(_json.dumps({
+            print(dumps({
                 "namespace": net.namespace, "modules": [h.model_dump(mode="json") for h in health],
                 "blackboard_clients": clients, "wedged": wedged, "no_node": no_node,
                 "missions": [s.model_dump(mode="json") for s in sts],
             }))
         else:
+            from rich.console import Console
+            from rich.table import Table
+
             console = Console()
             table = Table("module", "state", "heartbeat age [s]", "blackboard", "monitors", "host", "pid",
                           title=f"live in namespace {net.namespace!r}")
@@ -365,15 +374,28 @@ async def _status(net: NetworkConfig, timeout: float, heartbeat_wait: float, as_
             if not names:
                 console.print("[yellow]nothing alive: is the system running, and are --connect/--ns right?[/yellow]")
             if sts:
-                mt = Table("mission", "name", "state", "step", "reason", title="missions")
+                mt = Table("mission", "name", "state", "step", "sim [s]", "route done / left [m]", "pose x, y [m], yaw [°]",
+                           "no progress for [s]", "waiting", "reason", title="missions (where each is, as the robot believes)")
                 for s in sts:
-                    mt.add_row(s.mission_id, s.name, s.state, f"{(s.current_step or 0) + 1}/{s.step_count}", s.reason)
+                    mt.add_row(s.mission_id, s.name, s.state, f"{(s.current_step or 0) + 1}/{s.step_count}", *_progress_cells(s),
+                               s.reason)
                 console.print(mt)
         if not names:
             return 1
         return 4 if wedged or no_node else 0
     finally:
         link.close()
+
+
+def _progress_cells(st) -> tuple[str, str, str, str, str]:  # noqa: ANN001 - a MissionStatus
+    """Return a running mission's sim time, route done / left, pose, time without progress and waiting reason as table cells."""
+    p = st.progress
+    if p is None:
+        return ("-",) * 5
+    route = "-" if p.route_done_m is None else f"{p.route_done_m:.1f} / {p.route_left_m:.1f}"
+    pose = "-" if p.pose is None else f"{p.pose.x:.1f}, {p.pose.y:.1f}, {math.degrees(p.pose.yaw):.0f}"
+    since = "-" if p.since_progress_s is None else f"{p.since_progress_s:.1f}"
+    return f"{p.sim_time_s:.1f}", route, pose, since, p.waiting or "-"
 
 
 @with_network()
@@ -388,7 +410,8 @@ def cancel(
 
 async def _cancel(net: NetworkConfig, mission_id: str, timeout: float) -> int:
     from sidewalk.mission_client import MissionClient, MissionRejected, MissionServiceUnavailable
-    from runtime import ModuleKeys, Link
+    from wire.aio import Link
+    from wire.keys import ModuleKeys
 
     link = Link.open(net)
     try:
@@ -417,7 +440,7 @@ def register(app: typer.Typer) -> None:
 def _mission_world(mission: str) -> str | None:
     """Return the world the mission file names (None: it names none, or it cannot be read; preflight says why)."""
     from modules.captain.missionfile import MissionFileError, load_mission
-    from sidewalk.launcher import mission_path
+    from sidewalk.missions import mission_path
 
     try:
         return load_mission(mission_path(mission)).world

@@ -21,10 +21,11 @@ from sidewalk.compare.faults import FaultSpec
 from sidewalk.compare.glue import GlueCount, count_glue
 from sidewalk.compare.grid import GridResult, GridRun, run_grid
 from sidewalk.compare.measures import RunMeasures, measure_dir
-from sidewalk.compare.summary import ArchSummary, summarise
+from sidewalk.compare.summary import ArchSummary, Unreported, summarise
 from sidewalk.run_record import RunRecordError, load_record
 
-__all__ = ["CompareConfig", "RunEntry", "SweepPoint", "Comparison", "run_comparison", "FAULT_AT", "SOURCE_ROOT", "mission_world"]
+__all__ = ["CompareConfig", "RunEntry", "SweepPoint", "Comparison", "run_comparison", "summaries", "FAULT_AT", "SOURCE_ROOT",
+           "mission_world", "mission_name"]
 
 #: Where in the mission a fault is injected: this fraction of the baseline's median mission time.
 FAULT_AT = 0.4
@@ -74,6 +75,12 @@ class RunEntry(BaseModel):
     report: Optional[dict] = None
     measures: Optional[RunMeasures] = None
     error: str = ""
+
+    def outcome(self, mission: str) -> RunMeasures | Unreported:
+        """Return the run's figures, or (no report, or one that cannot be read) a failed run named `mission` with its reason."""
+        if self.measures is not None:
+            return self.measures
+        return Unreported(architecture=self.architecture, mission=mission, seed=self.seed, reason=self.error or "no report")
 
 
 class SweepPoint(BaseModel):
@@ -135,9 +142,31 @@ def mission_world(mission: str) -> Optional[str]:
         raise CompareError(f"--missions: {exc}") from None
 
 
+def mission_name(mission: str) -> str:
+    """Return the name a mission's reports carry (its file's `mission:`); raise CompareError for an unknown mission."""
+    from modules.captain.missionfile import MissionFileError, load_mission
+    from sidewalk.launcher import mission_path
+
+    try:
+        return load_mission(mission_path(mission)).name
+    except (FileNotFoundError, MissionFileError) as exc:
+        raise CompareError(f"--missions: {exc}") from None
+
+
+def summaries(entries: Sequence[RunEntry], missions: Sequence[str]) -> tuple[dict[str, ArchSummary], list[ArchSummary]]:
+    """Return the summary per architecture and per mission × architecture of the baseline runs `entries`.
+
+    Every run counts: one that wrote no report is a failed run (`Unreported`, with its reason).
+    """
+    names = {m: mission_name(m) for m in dict.fromkeys([*missions, *(e.mission for e in entries)])}
+    runs = [e.outcome(names[e.mission]) for e in entries]
+    return ({s.architecture: s for s in summarise(runs)},
+            [s for m in missions for s in summarise(runs, mission=names[m])])
+
+
 def _budgets(measured: Sequence[RunMeasures], arch: str, mission: str, cfg: CompareConfig) -> dict[str, float]:
     """Return the wall and sim budgets [s] of a fault or sweep run: a multiple of the baseline's (a stuck run gives up)."""
-    mine = [m for m in measured if m.architecture == arch and m.mission == mission]
+    mine = [m for m in measured if m.architecture == arch and m.mission == mission_name(mission)]
     if not mine:
         return {}
     wall = float(np.median([m.wall_time_s for m in mine]))
@@ -154,7 +183,7 @@ def _cells(cfg: CompareConfig, archs: Sequence[str], seeds: Sequence[int], *, ta
             for a in archs:
                 budget = {"max_wall_time_s": cfg.max_wall_time_s, **_budgets(measured, a, m, cfg)}
                 out.append(GridRun(architecture=a, mission=m, world=mission_world(m), seed=s, rtf=cfg.rtf, fault=fault, lockstep=cfg.lockstep,
-                                   max_speed=speed, out=cfg.out / "runs" / a / m / f"seed{s}{tag}", **budget))
+                                   max_speed=speed, out=cfg.out / "runs" / a / mission_name(m) / f"seed{s}{tag}", **budget))
     return out
 
 
@@ -177,7 +206,7 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
     for f in cfg.faults:
         for m in cfg.missions:
             for a in archs:
-                base = [x.mission_time_s for x in measured if x.architecture == a and x.mission == m]
+                base = [x.mission_time_s for x in measured if x.architecture == a and x.mission == mission_name(m)]
                 at = round(FAULT_AT * float(np.median(base)), 1) if base else 30.0
                 fault_cells += _cells(cfg, [a], cfg.seeds[:1], tag=f"-{f}", fault=FaultSpec(name=f, at_s=at), mission=m,  # type: ignore[arg-type]
                                       measured=measured)
@@ -196,7 +225,7 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
             outcomes.append(FaultOutcome(architecture=e.architecture, mission=e.mission, seed=e.seed, fault=e.fault or "?",
                                          injected=False, verdict="failed", how=str(exc)))
             continue
-        baseline = [x for x in measured if x.architecture == e.architecture and x.mission == e.mission]
+        baseline = [x for x in measured if x.architecture == e.architecture and x.mission == mission_name(e.mission)]
         outcomes.append(judge_fault(RunReport.model_validate(e.report), rec, e.measures, baseline))
 
     sweep: list[SweepPoint] = []
@@ -220,10 +249,10 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
             else:
                 alive.remove(a)
 
+    summary, per_mission = summaries(entries, cfg.missions)
     return Comparison(
         config=cfg, available=available, requested=list(cfg.architectures), runs=entries + fault_entries + sweep_entries,
-        summary={s.architecture: s for s in summarise(measured)},
-        per_mission=[s for m in cfg.missions for s in summarise(measured, mission=m)],
+        summary=summary, per_mission=per_mission,
         faults=outcomes, speed_sweep=sweep, highest_speed=highest,
         glue=[count_glue(SOURCE_ROOT, a) for a in ("codger", "eddie")],
         wall_time_s=round(time.monotonic() - t0, 1), time_mode="lockstep" if cfg.lockstep else "realtime",

@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict
 from sidewalk.compare.errors import CompareError
 from sidewalk.recording.errors import RecordingError
 from sidewalk.recording.reader import open_recording
+from wire.summary import percentiles
 
 __all__ = ["LatencySeries", "Latencies", "read_latencies", "sense_to_act_s", "unit_latency_s"]
 
@@ -40,7 +41,8 @@ class LatencySeries(BaseModel):
         if s.size == 0:
             return cls()
         ms = s * 1000.0
-        return cls(p50_ms=round(float(np.percentile(ms, 50)), 1), p95_ms=round(float(np.percentile(ms, 95)), 1),
+        p50, p95 = percentiles(ms, (50, 95), digits=1)
+        return cls(p50_ms=p50, p95_ms=p95,
                    max_ms=round(float(ms.max()), 1), n=int(ms.size))
 
 

@@ -8,8 +8,11 @@ from sidewalk.compare.comparison import Comparison
 
 __all__ = ["plot_comparison", "PLOTTED"]
 
-#: The measures drawn as per-run dots by architecture: field → axis label.
+#: The measures drawn as per-run dots by architecture: field → axis label. A run without a report is drawn as a
+#: failure (✕ at 0) in `success` and counted under its architecture's name in every panel.
 PLOTTED = {
+    "success": "success by truth (✕: no report)",
+    "goal_error_m": "goal error [m]",
     "mission_time_s": "mission time [s sim]",
     "position_error_rms_m": "position error rms [m]",
     "cross_track_error_rms_m": "cross-track error rms [m]",
@@ -28,18 +31,24 @@ def plot_comparison(c: Comparison, out: Path) -> list[Path]:
 
     out.mkdir(parents=True, exist_ok=True)
     archs = list(c.summary)
-    base = [r for r in c.runs if r.measures is not None and r.fault is None and r.max_speed is None]
-    fig, axes = plt.subplots(2, 3, figsize=(12, 7), dpi=100)
-    missions = list(dict.fromkeys(r.mission for r in base))
+    every = [r for r in c.runs if r.fault is None and r.max_speed is None]
+    base = [r for r in every if r.measures is not None]
+    lost = {a: [r for r in every if r.architecture == a and r.measures is None] for a in archs}
+    fig, axes = plt.subplots(2, 4, figsize=(15, 7), dpi=100)
+    missions = list(dict.fromkeys(r.mission for r in every))
     markers = "os^Dv<>"
+    ticks = [a + (f"\n{len(lost[a])} failed, no report" if lost[a] else "") for a in archs]
     for ax, (key, label) in zip(axes.flat, PLOTTED.items()):
         for i, a in enumerate(archs):
             for j, m in enumerate(missions):
+                x = i + 0.1 * (j - (len(missions) - 1) / 2)
                 ys = [getattr(r.measures, key) for r in base if r.architecture == a and r.mission == m]
                 ys = [y for y in ys if y is not None]
-                ax.plot([i + 0.1 * (j - (len(missions) - 1) / 2)] * len(ys), ys, markers[j % len(markers)], alpha=0.8,
-                        label=m if i == 0 else None)
-        ax.set_xticks(range(len(archs)), archs)
+                ax.plot([x] * len(ys), ys, markers[j % len(markers)], alpha=0.8, label=m if i == 0 else None)
+                n_lost = sum(r.mission == m for r in lost[a])
+                if key == "success" and n_lost:
+                    ax.plot([x] * n_lost, [0.0] * n_lost, "x", color="#c01818", ms=9, mew=2)
+        ax.set_xticks(range(len(archs)), ticks)
         ax.set_xlim(-0.6, len(archs) - 0.4)
         ax.set_title(label, fontsize=9)
     axes.flat[0].legend(fontsize=7)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Optional
 
 import numpy as np
@@ -64,6 +65,8 @@ def render_markdown(c: Comparison, command: str = "") -> str:
         if group == "outcome":
             rows.append(["runs", *(str(c.summary[a].runs) for a in archs)])
             rows.append(["success rate (truth)", *(f"{c.summary[a].success_rate:.0%}" for a in archs)])
+            if any(c.summary[a].unreported for a in archs):
+                rows.append(["of the runs, failed without a report", *(str(c.summary[a].unreported) for a in archs)])
         for key, (g, label) in MEASURES.items():
             if g != group or key == "success":
                 continue
@@ -74,6 +77,9 @@ def render_markdown(c: Comparison, command: str = "") -> str:
                    fmt_spread(s.measures["goal_error_m"]), fmt_spread(s.measures["position_error_rms_m"])] for s in c.per_mission]
             out += ["Per mission:", ""] + _table(["mission", "arch", "runs", "success", "mission time [s]", "goal error [m]",
                                                   "position error rms [m]"], pm) + [""]
+        if group == "outcome" and any(s.unreported for s in c.summary.values()):
+            out += ["A run that wrote no report failed: it counts in the success rate and has no other figure "
+                    "(its reason is in *Runs*).", ""]
         if group == "reaction":
             out += ["Position query latency is not measured inside a run (the PILOT's pose lookups on the blackboard and "
                     "EDDIE's position requests carry no stamps to the recording); `sidewalk bench blackboard` (CODGER) and "
@@ -98,9 +104,9 @@ def render_markdown(c: Comparison, command: str = "") -> str:
         m = r.measures
         what = r.fault or (f"v≤{r.max_speed:g}" if r.max_speed else "")
         if m is None:
-            rows.append([r.architecture, r.mission, str(r.seed), what, "no report", "–", "–", "–", "–", "–", r.error[:80]])
+            rows.append([r.architecture, Path(r.mission).stem, str(r.seed), what, "✘ no report", "–", "–", "–", "–", "–", r.error[:80]])
             continue
-        rows.append([r.architecture, r.mission, str(r.seed), what, "✔" if m.success else "✘", _num(m.mission_time_s),
+        rows.append([r.architecture, Path(r.mission).stem, str(r.seed), what, "✔" if m.success else "✘", _num(m.mission_time_s),
                      _num(m.goal_error_m), _num(m.position_error_rms_m), _num(m.sense_to_act_ms_p50), _num(m.cpu_s),
                      (r.report or {}).get("reason", "")[:80]])
     out += _table(["arch", "mission", "seed", "variant", "truth", "time [s]", "goal err [m]", "pos err rms [m]",

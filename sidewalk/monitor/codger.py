@@ -48,7 +48,7 @@ class BlackboardFrames:
             p = await self.bb.lookup("world", stamp, frame, stamp)
         except (BlackboardError, asyncio.TimeoutError):
             return None
-        return (p.x, p.y, p.yaw)
+        return p.as_tuple()
 
 
 class CodgerInterpreter:

@@ -23,7 +23,7 @@ from sidewalk.health import HeardBeat, ModuleHealth
 from sidewalk.mapdraw import DrawnFeature
 from sidewalk.recording.channels import jsonable
 from wire.health import Heartbeat
-from wire.se2 import compose, transform_points
+from wire.se2 import PoseFields, transform_points
 
 __all__ = ["MonitorModel", "SECTIONS", "DrawnUnit", "Perceived", "ModuleRow", "Image", "XYPose"]
 
@@ -35,7 +35,7 @@ _F = ConfigDict(frozen=True)
 Pt = tuple[float, float]
 
 
-class XYPose(BaseModel):
+class XYPose(PoseFields, BaseModel):
     """A planar pose at sim time `t` [s]: x, y [m], yaw [rad] in `world` (unless said otherwise)."""
 
     model_config = _F
@@ -250,8 +250,7 @@ class MonitorModel:
         w, lp = self.world_from_local, self.local_pose
         if w is None or lp is None:
             return
-        x, y, yaw = (float(v) for v in compose(np.array([w.x, w.y, w.yaw]), np.array([lp.x, lp.y, lp.yaw])))
-        self.set_estimate(XYPose(t=lp.t, x=x, y=y, yaw=yaw))
+        self.set_estimate(XYPose.from_pose2d(w.to_pose2d().compose(lp.to_pose2d()), t=lp.t))
 
     def set_estimate(self, p: XYPose) -> None:
         """Set the estimated vehicle pose (world); adds a position-error sample against the truth at its time."""
@@ -369,7 +368,7 @@ class MonitorModel:
     def section(self, name: str) -> Any:
         """Return one section as JSON-ready values."""
         wl = self.world_from_local
-        T = (wl.x, wl.y, wl.yaw) if wl is not None else None
+        T = wl.to_pose2d().as_tuple() if wl is not None else None
         if name == "meta":
             return {**self.meta, "updates": self.updates}
         if name in ("map", "world"):

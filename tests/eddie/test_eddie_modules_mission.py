@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from eddie.mission_service.mission_progress import MissionProgress, MissionRouteError, step_goals
+from modules.captain.arrival import REST_HOLD_S
 from modules.captain.missionfile import load_mission, parse_mission
 from modules.map_navigator import load_map
 from vehicle_sim.worldfile import WORLDS_DIR
@@ -43,6 +44,11 @@ def test_a_drive_along_each_route_succeeds_step_by_step_with_the_trigger_wait(ca
             t += 0.5
             if prog.update(t, p):
                 changes.append((t, prog.status.current_step, prog.status.state))
+        if mission.steps[g.step_index].trigger.action != "continue":  # the vehicle stops there: claimed once at rest
+            for _ in range(4):
+                t += 0.5
+                if prog.update(t, g.route[-1]):
+                    changes.append((t, prog.status.current_step, prog.status.state))
     for _ in range(10):  # the wait of step 3 ("wait 2 s") ends in sim time, standing at the last goal
         t += 0.5
         prog.update(t, goals[-1].goal)
@@ -79,8 +85,13 @@ def test_progress_is_judged_along_the_route_even_where_it_leads_away_from_the_go
     for p in _along(route, 1.0):  # 1 m/s
         t += 1.0
         prog.update(t, p)
+    assert prog.arrival is not None and prog.status.state == "running"  # arrived, not yet at rest
+    arrived = prog.arrival[1]
+    for _ in range(2):  # then stands
+        t += 1.0
+        prog.update(t, route[-1])
     st = prog.status
-    assert st.state == "succeeded", st
+    assert st.state == "succeeded" and st.steps[0].finished_at == arrived + REST_HOLD_S, st
     # standing still on the way still fails, and says what it waited for
     prog = MissionProgress(mission, [StepGoal(step_index=0, route=route, goal=(10.0, 0.0), reach_m=1.5)], stall_s=20.0)
     prog.start(0.0)
@@ -118,12 +129,20 @@ def test_a_step_to_an_unknown_place_names_the_step(campus) -> None:
 
 
 def _where_it_ends(prog: MissionProgress, drive) -> tuple[float, float] | None:
-    """Drive the belief along `drive` at 1 m/s, one update every 0.1 m; return where the mission ended (None: it did not)."""
+    """Drive the belief along `drive` at 1 m/s, one update every 0.1 m; return where the step arrived (None: it did not).
+
+    The last step is claimed once the vehicle is at rest: standing where it arrived, it is.
+    """
     prog.start(0.0)
     t = 0.0
     for p in _along(drive, 0.1):
         t += 0.1
-        if prog.update(t, p) and prog.status.terminal:
+        prog.update(t, p)
+        if prog.arrival is not None or prog.status.terminal:
+            for _ in range(20):  # it stops there
+                t += 0.1
+                prog.update(t, p)
+            assert prog.status.state == "succeeded" and "; at rest" in prog.status.steps[0].reason, prog.status
             return p
     return None
 
@@ -170,7 +189,7 @@ def test_the_dead_reckoned_route_keeps_to_the_steps_side_in_its_lane(campus) -> 
 
 
 def test_a_step_kept_right_ends_in_its_goals_lane_where_the_road_leaves_room(campus) -> None:
-    from eddie.missions.lane import KERB_MARGIN_M, lane_point
+    from eddie.missions.lane import KERB_MARGIN_M
     from eddie.mission_service.mission_progress import mission_route
     from modules.pilot import pilot_config_for
 
@@ -184,22 +203,22 @@ def test_a_step_kept_right_ends_in_its_goals_lane_where_the_road_leaves_room(cam
     def at(goal):
         return int(np.argmin([math.dist(p, goal) for p in pts]))
 
-    # the plaza (6 m): its goal's lane, a quarter of the width, as far as 1.6 m inside the edge leaves (1.4 m right);
-    # the quad's and the library's walks (2 m, 3 m) leave a 2 m vehicle no room off their centre line
+    # the plaza: its goal's lane is the slope's the route arrives on (4 m: a quarter, 1.0 m right of the route's last
+    # direction, west), as far as 1.6 m inside the edge leaves (0.4 m); the quad's and the library's walks (2 m, 3 m)
+    # leave a 2 m vehicle no room off their centre line
     plaza = at(goals[2].goal)
-    assert goals[2].lane_offset_m == pytest.approx(-1.5)
-    assert offsets[plaza] == pytest.approx(-1.4)
+    assert goals[2].lane_offset_m == pytest.approx(-1.0)
+    assert goals[2].lane_goal == pytest.approx((goals[2].goal[0], goals[2].goal[1] + 1.0), abs=0.01)  # north of it
+    assert offsets[plaza] == pytest.approx(-0.4)
     assert offsets[at(goals[0].goal)] == 0.0 and offsets[at(goals[3].goal)] == 0.0
-    # in its lane the route turns north at the plaza 1.4 m inside the corner: where the truth verdict judges the kept
-    # side of a vehicle turning there (the goal moved 1.5 m to the right of its heading, half way round the turn)
+    # in its lane the route turns north at the plaza 0.4 m inside the corner
     lane_pts, _, _ = mission_route(campus, goals, mission.steps, in_lane=True, **kw)
-    turning = math.atan2(1.0, -1.0)  # west, then north: north-west half way
-    assert math.dist(lane_pts[plaza], lane_point(goals[2].goal, goals[2].lane_offset_m, turning)) < 0.3
-    assert math.dist(lane_pts[plaza], goals[2].goal) > 0.9
+    assert math.dist(lane_pts[plaza], goals[2].goal) == pytest.approx(0.4, abs=0.01)
+    assert lane_pts[plaza][0] > goals[2].goal[0] and lane_pts[plaza][1] > goals[2].goal[1]
     # the route road following asks for carries them, one per point (or none: the centre line)
     from eddie.messages.modules import MissionRoute
 
-    assert MissionRoute(mission_id="m", points=tuple(pts), speeds=tuple(speeds), offsets=tuple(offsets), state="running").offsets[plaza] == pytest.approx(-1.4)
+    assert MissionRoute(mission_id="m", points=tuple(pts), speeds=tuple(speeds), offsets=tuple(offsets), state="running").offsets[plaza] == pytest.approx(-0.4)
     with pytest.raises(ValueError, match="one per point"):
         MissionRoute(mission_id="m", points=((0.0, 0.0), (1.0, 0.0)), offsets=(0.0,))
 
@@ -227,31 +246,33 @@ def _two_steps(route1, route2, goal1, goal2, *, lane_offset_m: float | None):
     return mission, [goal(0, route1, goal1), goal(1, route2, goal2)]
 
 
-def test_a_step_kept_right_whose_next_step_turns_is_reached_in_the_lane_the_vehicle_faces() -> None:
+def test_a_step_kept_right_whose_next_step_turns_is_reached_when_the_vehicle_turns_short_of_the_corner() -> None:
     # west along y = 0 to the corner (0, 0), then north; keeping right, the vehicle turns north 1.5 m short of the
-    # corner: in the right lane of the road it now drives (east of the centre), as the truth verdict judges a kept
-    # side by the heading, but 1.5 m from the goal and from the lane goal of the first route's direction (north of it)
+    # corner: 1.5 m from the goal and from its lane's goal (north of it, right of the route's last direction), outside
+    # the reach less the margin, but on the next step's route near its start: it turned onto it, the step is done.
+    # Which way the vehicle faces does not move the goal (the mission service is told no heading)
     mission, goals = _two_steps(((20.0, 0.0), (0.0, 0.0)), ((0.0, 0.0), (0.0, 30.0)), (0.0, 0.0), (0.0, 30.0), lane_offset_m=-1.5)
+    assert goals[0].lane_goal == pytest.approx((0.0, 1.5))
     drive = list(_heading_drive(((20.0, 0.0), (1.5, 0.0), (1.5, 29.0))))
-    for with_heading, want in ((True, "succeeded"), (False, "failed")):
-        prog = MissionProgress(mission, goals, stall_s=20.0)
-        prog.start(0.0)
-        t = 0.0
-        for x, y, yaw in drive:  # 1 m/s
-            t += 0.2
-            prog.update(t, (x, y), yaw if with_heading else None)
-        st = prog.status
-        assert st.steps[0].state == want, (with_heading, st.steps[0])
     prog = MissionProgress(mission, goals, stall_s=20.0)
     prog.start(0.0)
     t = 0.0
-    for x, y, yaw in drive:
+    for x, y, _yaw in drive:  # 1 m/s
         t += 0.2
-        prog.update(t, (x, y), yaw)
+        prog.update(t, (x, y))
         if prog.status.current_step == 1:
             break
-    assert 1.4 <= x <= 1.6 and -0.1 <= y < 1.5, (x, y)  # it ended at the closest approach, just past the turn
-    assert "reached within" in prog.status.steps[0].reason
+    assert prog.status.steps[0].state == "succeeded"
+    assert 1.4 <= x <= 1.6 and 0.5 <= y < 1.5, (x, y)  # just past the turn, on the next route
+    assert "onto the next step's route" in prog.status.steps[0].reason
+    # one that turns north 4 m short of the corner is on neither route near the goal: the step fails
+    prog = MissionProgress(mission, goals, stall_s=20.0)
+    prog.start(0.0)
+    t = 0.0
+    for x, y, _yaw in _heading_drive(((20.0, 0.0), (4.0, 0.0), (4.0, 29.0))):
+        t += 0.2
+        prog.update(t, (x, y))
+    assert prog.status.steps[0].state == "failed"
 
 
 def test_a_pass_through_the_goal_between_two_looks_ends_the_step_once_the_belief_is_along_the_next_route() -> None:
@@ -267,10 +288,10 @@ def test_a_pass_through_the_goal_between_two_looks_ends_the_step_once_the_belief
         t = 0.0
         for x, y in looks:
             t += 4.2
-            prog.update(t, (x + beside, y), math.pi / 2)
+            prog.update(t, (x + beside, y))
         for k in range(10):  # then stands at the second step's end
             t += 4.2
-            prog.update(t, (beside, 48.0), math.pi / 2)
+            prog.update(t, (beside, 48.0))
         st = prog.status
         assert st.steps[0].state == want, (beside, st.steps[0])
         if want == "succeeded":

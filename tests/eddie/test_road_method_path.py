@@ -159,6 +159,8 @@ def test_a_keep_right_step_also_counts_its_goal_in_the_lane_reached() -> None:
         prog = MissionProgress(mission, [g], submitted_at=0.0)
         prog.start(0.0)
         prog.update(1.0, at)
+        assert (prog.arrival is not None) is reached, prog.status
+        prog.update(2.0, at)  # standing there: at rest, the arrival is claimed
         assert (prog.status.state == "succeeded") is reached, prog.status
 
 

@@ -9,7 +9,7 @@ from shapely.geometry import LineString
 
 from modules.helm.tracker import PathTracker, TrackerConfig
 from modules.pilot.driving_units import DrivingUnitConfig
-from modules.pilot.navigator import NavigatorConfig, local_constraints
+from modules.pilot.local_path_constraints import NavigatorConfig, local_constraints
 from modules.pilot.planner import LocalPathPlanner, PlannerConfig
 from modules.pilot.polyline import PathLine
 from modules.pilot.segment import SegmentDriver, SegmentGeometry, map_region

@@ -12,7 +12,7 @@ import pytest
 import shapely
 from shapely.geometry import LineString, Point
 
-from modules.pilot.navigator import NavigatorConfig, local_constraints
+from modules.pilot.local_path_constraints import NavigatorConfig, local_constraints
 from modules.pilot.planner import LocalPathPlanner, PlannerConfig, PlanningError
 from modules.pilot.polyline import PathLine
 from modules.pilot.speed_profile import SpeedConfig, speed_profile

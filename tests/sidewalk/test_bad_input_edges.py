@@ -2,32 +2,16 @@
 stderr saying what and where, a nonzero exit, no Python traceback, and never an echo of a huge file."""
 
 import socket
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 
 from blackboard.testing import start_node
 from modules.captain.missionfile import MAX_MISSION_BYTES, MAX_MISSION_STEPS
+from tests.sidewalk._cli import one_line_error, sidewalk
 from wire.ports import free_port
 
 pytestmark = pytest.mark.timeout(120)
-
-
-def sidewalk(*args: str, timeout: float = 90) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "sidewalk", *args], capture_output=True, text=True, timeout=timeout)
-
-
-def one_line_error(p: subprocess.CompletedProcess, *needles: str) -> str:
-    """Assert a nonzero exit with one stderr line holding every needle, and no traceback; return the line."""
-    assert p.returncode != 0, p
-    assert "Traceback" not in p.stderr and "Traceback" not in p.stdout, p.stderr
-    lines = p.stderr.strip().splitlines()
-    assert len(lines) == 1, p.stderr
-    for n in needles:
-        assert n in lines[0], lines[0]
-    return lines[0]
 
 
 def test_a_binary_mission_file_is_named_in_one_line(tmp_path: Path):

@@ -87,17 +87,29 @@ def test_destinations_are_the_true_places(tmp_path):
     assert np.allclose(setup.destinations[2], (60.0, 30.0))
 
 
-def test_a_step_keeping_to_a_side_is_judged_in_its_lane(tmp_path):
+def test_a_step_keeping_to_a_side_is_judged_in_its_lane_of_the_route_arriving(tmp_path):
+    # Birch runs north–south (6 m) through the mailbox; the route from the start comes down it from the north, the
+    # third step back up it from the south: keeping right, each ends in the lane of its own direction of travel
     mission = tmp_path / "lanes.yaml"
     mission.write_text("mission: l\nworld: north_hills\nvehicle: navlab\nsteps:\n"
                        "  - {destination: mailbox, constraints: [keep_right]}\n"
-                       "  - {destination: mailbox, constraints: [keep_left]}\n"
+                       "  - {destination: {x: -240, y: 90}, constraints: [keep_left]}\n"
+                       "  - {destination: mailbox, constraints: [keep_right]}\n"
                        "  - destination: mailbox\n")
     setup = prepare_run(RunConfig(world="north_hills", mission=str(mission), out=tmp_path / "out"))
-    world = load_world("north_hills")
-    node = world.place("mailbox")
-    width = max(e.width for e in world.edges if node.id in (e.from_node, e.to_node))
-    assert setup.lane_offsets == pytest.approx((-width / 4.0, width / 4.0, 0.0))
+    node = load_world("north_hills").place("mailbox")
+    assert setup.lane_offsets == pytest.approx((-1.5, 1.5, -1.5, 0.0))
+    west, east = (node.x - 1.5, node.y), (node.x + 1.5, node.y)
+    assert setup.goal_points[0] == pytest.approx(west)  # south-bound: the right lane is west of the centre
+    assert setup.goal_points[1] == pytest.approx((-240.0 + 1.5, 90.0))  # still south-bound, its left lane
+    assert setup.goal_points[2] == pytest.approx(east)  # north-bound
+    assert setup.goal_points[3] == pytest.approx((node.x, node.y))  # no side: the destination
+    # the campus tour's plaza step comes up the 4 m slope westwards, avoiding the 6 m stairs: judged 1 m north of
+    # stairs_top (a quarter of the slope's width, right of west), not on the stairs' lane
+    tour = prepare_run(RunConfig(mission="campus-tour", out=tmp_path / "tour"))
+    top = load_world("campus").place("stairs_top")
+    assert tour.lane_offsets[2] == pytest.approx(-1.0)
+    assert tour.goal_points[2] == pytest.approx((top.x, top.y + 1.0), abs=0.05)
 
 
 def test_lockstep_plans_give_the_simulator_its_flag_and_the_deciders_the_switch(tmp_path):

@@ -3,6 +3,8 @@ spurious and missed objects against truth."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -73,26 +75,27 @@ def test_turn_anchors_take_out_the_odometry_scale_error() -> None:
     assert len(turn_anchors(lane, straight)) == 1
 
 
-def test_the_stop_at_the_routes_end_anchors_the_last_leg() -> None:
-    from sidewalk.mapbuild import anchored_distance, end_anchor, turn_anchors
+@pytest.mark.timeout(300)  # ~40 s beside three lock-step runs (load ~8 on 2 cores): 80 m of simulated drive, a laser image every 4 m
+def test_the_mapping_drive_steers_by_the_robots_estimate_never_the_truth(nh, tmp_path) -> None:
+    from modules.captain.missionfile import load_mission
+    from sidewalk.mapbuild import END_SHORT_M, SimulatedVehicle, drive_route, route_lane, route_polyline
+    from vehicle_sim.mapgen import MapError, derive_map
+    from vehicle_sim.odometry import PERFECT_ODOMETRY
 
-    # the lane of the test above; odometry reads 1 % long, then 3 % long on the last leg (a wet road): past the
-    # last turn the extrapolated distance drifts, the drive's stop 1 m before the route's end pins it
-    lane = np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [200.0, 100.0]])
-    r, arc = 7.0, 7.0 * np.pi / 2
-    legs = [("straight", 93.0, 1.01), ("arc", 1.0, 1.01), ("straight", 86.0, 1.01), ("arc", -1.0, 1.01), ("straight", 92.0, 1.03)]
-    rows, odo, yaw = [], 0.0, 0.0
-    for kind, v, sc in legs:
-        for _ in range(int(round((arc if kind == "arc" else v) / 0.1))):
-            rows.append((odo, yaw))
-            odo += 0.1 * sc
-            if kind == "arc":
-                yaw += v * 0.1 / r
-    anchors = turn_anchors(lane, np.array(rows))
-    pinned = end_anchor(anchors, odo, 300.0 - 1.0)
-    assert len(pinned) == len(anchors) + 1
-    at_190 = 1.01 * (93.0 + arc + 86.0 + arc) + 1.03 * (190.0 - 107.0)  # odometry at (190, 100): lane arc 290
-    assert abs(anchored_distance(anchors, at_190) - 290.0) > 2.0
-    assert anchored_distance(pinned, at_190) == pytest.approx(290.0, abs=0.3)
-    # an end that is not past the last anchor (the drive never got there) adds nothing
-    assert len(end_anchor(anchors, anchors[-1, 0] - 1.0, 299.0)) == len(anchors)
+    world, _ = nh
+    # the robot's map puts everything 2 m east of the truth, its start too: with perfect odometry and no fix, a drive
+    # by the robot's estimate ends 2 m west of where the robot believes it is (on its map's lane); a drive by the
+    # truth would end on the map's lane
+    wrong = derive_map(world, MapError(offset_x=2.0), np.random.default_rng(0))
+    (tmp_path / "hop.yaml").write_text("mission: hop\nworld: north_hills\nvehicle: navlab\nsteps:\n"
+                                       "  - {destination: {x: 0, y: 40}, constraints: [keep_right]}\n")
+    lane = route_lane(route_polyline(wrong, load_mission(tmp_path / "hop.yaml")), 1.5)
+    car = SimulatedVehicle(world, vehicle="navlab", odometry=PERFECT_ODOMETRY)
+    assert car.true_xy() == pytest.approx((world.start.x, world.start.y))
+    log = drive_route(car, lane, (wrong.start.x, wrong.start.y, wrong.start.yaw), vehicle="navlab", step_m=4.0)
+    assert log.arrived and log.perception_fixes == log.landmark_fixes == 0 and len(log.shots) > 15
+    end = lane[-1]
+    assert math.dist(log.estimate[:2], end) == pytest.approx(END_SHORT_M, abs=0.5)  # it believes it stopped at the end
+    true_end = car.true_xy()
+    assert true_end == pytest.approx((log.estimate[0] - 2.0, log.estimate[1]), abs=0.3)  # it is where its belief puts it
+    assert math.dist(true_end, end) > 1.8  # not at the map lane's end, where the truth would have steered it

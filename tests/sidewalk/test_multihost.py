@@ -1,7 +1,7 @@
 """Hosts in network namespaces: the router, node and simulator on A, the modules on B, tools on C.
 
 From C, `sidewalk status` sees every module every time (50 runs) and 20 `sidewalk submit`s all
-succeed — the deployment every peer sees every other through the router.
+succeed — the deployment: every process a client of the router, which sees and routes for all.
 
 Under `--secure` (issue 14) a mission runs across the hosts while a fourth host, D, tries to read,
 post and drive without credentials (it cannot connect) and to drive with PERCEPTION's (refused by

@@ -228,13 +228,28 @@ def test_the_recorded_two_hop_run_figure_by_figure():
 
 
 def test_a_keep_right_step_is_judged_in_its_lane_not_on_the_centre():
-    # b keeps right on a 6 m path: its end point is 1.5 m right of (10, 10) for a vehicle heading north,
-    # i.e. (11.5, 10); standing at (10, 9.5) on the centre is 1.58 m from it (tolerance 1.0 m)
-    r = build_report(_record(lane_offsets=(0.0, -1.5)))
+    # b keeps right on a 6 m path arrived at heading north: its point is 1.5 m right of (10, 10), (11.5, 10);
+    # standing at (10, 9.5) on the centre is 1.58 m from it (tolerance 1.0 m)
+    lane = dict(lane_offsets=(0.0, -1.5), goal_points=((10.0, 0.0), (11.5, 10.0)))
+    r = build_report(_record(**lane))
     b = r.steps[1]
     assert b.success is False and b.distance_m == pytest.approx(math.hypot(1.5, 0.5), abs=1e-3)
     assert r.goal_error_m == pytest.approx(math.hypot(1.5, 0.5), abs=1e-3) and r.success is False
     # the same stop in the lane, 0.5 m short of the lane point, is reached
     lane_truth = tuple((t, x + 1.5 if t >= 110 else x, y, yaw) for t, x, y, yaw in _truth())
-    ok = build_report(_record(lane_offsets=(0.0, -1.5), truth=lane_truth)).steps[1]
+    ok = build_report(_record(truth=lane_truth, **lane)).steps[1]
     assert ok.success and ok.distance_m == pytest.approx(0.5, abs=1e-3)
+
+
+def test_the_lane_point_does_not_turn_with_the_vehicle():
+    # the same stop in the lane, the vehicle facing south (backwards, turned on the spot at the end): judged at the
+    # same point, 0.5 m from it; judged from its heading, the lane would be west of the centre, 3.04 m away
+    lane = dict(lane_offsets=(0.0, -1.5), goal_points=((10.0, 0.0), (11.5, 10.0)))
+    fwd = tuple((t, x + 1.5 if t >= 110 else x, y, yaw) for t, x, y, yaw in _truth())
+    back = tuple((t, x, y, yaw - math.pi if t >= 120 else yaw) for t, x, y, yaw in fwd)
+    a, b = build_report(_record(truth=fwd, **lane)), build_report(_record(truth=back, **lane))
+    assert b.steps[1].success and b.success == a.success
+    assert b.steps[1].distance_m == a.steps[1].distance_m == pytest.approx(0.5, abs=1e-3)
+    assert b.goal_error_m == a.goal_error_m == pytest.approx(0.5, abs=1e-3)
+
+

@@ -94,9 +94,12 @@ def test_the_map_stays_a_valid_map(campus):
         assert mp.object(wall).footprint.is_valid and mp.object(wall).footprint.area > 0.5 * campus.object(wall).footprint.area
 
 
-def test_no_error_is_the_world_and_more_error_leaves_out_more(campus):
+def test_no_error_is_the_world_as_a_map_states_it_and_more_error_leaves_out_more(campus):
     exact = map_with_error(campus, 0.0, np.random.default_rng(4))
-    assert exact.to_geojson()["features"] == campus.to_geojson()["features"]
+    mapped = [o.as_mapped().to_feature() for o in campus.objects] + [f for f in campus.to_geojson()["features"]
+                                                                     if f["properties"]["kind"] in ("node", "edge")]
+    assert exact.to_geojson()["features"] == mapped  # no appearance, no markings: what a map never states
+    assert exact.weather is None and campus.weather is not None
     removable = sum(1 for o in campus.objects if o.role in REMOVABLE_ROLES)
     kept = [{o.id for o in map_with_error(campus, m, np.random.default_rng(4)).objects} for m in (0.5, 1.0, 2.0)]
     assert kept[0] >= kept[1] >= kept[2]  # the same draw: what is missing at 0.5 m is missing at 2 m

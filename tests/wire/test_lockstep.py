@@ -160,7 +160,7 @@ def test_in_lockstep_a_peer_of_the_router_becomes_its_client(monkeypatch: pytest
     peer = NetworkConfig(namespace=NS, connect=("tcp/127.0.0.1:7447",))
     listening = NetworkConfig(namespace=NS, listen=("tcp/127.0.0.1:7448",))
     monkeypatch.delenv(LOCKSTEP_ENV, raising=False)
-    assert lockstep_topology(peer).mode == "peer"  # real time: peers link to one another directly
+    assert lockstep_topology(peer).mode == "peer"  # real time: a peer asked for stays one (the flags make clients, wire.flags)
     monkeypatch.setenv(LOCKSTEP_ENV, "1")
     assert lockstep_topology(peer).mode == "client"  # every message and every barrier ask through the router, in order
     assert lockstep_topology(peer).zenoh_json()["mode"] == "client" and "listen" not in lockstep_topology(peer).zenoh_json()

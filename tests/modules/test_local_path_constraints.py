@@ -6,7 +6,7 @@ import pytest
 import shapely
 from shapely.geometry import LineString, Point
 
-from modules.pilot.navigator import ConstraintError, NavigatorConfig, local_constraints
+from modules.pilot.local_path_constraints import ConstraintError, NavigatorConfig, local_constraints
 from modules.pilot.polyline import PathLine
 
 PATH = PathLine.from_points([(0, 0), (30, 0)])

@@ -3,8 +3,11 @@
 The run uses the CODGER run's router, simulator, recorder and monitor processes and the same
 `prepare_run` / `record_run` / `build_report`; what differs is the process plan and the observer:
 
-- the mission compiles into an annotated map (`eddie.missions`, along the MAP NAVIGATOR's route)
-  written as `annotated_map.geojson` into the run's out dir, which the map manager loads at start;
+- the mission compiles into trigger annotations (`eddie.missions`, along the MAP NAVIGATOR's route) in the
+  mission service when it is submitted, which hands them to the map manager (started empty) before it accepts
+  the mission — as for a mission submitted to a system started with `sidewalk up`; the launcher compiles it
+  too, first, so a mission that does not compile is a launch error, and writes it as `annotated_map.geojson`
+  into the run's out dir for the record (each step's route for the report);
 - the processes are the controller, the navigator (told the start belief as `world` ← `local`), the
   map manager, the mission service (`eddie.mission_service.mission_service`: answers the CAPTAIN's mission
   submit / status / cancel keys and publishes the mission events, so `sidewalk submit` works
@@ -46,8 +49,10 @@ log = logging.getLogger(__name__)
 __all__ = ["EDDIE_MODULES", "EDDIE_PERCEPTION_MODULES", "ANNOTATED_MAP_NAME", "eddie_plans", "EddieSystemRun",
            "PoseComposer", "compile_annotated_map", "route_plans"]
 
-#: The annotated map's file name in a run's output directory.
+#: The annotated map's file name in a run's output directory (the mission compiled at launch, for the record).
 ANNOTATED_MAP_NAME = "annotated_map.geojson"
+#: The map manager's state file in a run's output directory.
+MAP_MANAGER_STATE = "map_manager.state.json"
 
 #: EDDIE's always-on modules in start order (the consumers before the producers).
 EDDIE_MODULES = ("controller", "navigator", "map_manager", "mission_service")
@@ -84,11 +89,10 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
         ProcessPlan("controller", ("-m", "sidewalk", "up", "controller", "--vehicle", vehicle, *cap, *zflags)),
         ProcessPlan("navigator", ("-m", "sidewalk", "up", "navigator", f"--start-pose={sx},{sy},{syaw}", *zflags)),
     ]
-    if annotated_map is not None:
-        # its state file beside the run's annotated map: the manager restarted by a fault or the supervisor takes it up
-        state = Path(annotated_map).with_name("map_manager.state.json")
-        plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--annotated-map", str(annotated_map),
-                                                 "--state", str(state), *zflags)))
+    # the map manager starts empty: the mission service compiles each submitted mission and hands it the annotations;
+    # its state file in the run's out dir, which a manager restarted by a fault or the supervisor takes up
+    plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--state", str(Path(out) / MAP_MANAGER_STATE),
+                                             *zflags)))
     if perception:
         # obstacle stop sleeps until the route's `start_obstacles` triggers switch it on (issue 12)
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),

@@ -4,7 +4,10 @@
 
 EDDIE (seed: Navlab 1990 ch. 3) has no CAPTAIN on a blackboard: a mission is compiled into trigger
 annotations on the annotated map, and the modules the triggers wake drive it. This small module is
-what `sidewalk submit` talks to: it answers the CAPTAIN's mission submit / status / cancel keys with
+what `sidewalk submit` talks to. Every mission it accepts it compiles into trigger annotations along its
+route (`eddie.missions`: speeds, dead reckoning through intersections, landmarks, the stop at the
+destination object) and hands them to the map manager (`MissionAnnotations` on its `mission` service)
+before the mission starts — at once when nothing runs, else when the mission's turn comes. It answers the CAPTAIN's mission submit / status / cancel keys with
 the CAPTAIN's wire forms and publishes every status change on the mission events stream, so tools
 work unchanged for both architectures. Each step's outcome is judged from the believed pose (see
 `eddie.mission_service.mission_progress`). With `--perception off` it drives: it sends the whole route,
@@ -17,12 +20,17 @@ ends, stopping the vehicle unless the mission succeeded (a failed or cancelled m
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 from collections import deque
 
 import numpy as np
 
+from eddie.annotated_map.geojson_file import annotations_to_geojson
+from eddie.errors import EddieError
 from eddie.messages.controller import PathCommand, Stop
+from eddie.messages.map_manager import MissionAnnotations, MissionInstalled
+from eddie.missions import MissionCompileError, compile_mission
 from eddie.missions.lane import KERB_MARGIN_M
 from eddie.messages.modules import MissionRoute, ModuleSwitch
 from eddie.obstacle_stop.obstacle_stop_module import CLIENT as OBSTACLE_CLIENT
@@ -51,8 +59,14 @@ class MissionService:
     """Missions in, statuses out, on the CAPTAIN's keys; one mission at a time, the others queued."""
 
     def __init__(self, m: Module, map_data: MapData, *, vehicle: str, perception: bool,
-                 world_from_local: tuple[float, float, float], tick_s: float = 0.2, speed_mps: float = 1.0) -> None:
+                 world_from_local: tuple[float, float, float], tick_s: float = 0.2, speed_mps: float = 1.0,
+                 map_manager: str = "map_manager") -> None:
         self.m = m
+        self.map_manager = map_manager
+        #: each accepted mission's trigger annotations (GeoJSON text), until the map manager holds them
+        self._annotations: dict[str, MissionAnnotations] = {}
+        #: whether a mission ran already (a later one's route starts where the vehicle is believed to be)
+        self._moved = False
         self.map = map_data
         self.vehicle = vehicle
         self.perception = perception
@@ -111,8 +125,17 @@ class MissionService:
             goals = step_goals(self.map, start, mission, vehicle=self.vehicle)
         except MissionRouteError as exc:
             return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="no_route", message=str(exc)).to_bytes())
+        try:
+            compiled = compile_mission(mission, self.map, vehicle=self.vehicle, start=start if self._moved else None)
+        except MissionCompileError as exc:
+            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="no_route", message=str(exc)).to_bytes())
+        self._annotations[mission.mission_id] = MissionAnnotations(
+            mission_id=mission.mission_id, name=mission.name,
+            geojson=json.dumps(annotations_to_geojson(compiled.annotations, name=mission.mission_id)))
         prog = MissionProgress(mission, goals, submitted_at=self._now(), stops_at_steps=self.perception)
         ahead = len(self.queue) + sum(1 for p in self.missions.values() if p.status.state == "running")
+        if not ahead:  # the triggers are in place before the mission is accepted (a lock-step run is held until then)
+            await self._install(mission.mission_id)
         self.missions[mission.mission_id] = prog
         self.queue.append(mission.mission_id)
         self._publish(prog)
@@ -183,6 +206,17 @@ class MissionService:
 
     # ---- running -------------------------------------------------------------------------
 
+    async def _install(self, mission_id: str) -> None:
+        """Hand mission `mission_id`'s annotations to the map manager (once); without one, the mission runs without triggers."""
+        msg = self._annotations.pop(mission_id, None)
+        if msg is None:
+            return
+        try:
+            ok = await self.m.request(self.map_manager, "mission", msg, timeout=10.0, reply_type=MissionInstalled)
+            log.info("mission %s: %d annotations with the map manager", mission_id, ok.count)
+        except EddieError as exc:
+            log.warning("mission %s runs without its triggers: %s", mission_id, exc)
+
     async def _drive(self, prog: MissionProgress) -> None:
         """Send the whole route, in `local`, to the controller (no vision: dead reckoning on the map)."""
         pts, speeds, _ = self._route_points(prog, in_lane=True)
@@ -208,6 +242,8 @@ class MissionService:
             if prog.status.terminal:
                 continue
             self.running = prog
+            self._moved = True
+            await self._install(prog.status.mission_id)
             prog.start(self._now())
             self._publish(prog)
             mid = prog.status.mission_id

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from sidewalk.launcher import RunConfig, RunSetup, build_plans, mission_path, prepare_run, record_run
+from sidewalk.codger_run import build_plans
+from sidewalk.launcher import RunConfig, RunSetup, mission_path, prepare_run, record_run
 from sidewalk.report import build_report
 from sidewalk.run_record import save_record
 from sidewalk.system import SystemRun

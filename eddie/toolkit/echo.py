@@ -6,10 +6,9 @@ toolkit's tests and benchmarks run it as a real process.
 
 from __future__ import annotations
 
-import argparse
 import sys
 
-from runtime import add_network_args, network_from_args, run_module
+from runtime import module_parser, parse_module_args, run_module
 
 from eddie.errors import BadMessage
 from eddie.toolkit.message import Message, message_type
@@ -28,11 +27,9 @@ class Echo(Message):
 
 def main(argv: list[str] | None = None) -> int:
     """Run an echo module named by the first argument."""
-    ap = argparse.ArgumentParser(prog="python -m eddie.toolkit.echo", description=__doc__.splitlines()[0])
-    ap.add_argument("name", help="module name")
-    add_network_args(ap)
-    args = ap.parse_args(argv)
-    net = network_from_args(ap, args)
+    ap = module_parser("eddie.toolkit.echo", __doc__.splitlines()[0], name="echo")
+    ap.add_argument("module", nargs="?", default=None, help="module name (as --name)")
+    args, net = parse_module_args(ap, argv)
 
     async def body(m: Module) -> None:
         async def echo(inc: Incoming) -> Message:
@@ -47,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             await m.send(inc.sender, inc.message)
 
-    return run_module(args.name, endpoint(body), net)
+    return run_module(args.module or args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-PACKAGES = ("wire", "blackboard", "modules", "vehicle_sim", "eddie", "sidewalk", "bench")
+PACKAGES = ("wire", "blackboard", "modules", "vehicle_sim", "codger", "eddie", "runtime", "sidewalk", "bench")
 
 
 def _imports(path: Path) -> set[str]:

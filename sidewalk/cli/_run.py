@@ -12,28 +12,10 @@ from typing import Annotated, Callable, Optional
 import typer
 
 from wire.network import NetworkConfig
+from sidewalk.processes import UP_TARGETS
 from wire.flags import with_network
 
 __all__ = ["register", "UP_TARGETS"]
-
-#: `sidewalk up NAME` → the package run as `python -m PACKAGE` (its `__main__.main(argv)`): one table for both
-#: architectures. The node and the simulator go through their Typer commands.
-UP_TARGETS: dict[str, str] = {
-    "captain": "codger.captain",
-    "map_navigator": "codger.map_navigator",
-    "pilot": "codger.pilot",
-    "helm": "codger.helm",
-    "perception": "codger.perception",
-    "obstacles": "codger.obstacles",
-    # EDDIE (issue 9): the integrated controller, the navigator, the annotated map manager and EDDIE's modules
-    "controller": "eddie.controller",
-    "navigator": "eddie.navigator",
-    "map_manager": "eddie.map_manager",
-    "mission_service": "eddie.mission_service",
-    "road_following": "eddie.road_following",
-    "landmark_matching": "eddie.landmark_matching",
-    "obstacle_stop": "eddie.obstacle_stop",
-}
 
 
 #: RunConfig field → the `sidewalk run` flag that sets it (for errors naming the flag).

@@ -1,8 +1,9 @@
 """Lines of glue: the code an architecture needs to wire its algorithms together, counted by rule.
 
 The rule, applied to the files an architecture's processes reach by static imports from its
-entry points (every `__main__.py` of its packages: `modules/` and `blackboard/` for CODGER,
-`eddie/` for EDDIE), `wire/` excluded (the transport both stand on):
+entry points (the `__main__.py` of each process its plans run, `sidewalk.processes`: `codger.<name>`
+for CODGER, `eddie.<name>` for EDDIE; both reach the shared library `modules/` and the runtime
+`runtime/`, CODGER the blackboard), `wire/` excluded (the transport both stand on):
 - a file is *substrate* if it imports the transport of `wire` itself (`TRANSPORT`: sessions, keys,
   network flags, health — not its geometry or message types): the blackboard node and client, the
   module runtime; EDDIE's toolkit;
@@ -23,10 +24,15 @@ from typing import Sequence
 
 from pydantic import BaseModel, ConfigDict
 
-__all__ = ["GlueCount", "count_glue", "logical_lines", "PACKAGES", "TRANSPORT"]
+from sidewalk.processes import CODGER_PROCESSES, EDDIE_PROCESSES
 
-#: architecture → the packages its processes come from.
-PACKAGES: dict[str, tuple[str, ...]] = {"codger": ("codger", "modules", "runtime", "blackboard"), "eddie": ("eddie",)}
+__all__ = ["GlueCount", "count_glue", "logical_lines", "PACKAGES", "ENTRY_POINTS", "TRANSPORT"]
+
+#: architecture → the packages its processes can reach.
+PACKAGES: dict[str, tuple[str, ...]] = {"codger": ("codger", "modules", "runtime", "blackboard"),
+                                        "eddie": ("eddie", "modules", "runtime")}
+#: architecture → its processes' packages (each entered at its `__main__`)
+ENTRY_POINTS: dict[str, tuple[str, ...]] = {"codger": tuple(CODGER_PROCESSES.values()), "eddie": tuple(EDDIE_PROCESSES.values())}
 
 #: The transport modules of `wire` (importing one makes a file substrate).
 TRANSPORT = ("wire.session", "wire.aio", "wire.keys", "wire.network", "wire.flags", "wire.router", "wire.health", "wire.ports")
@@ -93,7 +99,10 @@ def _imports(tree: ast.AST, module: str, is_pkg: bool) -> set[str]:
 
 
 def count_glue(root: Path, architecture: str, packages: Sequence[str] | None = None) -> GlueCount:
-    """Count an architecture's glue and algorithm lines under the source tree `root` (see the module's rule)."""
+    """Count an architecture's glue and algorithm lines under the source tree `root` (see the module's rule).
+
+    Entered at its processes' `__main__` (`ENTRY_POINTS`); an architecture not there at every `__main__.py` of `packages`.
+    """
     pkgs = tuple(packages or PACKAGES[architecture])
     files: dict[str, Path] = {}
     for p in pkgs:
@@ -107,7 +116,8 @@ def count_glue(root: Path, architecture: str, packages: Sequence[str] | None = N
         if any(n == t or n.startswith(t + ".") for n in names for t in TRANSPORT):
             wire_users.add(m)
         deps[m] = {n for n in names if n in files} | {n.rsplit(".", 1)[0] for n in names if n.rsplit(".", 1)[0] in files}
-    entries = [m for m, f in files.items() if f.name == "__main__.py"]
+    mains = [m for m, f in files.items() if f.name == "__main__.py"]
+    entries = [m for m in mains if m.removesuffix(".__main__") in ENTRY_POINTS[architecture]] if architecture in ENTRY_POINTS else mains
     reached: set[str] = set()
     todo = list(entries)
     while todo:

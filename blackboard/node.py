@@ -47,7 +47,7 @@ from typing import Any, Callable, Literal
 
 import msgpack
 
-from wire.session import Query as ZQuery, Session as ZSession, open_session, session_stats, traffic
+from wire.session import Query as ZQuery, Session as ZSession, open_session, session_stats, barrier_traffic, traffic
 from blackboard.codec import MAX_PAYLOAD, decode, encode, pack_array_of_packed
 from blackboard.core import BlackboardCore, Monitor
 from blackboard.errors import BadRequestError, BlackboardError
@@ -232,7 +232,7 @@ class BlackboardNode:
             s.put(self.keys.heartbeat, encode_heartbeat(Heartbeat(
                 module="blackboard", seq=self._hb_seq, wall_time=time.time(), period_s=self.heartbeat_period,
                 pid=os.getpid(), host=socket.gethostname(), tokens=len(self.store), zenoh_sessions=session_stats()["open"],
-                usage=process_usage(traffic()), epoch=self.epoch)))
+                usage=process_usage(traffic(), barrier_traffic()), epoch=self.epoch)))
             if self._unconfirmed:
                 self._submit(self._reclaim_unconfirmed, (), False)
             await asyncio.sleep(self.heartbeat_period)

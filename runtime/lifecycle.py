@@ -35,7 +35,7 @@ from wire.lockstep import Participant, lockstep_enabled, participant_name
 from wire.network import NetworkConfig
 from wire.network import check_chunk as check_name
 from wire.ratelimit import warn_limited
-from wire.session import session_stats, traffic
+from wire.session import barrier_traffic, session_stats, traffic
 
 __all__ = ["ModuleRuntime", "ModuleMain", "RuntimePart", "run_module", "run_module_async", "READY_PREFIX"]
 
@@ -189,7 +189,7 @@ class ModuleRuntime:
         hb = Heartbeat(
             module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(), period_s=self.heartbeat_period,
             pid=os.getpid(), host=self._host, state=state or ("ready" if self._ready else "starting"),
-            zenoh_sessions=session_stats()["open"], usage=process_usage(traffic()), **health,
+            zenoh_sessions=session_stats()["open"], usage=process_usage(traffic(), barrier_traffic()), **health,
         )
         self._seq += 1
         self.link.put(self.keys.heartbeat(self.name), encode_heartbeat(hb))

@@ -10,7 +10,7 @@ import math
 from pathlib import Path
 
 from sidewalk.observers import observer_plans
-from sidewalk.run_setup import RunConfig, RunSetup, road_method_flags
+from sidewalk.run_setup import RunConfig, RunSetup, road_method_flags, vision_flags
 from sidewalk.supervisor import ProcessPlan
 from sidewalk.system import SystemRun
 
@@ -43,7 +43,7 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
         plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", "--map", str(setup.map_file), *zflags)))
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags,
-                                                *road_method_flags(cfg))))  # issue 13
+                                                *road_method_flags(cfg), *vision_flags(cfg))))  # issues 13, 41
     plans += [
         ProcessPlan("pilot", ("-m", "sidewalk", "up", "pilot", "--vehicle", vehicle,
                               "--perception", "on" if cfg.perception else "off",

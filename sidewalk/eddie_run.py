@@ -33,7 +33,7 @@ from modules.vocabulary import MissionStatus
 from sidewalk.observers import observer_plans
 from sidewalk.eddie_observe import subscribe_eddie
 from sidewalk.recorder import Recorder
-from sidewalk.run_setup import LaunchError, RunConfig, RunSetup, road_method_flags
+from sidewalk.run_setup import LaunchError, RunConfig, RunSetup, road_method_flags, vision_flags
 from sidewalk.run_record import FiredTrigger, RecordedPlan, StampedStatus
 from sidewalk.supervisor import ProcessPlan
 from sidewalk.system import SystemRun
@@ -68,7 +68,7 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
     `actors`: objects not on the map the simulator places (an actors file or preset, issue 12).
     `max_speed` [m/s]: `sidewalk run --max-speed`, EDDIE's counterpart of the PILOT's cap — the mission
     service's route speed and the controller's top speed (so no trigger or client drives faster).
-    `road_method`: flags for vision road following (`--road-method M [--alvinn-weights F]`, issue 13).
+    `road_method`: flags for vision road following (`--road-method M [--alvinn-weights F]`, issue 13; `--vision-workers N`, issue 41).
     """
     cap = () if max_speed is None else ("--max-speed", str(max_speed))
     sec = () if secure is None else ("--secure", str(secure))  # issue 14
@@ -274,7 +274,7 @@ class EddieArchitecture:
             watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
             map_file=setup.map_file, annotated_map=prepared, perception=cfg.perception, record=cfg.record,
             monitor_port=cfg.monitor_port, secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
-            road_method=road_method_flags(cfg, setup))  # issue 13
+            road_method=road_method_flags(cfg, setup) + vision_flags(cfg))  # issues 13, 41
 
     def system(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path, prepared: Path, secure: Path | None,
                lockstep: bool) -> EddieSystemRun:

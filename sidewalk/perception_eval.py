@@ -239,7 +239,7 @@ def evaluate(frames: Iterable[EvalFrame], pipeline: PerceptionPipeline, *, focus
                 accs_focus[m.value].add(pred, fr.labels, scored)
         # the cycle: from the captured frame to the driving unit result (registration, patches, objects, fix)
         t0, c0 = time.perf_counter(), time.process_time()
-        work = colored_range_image(fr.sensor) if fr.sensor is not None else img
+        work = colored_range_image(fr.sensor, pool=pipeline.pool) if fr.sensor is not None else img
         out = pipeline.process(work, fr.objects, fr.prior_pose, error_allowance=error_allowance)
         build_result(_unit_for(fr), out, fr.prior_pose, img.stamp, work)
         cycle.append(1000 * (time.perf_counter() - t0))

@@ -116,6 +116,9 @@ class ModuleCost(BaseModel):
     msgs_in: int
     bytes_in: int
     incarnations: int = 1
+    #: of the traffic above, the lock-step barrier's asks and answers: the run mode's cost (0 in real time)
+    barrier_msgs_out: int = 0
+    barrier_bytes_out: int = 0
 
 
 class RunReport(BaseModel):
@@ -204,6 +207,7 @@ def _module_costs(rec: RunRecord) -> dict[str, ModuleCost]:
             cpu_s=round(sum(u.cpu_s for u in lives), 3), rss_mb=round(max(u.rss_bytes for u in lives) / 1e6, 1),
             msgs_out=sum(u.msgs_out for u in lives), bytes_out=sum(u.bytes_out for u in lives),
             msgs_in=sum(u.msgs_in for u in lives), bytes_in=sum(u.bytes_in for u in lives), incarnations=len(lives),
+            barrier_msgs_out=sum(u.barrier_msgs_out for u in lives), barrier_bytes_out=sum(u.barrier_bytes_out for u in lives),
         )
     return out
 

@@ -15,11 +15,14 @@ Errors per frame, in `vehicle`:
   the same look-ahead (the steering direction error).
 
 A frame fails when the follower reports no road, or its lateral error exceeds `FAIL_LATERAL_M` or
-its heading error `FAIL_HEADING_DEG`. Percentiles are over the frames that reported a road.
+its heading error `FAIL_HEADING_DEG`. Percentiles are over the frames that reported a road. Frames
+whose road in view lies at least `SHADOW_SHARE` in shadow (the composition root measures it from
+truth) are also summarised apart: where shadows cross the road.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -31,11 +34,15 @@ from modules.road_following import RoadFollower, RoadObservation, VehicleMotion
 from wire.se2 import PoseFields, wrap_angle
 from wire.summary import percentile
 
-__all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
-           "centre_at_origin", "score_frame", "evaluate", "summarise"]
+__all__ = ["FAIL_LATERAL_M", "FAIL_HEADING_DEG", "SHADOW_SHARE", "DrivePose", "EvalFrame", "FrameScore", "plan_drive", "to_vehicle",
+           "centre_at_origin", "score_frame", "evaluate", "summarise",
+           "LOCK_LATERAL_M", "LOCK_HEADING_DEG", "plan_starts", "LockOn", "lock_on", "evaluate_starts", "summarise_starts",
+           "IntersectionTruth", "IntersectionScore", "score_intersection", "summarise_intersection"]
 
 FAIL_LATERAL_M = 1.0
 FAIL_HEADING_DEG = 10.0
+#: A frame shows shadows across the road when at least this share of the road in view lies in shadow.
+SHADOW_SHARE = 0.1
 
 
 @dataclass(frozen=True)
@@ -51,22 +58,24 @@ class DrivePose(PoseFields):
 
 @dataclass(frozen=True)
 class EvalFrame:
-    """One frame: the pose, the camera image (H, W, 3) uint8, and the route centre line (N, 2) [m] in `world`."""
+    """One frame: the pose, the camera image (H, W, 3) uint8, the route centre line (N, 2) [m] in `world`, the road's shaded share."""
 
     pose: DrivePose
     image: np.ndarray
     centre_world: np.ndarray
+    road_shadow: float | None = None  # share (0–1) of the road 5–20 m ahead in shadow (truth); None: not measured
 
 
 @dataclass(frozen=True)
 class FrameScore:
-    """One frame's outcome: reported a road, lateral error [m], heading error [deg], wall and CPU time [ms]."""
+    """One frame's outcome: reported a road, lateral error [m], heading error [deg], wall and CPU time [ms], shadow across the road."""
 
     found: bool
     lateral_err_m: float
     heading_err_deg: float
     wall_ms: float
     cpu_ms: float
+    shadow: bool = False
 
 
 def _resample(poly: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -204,11 +213,11 @@ def evaluate(frames: Iterable[EvalFrame], make_follower: Callable[[EvalFrame], R
         prev = fr
         sc = score_frame(obs, to_vehicle(fr.centre_world, p), cpu)
         if sc is not None:
-            yield sc
+            yield dataclasses.replace(sc, shadow=fr.road_shadow is not None and fr.road_shadow >= SHADOW_SHARE)
 
 
-def summarise(scores: list[FrameScore]) -> dict:
-    """Return the figures: lateral / heading error p50 and p95, failure rate, ms per frame (wall and CPU) p50."""
+def _figures(scores: list[FrameScore]) -> dict:
+    """Return the figures of some frames: lateral / heading error p50 and p95, failure rate."""
     n = len(scores)
     ok = [s for s in scores if s.found and math.isfinite(s.lateral_err_m)]
     fails = sum(1 for s in scores if not s.found or not math.isfinite(s.lateral_err_m) or s.lateral_err_m > FAIL_LATERAL_M
@@ -224,6 +233,206 @@ def summarise(scores: list[FrameScore]) -> dict:
         "heading_error_deg_p50": percentile(hd, 50, digits=4),
         "heading_error_deg_p95": percentile(hd, 95, digits=4),
         "failure_rate": round(fails / n, 4) if n else None,
-        "ms_per_frame_p50": percentile([s.wall_ms for s in scores], 50, digits=4),
-        "cpu_ms_per_frame_p50": percentile([s.cpu_ms for s in scores], 50, digits=4),
+    }
+
+
+def summarise(scores: list[FrameScore]) -> dict:
+    """Return the figures (see `_figures`) of all frames, ms per frame (wall and CPU) p50, and those of the frames with shadows across the road."""
+
+    out = _figures(scores)
+    out["ms_per_frame_p50"] = percentile([s.wall_ms for s in scores], 50, digits=4)
+    out["cpu_ms_per_frame_p50"] = percentile([s.cpu_ms for s in scores], 50, digits=4)
+    out.update({f"shadow_{k}": v for k, v in _figures([s for s in scores if s.shadow]).items()})
+    return out
+
+
+# ---- issue 41: lock-on from no prior (YARF's bootstrap, Navlab 1990 §5.5) ----------------------------------------
+
+#: A follower has locked on when its road is within these of the truth (YARF tracks at 0.08 m and 1.8° p95) and it
+#: holds the road from then on (no frame without it, none off by the failure bounds).
+LOCK_LATERAL_M = 0.3
+LOCK_HEADING_DEG = 3.0
+
+
+def plan_starts(legs: list[np.ndarray], starts: int, frames: int, rng: np.random.Generator, *, step_m: float = 3.0,
+                lane_offset_m: float = 0.0, max_offset_m: float = 2.0, max_heading_deg: float = 10.0,
+                speed_mps: float = 4.2) -> list[list[DrivePose]]:
+    """Return `starts` runs of `frames` poses `step_m` apart at random places on the legs, each off its lane by up to
+    ±`max_offset_m` [m] and ±`max_heading_deg` [deg] (uniform), held for the run: the hardest view of each start kept.
+
+    Each run's `leg` is its leg's index; a run needs `frames × step_m` of its leg (legs too short are skipped).
+    """
+    need = frames * step_m
+    usable = [i for i, p in enumerate(legs) if float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) > need]
+    if not usable:
+        return []
+    out = []
+    for _ in range(starts):
+        li = usable[int(rng.integers(len(usable)))]
+        pts, s, hd = _resample(legs[li], step_m)
+        k0 = int(rng.integers(0, len(pts) - frames + 1))
+        off = lane_offset_m + float(rng.uniform(-max_offset_m, max_offset_m))
+        dpsi = math.radians(float(rng.uniform(-max_heading_deg, max_heading_deg)))
+        run = []
+        for k in range(k0, k0 + frames):
+            p, h = pts[k], float(hd[k])
+            run.append(DrivePose(leg=li, x=float(p[0] - off * math.sin(h)), y=float(p[1] + off * math.cos(h)), yaw=h + dpsi,
+                                 stamp=float(s[k]) / speed_mps))
+        out.append(run)
+    return out
+
+
+@dataclass(frozen=True)
+class LockOn:
+    """One start: the frame (1-based) from which the follower stayed locked to the end, None if it never did; frames run."""
+
+    frame: int | None
+    frames: int
+
+
+def lock_on(scores: list[FrameScore | None]) -> LockOn:
+    """Return when a start's follower locked on: the first frame found within LOCK_LATERAL_M and LOCK_HEADING_DEG of the
+    truth after which every frame is found and no failure (within FAIL_LATERAL_M and FAIL_HEADING_DEG)."""
+    def near(s: FrameScore | None) -> bool:
+        return s is not None and s.found and s.lateral_err_m <= LOCK_LATERAL_M and s.heading_err_deg <= LOCK_HEADING_DEG
+
+    def held(s: FrameScore | None) -> bool:
+        return s is not None and s.found and s.lateral_err_m <= FAIL_LATERAL_M and s.heading_err_deg <= FAIL_HEADING_DEG
+
+    first = None
+    for i in range(len(scores) - 1, -1, -1):
+        if not held(scores[i]):
+            break
+        if near(scores[i]):
+            first = i + 1
+    return LockOn(first, len(scores))
+
+
+def evaluate_starts(runs: Iterable[list[EvalFrame]], make_follower: Callable[[EvalFrame], RoadFollower], *,
+                    rng: np.random.Generator, odometry_noise: tuple[float, float] = (0.01, math.radians(0.1))) -> Iterator[LockOn]:
+    """Run a fresh follower over each start's frames (no prior: the follower's own bootstrap) and yield when it locked on."""
+    for frames in runs:
+        follower = None
+        prev: EvalFrame | None = None
+        scores: list[FrameScore | None] = []
+        for fr in frames:
+            motion = None
+            if follower is None:
+                follower = make_follower(fr)
+            elif prev is not None:
+                d = to_vehicle(np.array([[fr.pose.x, fr.pose.y]]), prev.pose)[0]
+                motion = VehicleMotion(dx=float(d[0] + rng.normal(0.0, odometry_noise[0])), dy=float(d[1] + rng.normal(0.0, odometry_noise[0])),
+                                       dyaw=float(wrap_angle(fr.pose.yaw - prev.pose.yaw) + rng.normal(0.0, odometry_noise[1])))
+            obs = follower.observe(fr.image, stamp=fr.pose.stamp, motion=motion)
+            scores.append(score_frame(obs, to_vehicle(fr.centre_world, fr.pose), 0.0))
+            prev = fr
+        yield lock_on(scores)
+
+
+def summarise_starts(locks: list[LockOn], within: int = 5) -> dict:
+    """Return the lock-on figures: starts, the share locked within `within` frames and at all, frames to lock p50 / p95 / max."""
+    n = len(locks)
+    got = [lk.frame for lk in locks if lk.frame is not None]
+    return {
+        "starts": n,
+        f"lock_rate_within_{within}": round(sum(1 for f in got if f <= within) / n, 4) if n else None,
+        "lock_rate": round(len(got) / n, 4) if n else None,
+        "frames_to_lock_p50": percentile(got, 50),
+        "frames_to_lock_p95": percentile(got, 95),
+        "frames_to_lock_max": max(got) if got else None,
+        "lock_lateral_m": LOCK_LATERAL_M,
+        "lock_heading_deg": LOCK_HEADING_DEG,
+    }
+
+
+# ---- issue 41: YARF through an intersection (Navlab 1990 §5.6) ---------------------------------------------------
+
+@dataclass(frozen=True)
+class IntersectionTruth:
+    """The truth of one frame near an intersection: distance [m] along the route to its near edge (negative: past it), the
+    branch's centre line and the lane to turn into, each as a point and a unit direction in `world`."""
+
+    distance_m: float
+    branch_point: tuple[float, float]
+    branch_dir: tuple[float, float]
+    lane_point: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class IntersectionScore:
+    """One frame's intersection figures (NaN where the navigator has no answer yet)."""
+
+    distance_m: float
+    detected: bool
+    approach_err_m: float
+    junction_err_m: float  # the branch's origin from the true branch centre line [m]
+    angle_err_deg: float
+    path_end_err_m: float  # the path's end from the true lane's centre line [m]
+    path_heading_err_deg: float
+
+
+def _line_distance(p: np.ndarray, point: np.ndarray, direction: np.ndarray) -> float:
+    d = p - point
+    return float(abs(d[0] * direction[1] - d[1] * direction[0]))
+
+
+def score_intersection(view, pose: DrivePose, truth: IntersectionTruth) -> IntersectionScore:
+    """Score an `IntersectionView` (vehicle frame) against the truth (world frame)."""
+    nan = math.nan
+    c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+
+    def world(p):
+        return np.array([pose.x + c * p[0] - s * p[1], pose.y + s * p[0] + c * p[1]])
+
+    bp, bd, lp = (np.asarray(v, float) for v in (truth.branch_point, truth.branch_dir, truth.lane_point))
+    if view.approach_m is None:
+        return IntersectionScore(truth.distance_m, False, nan, nan, nan, nan, nan)
+    approach = abs(view.approach_m - truth.distance_m)
+    if view.branch is None:
+        return IntersectionScore(truth.distance_m, True, approach, nan, nan, nan, nan)
+    b = view.branch
+    origin = world((b.along_m, 0.0))  # the branch leaves the road's centre at along_m on the vehicle's axis: its junction point
+    ang = abs(_angle_deg(b.angle_rad + pose.yaw - math.atan2(bd[1], bd[0])))
+    junction = _line_distance(origin, bp, bd)
+    end_err = hd_err = nan
+    if len(view.path) >= 2:
+        p = np.array([world(q) for q in view.path[-2:]])
+        end_err = _line_distance(p[-1], lp, bd)
+        hd_err = abs(_angle_deg(math.atan2(*(p[-1] - p[-2])[::-1]) - math.atan2(bd[1], bd[0])))
+    return IntersectionScore(truth.distance_m, True, approach, junction, ang, end_err, hd_err)
+
+
+def summarise_intersection(runs: list[list[IntersectionScore]]) -> dict:
+    """Return the figures over runs: detection distance, false alarms, approach error, and the branch and the path at entry.
+
+    A false alarm is a detection on the approach more than 5 m off the true distance (past the near edge the vehicle turns
+    and its distance along its own axis is no longer the route's). "At entry" is the last frame before the near edge.
+    """
+    def pct(vals: list[float], q: float) -> float | None:
+        return percentile([v for v in vals if math.isfinite(v)], q, digits=3)
+
+    first, false, approach, entry = [], 0, [], []
+    for sc in runs:
+        det = [x for x in sc if x.detected]
+        first.append(det[0].distance_m if det else math.nan)
+        false += sum(1 for x in det if x.distance_m > 0 and x.approach_err_m > 5.0)
+        approach += [x.approach_err_m for x in det if x.distance_m > 0]
+        before = [x for x in sc if x.distance_m > 0]
+        if before:
+            entry.append(before[-1])
+    return {
+        "runs": len(runs),
+        "detected_runs": sum(1 for f in first if math.isfinite(f)),
+        "detection_distance_m_min": pct(first, 0),
+        "detection_distance_m_p50": pct(first, 50),
+        "false_alarm_frames": false,
+        "approach_error_m_p50": pct(approach, 50),
+        "approach_error_m_p95": pct(approach, 95),
+        "junction_error_m_at_entry_p50": pct([e.junction_err_m for e in entry], 50),
+        "junction_error_m_at_entry_max": pct([e.junction_err_m for e in entry], 100),
+        "branch_angle_error_deg_at_entry_p50": pct([e.angle_err_deg for e in entry], 50),
+        "branch_angle_error_deg_at_entry_max": pct([e.angle_err_deg for e in entry], 100),
+        "path_end_error_m_at_entry_p50": pct([e.path_end_err_m for e in entry], 50),
+        "path_end_error_m_at_entry_max": pct([e.path_end_err_m for e in entry], 100),
+        "path_heading_error_deg_at_entry_max": pct([e.path_heading_err_deg for e in entry], 100),
     }

@@ -19,7 +19,7 @@ from sidewalk.map_error import MapErrorSummary
 from sidewalk.supervisor import RestartPolicy
 from vehicle_sim.worldfile import World
 
-__all__ = ["LaunchError", "RunConfig", "RunSetup", "road_method_flags"]
+__all__ = ["LaunchError", "RunConfig", "RunSetup", "road_method_flags", "vision_flags"]
 
 
 class LaunchError(SidewalkError, RuntimeError):
@@ -66,6 +66,8 @@ class RunConfig(BaseModel):
     road_method: Literal["perception", "scarf", "yarf", "alvinn"] = "perception"
     alvinn_weights: Optional[Path] = None  # ALVINN's weights (.npz), needed with road_method alvinn
     # ---- end issue 13 ----
+    #: issue 41: processes the vision of PERCEPTION (CODGER) or vision road following (EDDIE) runs on (1: its own)
+    vision_workers: int = Field(default=1, ge=1, le=64)
     #: issue 14: how the supervisor keeps the modules running (crashed: restarted with back-off; wedged: reported, restarted)
     supervise: RestartPolicy = RestartPolicy()
     #: lock-step (`wire.lockstep`): the simulator steps only once every process handled its inputs; `rtf` is then unused
@@ -115,3 +117,8 @@ def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[
         return keep
     weights = () if cfg.alvinn_weights is None else ("--alvinn-weights", str(Path(cfg.alvinn_weights).resolve()))
     return ("--road-method", cfg.road_method, *weights, *keep)
+
+
+def vision_flags(cfg: RunConfig) -> tuple[str, ...]:
+    """Return the flag that gives a vision module the run's worker count (issue 41; none for the default, one process)."""
+    return () if cfg.vision_workers == 1 else ("--vision-workers", str(cfg.vision_workers))

@@ -212,6 +212,15 @@ ACTOR_PRESETS: dict[str, dict] = {
          "path": [{"x": -5.0, "y": 25.0}, {"x": 5.0, "y": 27.0}, {"x": -5.0, "y": 29.0}]},
         {"id": "car", "kind": "car", "yaw_deg": 90.0, "path": [{"x": -1.5, "y": 60.0}]},
     ]},
+    # on campus, for the laser and FIDO evaluations (east of the south walk's first 60 m, which stays clear):
+    # a bin on the south walk, a walker standing on the quad's walk, a dog that crosses the south walk and back in its
+    # first 12 s and then stays on the grass beside it
+    "campus-eval": {"actors": [
+        {"id": "bin", "kind": "bin", "path": [{"x": 75.0, "y": 0.9}]},
+        {"id": "walker", "kind": "pedestrian", "path": [{"x": 89.6, "y": 15.0}]},
+        {"id": "dog", "kind": "dog", "speed": 1.0, "start_after": 0.0,
+         "path": [{"x": 105.0, "y": -3.0}, {"x": 105.0, "y": 3.0}, {"x": 105.0, "y": -3.0}]},
+    ]},
 }
 
 

@@ -36,7 +36,7 @@ from wire.keys import SimKeys
 from wire.network import NetworkConfig
 from wire.health import process_usage
 from wire.lockstep import Barrier, LockstepRelease, encode as encode_lockstep
-from wire.session import Query, Session, open_session, traffic
+from wire.session import Query, Session, open_session, barrier_traffic, traffic
 from wire.drive import DriveCommand, OdometrySlip, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
 from vehicle_sim.actors import ActorSet, load_actors
 from vehicle_sim.mapgen import map_for
@@ -338,7 +338,7 @@ class SimNode:
         self._hb_seq += 1
         self._pub_hb.put(encode(SimHeartbeat(seq=self._hb_seq, sim_time=self.sim.t, wall_time=time.time(), period_s=1.0,
                                              pid=os.getpid(), host=socket.gethostname(),
-                                             usage=process_usage(traffic()))))
+                                             usage=process_usage(traffic(), barrier_traffic()))))
 
     def _account(self, window: deque[tuple[float, float]], now: float, hb_next: float) -> float:
         """Update the achieved RTF over the last wall second and beat when due at `now` [s perf_counter]; return the next beat."""

@@ -1,7 +1,8 @@
 """Image writers for captures: false-colour range, labels, colored-range, and a top-down map.
 
 Arrays returned here are RGB uint8; `write_render` writes PNG files (camera.png, range.png,
-labels.png, colored_range.png, map.png) into a directory. The map is drawn north up, world frame.
+labels.png, colored_range.png, map.png, and with the stereo pair stereo_left.png, stereo_right.png)
+into a directory. The map is drawn north up, world frame.
 """
 
 from __future__ import annotations
@@ -194,7 +195,8 @@ def map_image(scene: Scene, result: CaptureResult | None = None, *, px_per_m: fl
 
 
 def write_render(out_dir: str | Path, scene: Scene, result: CaptureResult) -> list[Path]:
-    """Write camera.png, range.png, labels.png, colored_range.png and map.png into `out_dir`; return the paths."""
+    """Write camera.png, range.png, labels.png, colored_range.png, map.png (and the stereo pair's two images) into
+    `out_dir`; return the paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     images: dict[str, np.ndarray] = {}
@@ -217,6 +219,8 @@ def write_render(out_dir: str | Path, scene: Scene, result: CaptureResult) -> li
     if result.colored_range is not None:
         images["colored_range.png"] = _laser_display(colored_range_image(result.colored_range, result.colored_range_valid))
     images["map.png"] = map_image(scene, result)
+    if result.stereo_left is not None and result.stereo_right is not None:
+        images["stereo_left.png"], images["stereo_right.png"] = result.stereo_left, result.stereo_right
     paths = []
     for name, rgb in images.items():
         p = out / name

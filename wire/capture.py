@@ -5,7 +5,8 @@ needs nothing from the simulator to use it; it travels as msgpack (`encode_captu
 `decode_capture`, format `sidewalk.capture/1`). Frames: `vehicle` (x forward, y left, z up, origin on
 the ground), `laser`, `camera` (optical).
 
-Truth (`TRUTH_FIELDS`: the true pose and ground height, label images, true range, mixed-point flags)
+Truth (`TRUTH_FIELDS`: the true pose and ground height, label images, true range, mixed-point flags,
+the stereo pair's true depth)
 travels only in replies on its own key, `sim/truth_capture` (so that access control can deny it: it
 cannot see a payload's flag); only evaluation asks (the recorder, `sidewalk`'s evaluation commands,
 tests). `sim/capture` never carries truth. PERCEPTION never asks and its decoder has no place for it.
@@ -31,7 +32,8 @@ WIRE_FORMAT = "sidewalk.capture/1"
 
 
 class CaptureRequest(BaseModel):
-    """What to capture: which sensors, and the camera image size [px] (same field of view at any size)."""
+    """What to capture: which sensors, the camera image size [px] (same field of view at any size), and the
+    stereo pair's square image side [px] (a multiple of 64; the pair is off unless asked for)."""
 
     model_config = ConfigDict(frozen=True, extra="forbid")
 
@@ -39,6 +41,8 @@ class CaptureRequest(BaseModel):
     camera: bool = True
     camera_width: int = Field(320, ge=16, le=2048)
     camera_height: int = Field(240, ge=16, le=2048)
+    stereo: bool = False
+    stereo_size: int = Field(512, ge=64, le=2048, multiple_of=64)
     #: ignored by the simulator (kept for old senders): truth comes only from the `sim/truth_capture` key
     truth: bool = False
 
@@ -62,12 +66,17 @@ class CaptureResult:
     Camera: `camera_image` (h, w, 3) uint8 RGB.
     Colored-range: `colored_range` (64, 256, 3) uint8 RGB, `colored_range_uv` (64, 256, 2) float32
     camera pixel (NaN = none), `colored_range_valid` bool.
+    Stereo pair (only when asked for): `stereo_left`, `stereo_right` (n, n, 3) uint8 RGB; `stereo_K` (3, 3)
+    float64, the intrinsics both cameras share; `T_vehicle_stereo_left`, `T_vehicle_stereo_right` (4, 4)
+    float64 `vehicle ← camera` (optical frames; rectified: same rotation, the right camera along the left's +x).
     Truth (evaluation only; None unless the request asked for it): `truth_pose` (3,) float64 world (x [m], y [m], yaw [rad]); `truth_z` [m]
     ground under the vehicle; `laser_labels`, `camera_labels` uint8 class indices into
     `worldfile.KINDS` of the surface each ray meets ("sky" = nothing within 45 m for the laser,
     150 m for the camera; laser pixels beyond the 40 m maximum range keep their surface label but
     are not `laser_valid`); `laser_range_true` float32 true range [m] (inf = no return);
-    `laser_mixed` bool (the pixel is a mixed point).
+    `laser_mixed` bool (the pixel is a mixed point); `stereo_labels` (n, n) uint8 class of the left stereo
+    image's pixels, `stereo_depth_true` (n, n) float32 true depth along the left camera's optical axis [m]
+    (inf = sky, NaN = a depth edge inside the pixel).
     """
 
     stamp: float
@@ -94,10 +103,18 @@ class CaptureResult:
     colored_range_valid: np.ndarray | None = None
     truth_pose: np.ndarray | None = None
     truth_z: float | None = None
+    stereo_K: np.ndarray | None = None
+    T_vehicle_stereo_left: np.ndarray | None = None
+    T_vehicle_stereo_right: np.ndarray | None = None
+    stereo_left: np.ndarray | None = None
+    stereo_right: np.ndarray | None = None
+    stereo_labels: np.ndarray | None = None
+    stereo_depth_true: np.ndarray | None = None
 
 
 #: The fields that are truth: sent only when the request asks for them.
-TRUTH_FIELDS = ("truth_pose", "truth_z", "laser_labels", "camera_labels", "laser_range_true", "laser_mixed")
+TRUTH_FIELDS = ("truth_pose", "truth_z", "laser_labels", "camera_labels", "laser_range_true", "laser_mixed",
+                "stereo_labels", "stereo_depth_true")
 
 _SCALARS = ("stamp", "vehicle", "truth_z", "range_step", "ambiguity")
 _ARRAY_FIELDS = tuple(f.name for f in fields(CaptureResult) if f.name not in _SCALARS)
@@ -107,6 +124,8 @@ _DTYPES = {
     "laser_valid": "bool", "laser_reflectance": "uint8", "laser_xyz": "float32", "laser_labels": "uint8",
     "laser_range_true": "float32", "laser_mixed": "bool", "camera_image": "uint8", "camera_labels": "uint8",
     "colored_range": "uint8", "colored_range_uv": "float32", "colored_range_valid": "bool",
+    "stereo_K": "float64", "T_vehicle_stereo_left": "float64", "T_vehicle_stereo_right": "float64",
+    "stereo_left": "uint8", "stereo_right": "uint8", "stereo_labels": "uint8", "stereo_depth_true": "float32",
 }
 
 
@@ -179,7 +198,8 @@ def decode_capture(payload: bytes) -> CaptureResult:
         if name not in out:
             raise CaptureDecodeError(f"capture payload: required array {name!r} is missing")
     out.setdefault("camera_K", None)
-    expect = {"truth_pose": (3,), "T_vehicle_laser": (4, 4), "T_vehicle_camera": (4, 4), "camera_K": (3, 3)}
+    expect = {"truth_pose": (3,), "T_vehicle_laser": (4, 4), "T_vehicle_camera": (4, 4), "camera_K": (3, 3),
+              "stereo_K": (3, 3), "T_vehicle_stereo_left": (4, 4), "T_vehicle_stereo_right": (4, 4)}
     for name, shp in expect.items():
         if out.get(name) is not None and out[name].shape != shp:
             raise CaptureDecodeError(f"capture payload: array {name!r} must have shape {shp}, got {out[name].shape}")
@@ -197,4 +217,29 @@ def decode_capture(payload: bytes) -> CaptureResult:
             raise CaptureDecodeError(f"capture payload: array 'camera_image' must be (h, w, 3), got {im.shape}")
         if "camera_labels" in out and out["camera_labels"].shape != im.shape[:2]:
             raise CaptureDecodeError(f"capture payload: array 'camera_labels' must be {im.shape[:2]}, got {out['camera_labels'].shape}")
+    _check_stereo(out)
     return CaptureResult(**out)
+
+
+_STEREO_ARRAYS = ("stereo_K", "T_vehicle_stereo_left", "T_vehicle_stereo_right", "stereo_left", "stereo_right")
+
+
+def _check_stereo(out: dict[str, Any]) -> None:
+    """Raise `CaptureDecodeError` unless the stereo arrays are all there or all absent and their shapes agree."""
+    have = [name for name in _STEREO_ARRAYS if name in out]
+    if not have:
+        for name in ("stereo_labels", "stereo_depth_true"):
+            if name in out:
+                raise CaptureDecodeError(f"capture payload: array {name!r} without the stereo images")
+        return
+    if len(have) != len(_STEREO_ARRAYS):
+        missing = [name for name in _STEREO_ARRAYS if name not in out]
+        raise CaptureDecodeError(f"capture payload: stereo arrays {missing} are missing")
+    left = out["stereo_left"]
+    if left.ndim != 3 or left.shape[2] != 3:
+        raise CaptureDecodeError(f"capture payload: array 'stereo_left' must be (h, w, 3), got {left.shape}")
+    if out["stereo_right"].shape != left.shape:
+        raise CaptureDecodeError(f"capture payload: array 'stereo_right' must be {left.shape}, got {out['stereo_right'].shape}")
+    for name in ("stereo_labels", "stereo_depth_true"):
+        if name in out and out[name].shape != left.shape[:2]:
+            raise CaptureDecodeError(f"capture payload: array {name!r} must be {left.shape[:2]}, got {out[name].shape}")

@@ -32,6 +32,7 @@ class ProcessUsage(BaseModel):
 
     Traffic counts what this process's session sent (puts, queries, replies) and received (samples,
     queries, replies), payload bytes only; it is cumulative, so a rate is a difference of two beats.
+    `barrier_*` is the part of it on the lock-step barrier's keys: the run mode's cost, not the module's.
     """
 
     model_config = ConfigDict(frozen=True, extra="ignore")
@@ -42,6 +43,10 @@ class ProcessUsage(BaseModel):
     bytes_out: int = Field(default=0, ge=0)
     msgs_in: int = Field(default=0, ge=0)
     bytes_in: int = Field(default=0, ge=0)
+    barrier_msgs_out: int = Field(default=0, ge=0)
+    barrier_bytes_out: int = Field(default=0, ge=0)
+    barrier_msgs_in: int = Field(default=0, ge=0)
+    barrier_bytes_in: int = Field(default=0, ge=0)
 
 
 _PAGE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
@@ -55,11 +60,14 @@ def _rss_bytes() -> int:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # peak, where /proc is missing
 
 
-def process_usage(traffic: tuple[int, int, int, int] = (0, 0, 0, 0)) -> ProcessUsage:
-    """Return this process's usage now, with `traffic` = (msgs_out, bytes_out, msgs_in, bytes_in)."""
+def process_usage(traffic: tuple[int, int, int, int] = (0, 0, 0, 0),
+                  barrier: tuple[int, int, int, int] = (0, 0, 0, 0)) -> ProcessUsage:
+    """Return this process's usage now, with `traffic` = (msgs_out, bytes_out, msgs_in, bytes_in), of which `barrier` on the barrier's keys."""
     ru = resource.getrusage(resource.RUSAGE_SELF)
     mo, bo, mi, bi = traffic
-    return ProcessUsage(cpu_s=ru.ru_utime + ru.ru_stime, rss_bytes=_rss_bytes(), msgs_out=mo, bytes_out=bo, msgs_in=mi, bytes_in=bi)
+    bmo, bbo, bmi, bbi = barrier
+    return ProcessUsage(cpu_s=ru.ru_utime + ru.ru_stime, rss_bytes=_rss_bytes(), msgs_out=mo, bytes_out=bo, msgs_in=mi, bytes_in=bi,
+                        barrier_msgs_out=bmo, barrier_bytes_out=bbo, barrier_msgs_in=bmi, barrier_bytes_in=bbi)
 
 
 class Heartbeat(BaseModel):

@@ -17,7 +17,7 @@ from typing import TextIO
 from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import ModuleKeys
 from wire.network import NetworkConfig
-from wire.session import open_session, traffic
+from wire.session import open_session, barrier_traffic, traffic
 
 __all__ = ["serve_router", "ROUTER_READY"]
 
@@ -48,7 +48,7 @@ def serve_router(net: NetworkConfig, stop: threading.Event, *, out: TextIO | Non
             seq += 1
             s.put(keys.heartbeat("router"), encode_heartbeat(Heartbeat(
                 module="router", seq=seq, wall_time=time.time(), period_s=heartbeat_period, pid=pid, host=host, zenoh_sessions=1,
-                usage=process_usage(traffic()))))
+                usage=process_usage(traffic(), barrier_traffic()))))
             stop.wait(heartbeat_period)
     finally:
         closer = threading.Thread(target=s.close, name="router-close", daemon=True)

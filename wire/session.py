@@ -30,7 +30,7 @@ from wire.network import NetworkConfig
 from wire.timemode import lockstep_enabled
 
 __all__ = [
-    "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "secure_hint", "session_stats", "traffic", "is_json_payload",
+    "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "secure_hint", "session_stats", "traffic", "barrier_traffic", "is_json_payload",
     "gets_in_flight", "lockstep_topology",
 ]
 
@@ -60,24 +60,39 @@ def is_json_payload(encoding: str, payload: bytes) -> bool:
     return True
 
 
-class _Traffic:
-    """Messages and payload bytes this process sent and received through Zenoh (all sessions)."""
+#: The key segment of the lock-step barrier (`wire.keys.LockstepKeys`): its traffic is also counted apart.
+_BARRIER_SEGMENT = "/lockstep/"
 
-    __slots__ = ("lock", "msgs_out", "bytes_out", "msgs_in", "bytes_in")
+
+class _Traffic:
+    """Messages and payload bytes this process sent and received through Zenoh (all sessions).
+
+    The lock-step barrier's asks and answers count here too (the barrier's own counters rely on it), and
+    again in `barrier`, so that a report can show the run mode's cost apart from the modules' traffic.
+    """
+
+    __slots__ = ("lock", "msgs_out", "bytes_out", "msgs_in", "bytes_in", "barrier")
 
     def __init__(self) -> None:
         self.lock = threading.Lock()
         self.msgs_out = self.bytes_out = self.msgs_in = self.bytes_in = 0
+        self.barrier = [0, 0, 0, 0]  # msgs out, bytes out, msgs in, bytes in on the barrier's keys
 
-    def out(self, n: int) -> None:
+    def out(self, n: int, key: object = "") -> None:
         with self.lock:
             self.msgs_out += 1
             self.bytes_out += n
+            if _BARRIER_SEGMENT in str(key):
+                self.barrier[0] += 1
+                self.barrier[1] += n
 
-    def into(self, n: int) -> None:
+    def into(self, n: int, key: object = "") -> None:
         with self.lock:
             self.msgs_in += 1
             self.bytes_in += n
+            if _BARRIER_SEGMENT in str(key):
+                self.barrier[2] += 1
+                self.barrier[3] += n
 
 
 _traffic = _Traffic()
@@ -111,10 +126,17 @@ def gets_in_flight() -> int:
 
 
 def traffic() -> tuple[int, int, int, int]:
-    """Return (messages out, bytes out, messages in, bytes in) of this process's Zenoh traffic so far."""
+    """Return (messages out, bytes out, messages in, bytes in) of this process's Zenoh traffic so far (the barrier's included)."""
     t = _traffic
     with t.lock:
         return t.msgs_out, t.bytes_out, t.msgs_in, t.bytes_in
+
+
+def barrier_traffic() -> tuple[int, int, int, int]:
+    """Return (messages out, bytes out, messages in, bytes in) of this process's traffic on the lock-step barrier's keys."""
+    t = _traffic
+    with t.lock:
+        return tuple(t.barrier)  # type: ignore[return-value]
 
 
 def _enc(e: Any) -> str:
@@ -132,7 +154,7 @@ class Query:
         self.key: str = str(q.key_expr)
         p = q.payload
         self.payload: bytes = p.to_bytes() if p is not None else b""
-        _traffic.into(len(self.payload))
+        _traffic.into(len(self.payload), self.key)
         enc = _enc(q.encoding)
         # a query with neither payload nor encoding comes from a person's tool: answer it in JSON
         self.is_json: bool = is_json_payload(enc, self.payload) if self.payload else (enc.startswith(_JSON_PREFIXES) or enc in _UNSET)
@@ -158,12 +180,12 @@ class Query:
 
         Replying on the queryable's own key, not on a wildcard query's, lets access control see what is answered.
         """
-        _traffic.out(len(payload))
+        _traffic.out(len(payload), self.key)
         self._q.reply(key or self._own or self._q.key_expr, payload, encoding=_JSON if as_json else _MSGPACK)
 
     def reply_err(self, payload: bytes, *, as_json: bool = False) -> None:
         """Send an error reply."""
-        _traffic.out(len(payload))
+        _traffic.out(len(payload), self.key)
         self._q.reply_err(payload, encoding=_JSON if as_json else _MSGPACK)
 
     def finish(self) -> None:
@@ -186,7 +208,7 @@ class Reply:
             self.key = str(s.key_expr)
         self.payload: bytes = s.payload.to_bytes()
         self.is_json: bool = _enc(s.encoding).startswith(_JSON_PREFIXES)
-        _traffic.into(len(self.payload))
+        _traffic.into(len(self.payload), self.key or "")
 
 
 class Sample:
@@ -198,7 +220,7 @@ class Sample:
         self.key: str = str(s.key_expr)
         self.payload: bytes = s.payload.to_bytes()
         self.deleted: bool = s.kind == zenoh.SampleKind.DELETE
-        _traffic.into(len(self.payload))
+        _traffic.into(len(self.payload), self.key)
         self._enc = _enc(s.encoding)
 
     @property
@@ -210,14 +232,15 @@ class Sample:
 class Publisher:
     """A declared publisher: `put(bytes)`."""
 
-    __slots__ = ("_p",)
+    __slots__ = ("_p", "_key")
 
-    def __init__(self, p: Any) -> None:
+    def __init__(self, p: Any, key: str = "") -> None:
         self._p = p
+        self._key = key
 
     def put(self, payload: bytes) -> None:
         """Publish one sample."""
-        _traffic.out(len(payload))
+        _traffic.out(len(payload), self._key)
         self._p.put(payload)
 
     def undeclare(self) -> None:
@@ -398,8 +421,9 @@ class Session:
         self._check()
         def cb(s: "zenoh.Sample") -> None:
             data = s.payload.to_bytes()
-            _traffic.into(len(data))
-            on_payload(str(s.key_expr), data)
+            k = str(s.key_expr)
+            _traffic.into(len(data), k)
+            on_payload(k, data)
 
         sub = self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False))
         self._keep.append(sub)
@@ -410,9 +434,10 @@ class Session:
         self._check()
         def cb(s: "zenoh.Sample") -> None:
             data = s.payload.to_bytes()
-            _traffic.into(len(data))
+            k = str(s.key_expr)
+            _traffic.into(len(data), k)
             att = s.attachment
-            on_payload(str(s.key_expr), data, None if att is None else att.to_bytes())
+            on_payload(k, data, None if att is None else att.to_bytes())
 
         sub = self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False))
         self._keep.append(sub)
@@ -432,7 +457,7 @@ class Session:
             express=express,
             reliability=zenoh.Reliability.RELIABLE,
         )
-        w = Publisher(pub)
+        w = Publisher(pub, key)
         self._keep.append(w)
         return w
 
@@ -441,7 +466,7 @@ class Session:
         """Publish one sample (msgpack unless `as_json`), with Zenoh `attachment` bytes beside the payload when given."""
         if self._closed:
             return
-        _traffic.out(len(payload))
+        _traffic.out(len(payload), key)
         self._z.put(
             key, payload, encoding=_JSON if as_json else _MSGPACK,
             congestion_control=zenoh.CongestionControl.DROP if droppable else zenoh.CongestionControl.BLOCK,
@@ -460,7 +485,7 @@ class Session:
     ) -> None:
         """Send a query; `on_reply(Reply)` per reply and `on_done()` at the end run on Zenoh threads (timeout wall [s])."""
         self._check()
-        _traffic.out(len(payload or b""))
+        _traffic.out(len(payload or b""), selector)
 
         def done() -> None:
             try:
@@ -488,7 +513,7 @@ class Session:
     def get_blocking(self, selector: str, payload: bytes | None = None, *, as_json: bool = False, timeout: float = 5.0) -> list[Reply]:
         """Send a query and wait for every reply (blocking: never call it in a callback or on a loop)."""
         self._check()
-        _traffic.out(len(payload or b""))
+        _traffic.out(len(payload or b""), selector)
         replies = self._z.get(
             selector, payload=payload, encoding=_JSON if as_json else _MSGPACK, timeout=timeout,
             target=zenoh.QueryTarget.BEST_MATCHING, consolidation=zenoh.ConsolidationMode.NONE,

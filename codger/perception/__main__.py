@@ -25,6 +25,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--road-method", choices=ROAD_METHODS, default="perception",
                    help="what finds the road of follow-road units: the colored-range pipeline, or the SCARF, YARF or ALVINN follower")
     p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
+    p.add_argument("--vision-workers", type=int, default=1,
+                   help="processes the per-pixel stages (registration, colour classification) run on in stripes; 1: this process alone")
     return p
 
 
@@ -33,7 +35,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args, net = parse_module_args(parser, argv)
     try:
-        cfg = PerceptionConfig(vehicle=args.vehicle, speed=args.speed, max_wait_s=args.max_wait, road_method=args.road_method)
+        cfg = PerceptionConfig(vehicle=args.vehicle, speed=args.speed, max_wait_s=args.max_wait, road_method=args.road_method,
+                               vision_workers=args.vision_workers)
     except ValidationError as exc:
         parser.error("; ".join(f"--{e['loc'][0]}: {e['msg']}" for e in exc.errors()))
     road = None

@@ -28,6 +28,7 @@ from shapely.geometry import Polygon as ShapelyPolygon
 
 from blackboard import AttrPredicate, BlackboardError, Polygon as BbPolygon, Spec, VersionConflictError, NotFoundError
 from blackboard.errors import FutureExtrapolationError
+from modules.parallel import VisionPool
 from modules.perception.monitor import SENSORS, ResolutionTable, SensorGeometry, image_input_position
 from modules.perception.pipeline import PerceptionPipeline
 from modules.perception.results import build_result, failed_result
@@ -64,6 +65,7 @@ class PerceptionConfig(BaseModel):
     pose_wait_s: float = Field(1.0, ge=0.0, description="longest wait for the vehicle pose at capture time to arrive [s] sim")
     road_method: str = Field("perception", pattern="^(perception|scarf|yarf|alvinn)$",
                              description="issue 13: what finds the road of follow-road units (a road follower replaces the navigable region)")
+    vision_workers: int = Field(1, ge=1, le=64, description="issue 41: processes the per-pixel stages run on (1: this process alone)")
 
 
 @dataclass
@@ -93,7 +95,8 @@ class PerceptionModule:
         self.rt = rt
         self.cfg = cfg
         self.bb = rt.bb
-        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[cfg.vehicle]), speed=cfg.speed)
+        pool = VisionPool(cfg.vision_workers, warm=("modules.perception",)) if cfg.vision_workers > 1 else None  # issue 41
+        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[cfg.vehicle]), speed=cfg.speed, pool=pool)
         self.stats = CycleStats()
         self.road = road  # issue 13
         self._queue: asyncio.Queue = asyncio.Queue()
@@ -130,6 +133,8 @@ class PerceptionModule:
         finally:
             pump.cancel()
             await mon.close()
+            if self.pipeline.pool is not None:
+                self.pipeline.pool.close()
 
     def _enqueue(self, tok) -> None:
         if tok.id not in self._queued and tok.attrs.status == "pending":
@@ -177,7 +182,7 @@ class PerceptionModule:
         if geom != self.pipeline.table.sensor:
             self.pipeline.table.sensor = geom  # the capture's own calibration wins over the preset
         try:
-            img = colored_range_image(frame)
+            img = colored_range_image(frame, pool=self.pipeline.pool)
             out = self.pipeline.process(img, unit.objects, prior, error_allowance=max(unit.error_allowance_m, 0.2))
             if self.road is not None and unit.mode == "follow-road":  # issue 13: the road follower's road
                 try:

@@ -29,6 +29,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--road-method", choices=ROAD_METHODS, default="perception",
                    help="how the road is found: PERCEPTION's colored-range segmentation, or the SCARF, YARF or ALVINN follower")
     p.add_argument("--alvinn-weights", default="", help="ALVINN's weights (.npz from `sidewalk roadfollow train`); needed with --road-method alvinn")
+    p.add_argument("--vision-workers", type=int, default=1,
+                   help="processes the per-pixel stages of PERCEPTION's segmentation run on in stripes (1: this process alone)")
     p.add_argument("--keep", choices=["centre", "right", "left"], default="centre",
                    help="drive on the road's centre or keep right / left (a quarter of its width off the centre): the mission step's side")
     return p
@@ -39,6 +41,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args, net = parse_module_args(parser, argv)
     start = args.start_pose
+    if not 1 <= args.vision_workers <= 64:
+        parser.error(f"--vision-workers: expected 1 to 64, got {args.vision_workers}")
     try:
         map_data = load_map(args.map)
     except (FileNotFoundError, ValueError) as exc:
@@ -52,7 +56,8 @@ def main(argv: list[str] | None = None) -> int:
 
     async def body(m: Module) -> None:
         await RoadFollowing(m, map_data, vehicle=args.vehicle, seed=args.seed, start=start, awake=not args.asleep,
-                            method=args.road_method, alvinn_net=alvinn_net, keep=args.keep).run()
+                            method=args.road_method, alvinn_net=alvinn_net, keep=args.keep,
+                            vision_workers=args.vision_workers).run()
 
     return run_module(args.name, endpoint(body), net)
 

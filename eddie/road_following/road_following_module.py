@@ -11,7 +11,8 @@ mission, it asks for that mission's route. Awake, each cycle: capture a frame (l
 truth), note the controller's `local` pose then, segment with PERCEPTION's pipeline on the map
 objects in view, send the position the road edges give to the navigator (as PERCEPTION's fixes reach
 the PILOT under CODGER), move the road into `local`, plan with the PILOT's planner along the mission's
-route (asked from the mission service) and send the path `immediate` with `sensed_at` = the capture stamp.
+route (asked from the mission service) and send the path `immediate` with `sensed_at` = the capture stamp (a path
+dead-reckoned along the route when vision found no road carries none: no frame's content produced it, as under CODGER).
 
 With `--road-method scarf|yarf|alvinn` (issue 13) the camera image goes to that road follower
 instead: SCARF's or YARF's road centre, moved to the route's lane and into `local` by the pose at
@@ -42,6 +43,7 @@ from eddie.toolkit.module import Module
 from modules.map_navigator import MapData
 from modules.road_following import CameraGeometry, RoadFollowingError
 from modules.road_following.road_method import CameraRoadFollower
+from modules.parallel import VisionPool
 from modules.perception import PerceptionPipeline, ResolutionTable, colored_range_image
 from modules.perception.monitor import SENSORS
 from modules.pilot import LocalPathPlanner, pilot_config_for
@@ -70,14 +72,15 @@ class RoadFollowing:
 
     def __init__(self, m: Module, map_data: MapData, *, vehicle: str, seed: int, start: tuple[float, float, float],
                  awake: bool = True, cfg: RoadFollowingConfig | None = None, method: str = "perception",
-                 alvinn_net=None, keep: str = "centre") -> None:
+                 alvinn_net=None, keep: str = "centre", vision_workers: int = 1) -> None:
         self.m = m
         self.map = map_data
         # the vehicle's top speed (the PILOT's) unless told otherwise; routes and triggers slow it
         self.cfg = cfg or RoadFollowingConfig(speed_mps=pilot_config_for(vehicle).max_speed)
         self.switch = Switch(awake)
         self.belief = Belief(m, start)
-        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=self.cfg.speed_mps)
+        pool = VisionPool(vision_workers, warm=("modules.perception",)) if vision_workers > 1 else None  # issue 41
+        self.pipeline = PerceptionPipeline(ResolutionTable(SENSORS[vehicle]), speed=self.cfg.speed_mps, pool=pool)
         # the PILOT's planner with a budget a control cycle can afford: a path late by seconds of wall
         # (a minute of sim at RTF 20) is worse than dead reckoning along the route until the next frame
         pc = pilot_config_for(vehicle).planner
@@ -137,7 +140,7 @@ class RoadFollowing:
         at_capture, prior = poses
         if self.follower is not None:
             return await self._follower_cycle(frame, at_capture, prior, taken)
-        img = colored_range_image(frame)
+        img = colored_range_image(frame, pool=self.pipeline.pool)
         objs = objects_in_view(self.map, tuple(prior))
         # perception and planning run in a worker thread: the loop keeps beating and reading its inbox meanwhile
         out = await asyncio.to_thread(self.pipeline.process, img, objs, tuple(prior), error_allowance=0.5)
@@ -183,7 +186,7 @@ class RoadFollowing:
                 return f"{exc}; at the route's end"
             await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                         points=tuple((float(x), float(y)) for x, y in ahead),
-                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
+                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=None))  # dead reckoned: no frame made it
             return f"{exc}; dead reckoning along the route"
         if self.switch.taken != taken or not self.switch.awake:
             return "a trigger came while perceiving: this path is not sent"  # it may have put vision to sleep
@@ -250,7 +253,7 @@ class RoadFollowing:
                 return f"{exc}; at the route's end"
             await self.m.send("controller", PathCommand(client=CLIENT, priority=PRIORITY, mode="immediate",
                                                         points=tuple((float(x), float(y)) for x, y in ahead),
-                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=frame.stamp))
+                                                        speed=min(self.cfg.blind_speed_mps, speed), sensed_at=None))  # dead reckoned: no frame made it
             return f"{exc}; dead reckoning along the route"
         if self.switch.taken != taken or not self.switch.awake:
             return "a trigger came while following: this path is not sent"
@@ -280,4 +283,8 @@ class RoadFollowing:
 
     async def run(self) -> None:
         """Sleep until woken, then run cycles while awake; the inbox and the triggers switch it."""
-        await run_switched(self.m, self.switch, self.cycle, period_s=0.2, on_data=self.on_trigger)
+        try:
+            await run_switched(self.m, self.switch, self.cycle, period_s=0.2, on_data=self.on_trigger)
+        finally:
+            if self.pipeline.pool is not None:
+                self.pipeline.pool.close()

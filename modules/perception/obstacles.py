@@ -4,7 +4,7 @@ Points go into the `vehicle` frame (x forward, y left, z up, origin on the groun
 height map of square cells: per cell the highest point, and the ground is the lowest point of the
 cell's neighbourhood. Cells standing more than `min_height` [m] above their ground are obstacle
 cells; 8-connected groups of them become obstacles, each a convex polygon (`vehicle` frame) with a
-height. `path_clear_distance` is the fast mode for emergency stop: only the points inside a corridor
+height (`obstacles_from_points` runs the same on any range sensor's points, e.g. dense stereo's). `path_clear_distance` is the fast mode for emergency stop: only the points inside a corridor
 along the planned path are looked at, and the first obstacle point along the path is returned.
 Pure numpy; no blackboard, no truth.
 """
@@ -31,6 +31,7 @@ __all__ = [
     "unwrap_over_ground",
     "height_map",
     "detect_obstacles",
+    "obstacles_from_points",
     "path_clear_distance",
     "path_in_vehicle",
 ]
@@ -221,7 +222,11 @@ def height_map(points: np.ndarray, cfg: ObstacleConfig = ObstacleConfig()) -> He
 
 def detect_obstacles(scan: LaserScan, cfg: ObstacleConfig = ObstacleConfig()) -> list[Obstacle]:
     """Find obstacles in one range image: polygons with heights in the `vehicle` frame, nearest first."""
-    pts = scan_points(scan, cfg.max_horizontal)
+    return obstacles_from_points(scan_points(scan, cfg.max_horizontal), cfg)
+
+
+def obstacles_from_points(pts: np.ndarray, cfg: ObstacleConfig = ObstacleConfig()) -> list[Obstacle]:
+    """Find obstacles among `vehicle`-frame points (N, 3 or 4: x, y, z [m], σ_z [m]) of any range sensor, nearest first."""
     hm = height_map(pts, cfg)
     tall = hm.count > 0
     # a cell counts when a neighbour is tall too or it holds several points (lone mixed points drop out)

@@ -24,6 +24,7 @@ from modules.perception.monitor import (
 )
 from modules.perception.object_finder import FoundObject, find_objects
 from modules.perception.predicted import PredictedObject, class_key, predict, visible_regions
+from modules.parallel import VisionPool
 from modules.vocabulary import MapObject
 
 __all__ = ["PipelineOutput", "PerceptionPipeline", "edge_observations"]
@@ -171,18 +172,25 @@ def edge_observations(
 
 
 class PerceptionPipeline:
-    """Run PERCEPTION cycles; keeps the adapted colour classes and the measured processing times."""
+    """Run PERCEPTION cycles; keeps the adapted colour classes and the measured processing times.
+
+    With a `pool` of several vision workers the per-pixel stages (registration by the caller's
+    `colored_range_image(frame, pool=pipeline.pool)`, colour classification) run in stripes over its
+    processes; the results are the same as in one process.
+    """
 
     def __init__(
         self,
         table: ResolutionTable | None = None,
         base: SegmentationParams = SegmentationParams(),
         speed: float = 1.0,
+        pool: VisionPool | None = None,
     ) -> None:
-        """Start with a resolution table (sensor geometry), base segmentation parameters and the desired speed [m/s]."""
+        """Start with a resolution table (sensor geometry), base segmentation parameters, the desired speed [m/s] and a vision pool."""
         self.table = table or ResolutionTable()
         self.speed = speed
         self.base = base
+        self.pool = pool
         self._models: dict[tuple[str, ...], ColourModel] = {}
         # per set of predicted objects: segmentation parameters, names of the colour classes
         self._params: dict[tuple, SegmentationParams] = {}
@@ -231,12 +239,12 @@ class PerceptionPipeline:
         """
         params = self.params_for(objects)
         if method is Segmentation.RANGE:
-            return make_segmentation(method, work, params)
+            return make_segmentation(method, work, params, pool=self.pool)
         model = model if model is not None else self._adapted_model(objects)
         predicted = predicted if predicted is not None else predict(objects, prior_pose)
         xy = work.xyz[..., :2] if method is Segmentation.COLORED_RANGE else work.ground_xy
         training = colour_training(predicted, xy, work.valid, model.types, prior_pose, error_allowance)
-        return make_segmentation(method, work, params, model, training=training)
+        return make_segmentation(method, work, params, model, training=training, pool=self.pool)
 
     def process(
         self,

@@ -9,7 +9,7 @@ into the camera, and the view is limited to one ambiguity interval of horizontal
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -19,8 +19,13 @@ from wire.capture import CaptureDecodeError, decode_capture
 from modules.perception.errors import PerceptionError
 from modules.perception.image import ColoredRangeImage
 from modules.perception.patch_maker import unwrap_range
+from modules.parallel import StripeOp, Stripe
 
-__all__ = ["SensorFrameError", "SensorFrame", "decode_sensor_frame", "colored_range_image", "sensor_geometry"]
+if TYPE_CHECKING:
+    from modules.parallel import VisionPool
+
+__all__ = ["SensorFrameError", "SensorFrame", "decode_sensor_frame", "colored_range_image", "register_columns", "REGISTRATION",
+           "sensor_geometry"]
 
 _NEEDED = ("T_vehicle_laser", "T_vehicle_camera", "camera_K", "laser_az", "laser_el", "laser_range", "laser_valid", "camera_image")
 
@@ -96,12 +101,23 @@ def _rays(frame: SensorFrame) -> tuple[np.ndarray, np.ndarray]:
     return _RAYS[key]
 
 
-def colored_range_image(frame: SensorFrame, max_horizontal: float | None = None) -> ColoredRangeImage:
+def colored_range_image(frame: SensorFrame, max_horizontal: float | None = None, *, pool: "VisionPool | None" = None) -> ColoredRangeImage:
     """Unwrap the range, put the points in the vehicle frame and colour them from the camera (§3.4.1).
 
     Pixels count as valid when the laser returned, the point projects into the camera and its
-    horizontal range is within `max_horizontal` [m] (default: one ambiguity interval).
+    horizontal range is within `max_horizontal` [m] (default: one ambiguity interval). With a
+    `pool` of several workers the laser columns are registered in vertical stripes (`REGISTRATION`).
     """
+    if pool is not None and pool.workers > 1:
+        h, w = frame.laser_range.shape
+        got = pool.run(REGISTRATION,
+                       {"laser_range": frame.laser_range, "laser_valid": frame.laser_valid, "laser_az": frame.laser_az,
+                        "laser_el": frame.laser_el, "camera_image": frame.camera_image},
+                       {"xyz": ((h, w, 3), np.float32), "ground_xy": ((h, w, 2), np.float32), "range_m": ((h, w), np.float32),
+                        "valid": ((h, w), np.bool_), "rgb": ((h, w, 3), np.float32)},
+                       (frame.stamp, frame.ambiguity, frame.T_vehicle_laser, frame.T_vehicle_camera, frame.camera_K, frame.range_step,
+                        max_horizontal))
+        return ColoredRangeImage(stamp=frame.stamp, **got)
     limit = frame.ambiguity if max_horizontal is None else max_horizontal
     dv, ground_xy = _rays(frame)
     t = frame.T_vehicle_laser[:3, 3]
@@ -124,6 +140,22 @@ def colored_range_image(frame: SensorFrame, max_horizontal: float | None = None)
     my = np.where(ok, v, -1).astype(np.float32)
     rgb = cv2.remap(frame.camera_image.astype(np.float32), mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
     return ColoredRangeImage(xyz=xyz, ground_xy=ground_xy.copy(), range_m=r.astype(np.float32), valid=ok, rgb=rgb, stamp=frame.stamp)
+
+
+def register_columns(arrays: dict[str, np.ndarray], params: tuple, stripe: Stripe) -> dict[str, np.ndarray]:
+    """Register one stripe of laser columns: `colored_range_image` on the frame those columns make (a stripe operator)."""
+    stamp, ambiguity, t_laser, t_camera, k, step, max_horizontal = params
+    part = SensorFrame(stamp=stamp, ambiguity=ambiguity, T_vehicle_laser=t_laser, T_vehicle_camera=t_camera, camera_K=k,
+                       laser_az=arrays["laser_az"], laser_el=arrays["laser_el"], laser_range=arrays["laser_range"],
+                       laser_valid=arrays["laser_valid"], camera_image=arrays["camera_image"], range_step=step)
+    img = colored_range_image(part, max_horizontal)
+    return {"xyz": img.xyz, "ground_xy": img.ground_xy, "range_m": img.range_m, "valid": img.valid, "rgb": img.rgb}
+
+
+#: Registration split into vertical stripes of laser columns: each column is unwrapped bottom-up and
+#: every pixel registered on its own, so the stripes need no overlap (the camera image is read whole).
+REGISTRATION = StripeOp(register_columns, overlap=0, axis=1,
+                        axes={"laser_az": 0}, whole=frozenset({"laser_el", "camera_image"}))
 
 
 def sensor_geometry(frame: SensorFrame) -> "SensorGeometry":

@@ -6,22 +6,34 @@ pixels, then re-estimate the colour classes by nearest-mean clustering in the ro
 the off-road around it — so slow illumination changes and shadows are followed frame by frame.
 Optionally the classified image is searched for branch roads (intersections). At the start the
 classes are bootstrapped from the road assumed straight ahead (the seed's one external input).
+
+Issue 41 adds the paper's two other parts (Figure 4.2), each off by default: `texture` feeds the
+texture operator's image (`texture`, from the blue pyramid) to the classifier as a fourth
+measurement, and `colour_model="isodata"` makes the classes by the paper's colour-model generator
+(`isodata`) instead of the nearest-mean clustering. A `VisionPool` of several workers reduces,
+textures and classifies the frame in row stripes (`scarf_stripes`), with the same result.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from typing import TYPE_CHECKING, Literal
 
-import cv2
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from modules.road_following.camera import CameraGeometry
-from modules.road_following.colour_classes import ColourClasses, classify, estimate_classes
+from modules.road_following.colour_classes import ColourClasses, attach_texture, classify, estimate_classes
 from modules.road_following.follower import RoadObservation, VehicleMotion
 from modules.road_following.intersection import find_branches
+from modules.road_following.isodata import isodata_classes
+from modules.road_following.scarf_stripes import LookParams, look
+from modules.road_following.texture import TEXTURE_ALPHA, TEXTURE_THRESHOLD
 from modules.road_following.triangle_road import TriangleRoad, best_triangle, half_width_rate, triangle_in_vehicle, triangle_mask
+
+if TYPE_CHECKING:
+    from modules.parallel import VisionPool
 
 __all__ = ["ScarfConfig", "Scarf"]
 
@@ -42,16 +54,21 @@ class ScarfConfig(BaseModel):
     road_margin: float = Field(0.75, gt=0.0, le=1.0)  # road training set: this share of the half width
     offroad_margin: float = Field(1.35, ge=1.0)  # off-road training set: outside this multiple of it
     intersections: bool = False
+    texture: bool = False  # issue 41: the texture operator's image as the classifier's fourth measurement
+    texture_alpha: float = Field(TEXTURE_ALPHA, ge=0.0, le=1.0)
+    texture_threshold: float = Field(TEXTURE_THRESHOLD, gt=0.0)
+    colour_model: Literal["nearest_mean", "isodata"] = "nearest_mean"  # issue 41: the paper's generator is "isodata"
 
 
 class Scarf:
     """SCARF on one camera: `observe` a frame, get the road (see module docstring)."""
 
     def __init__(self, camera: CameraGeometry, config: ScarfConfig = ScarfConfig(), *, prior_lateral_m: float = 0.0,
-                 prior_heading_rad: float = 0.0) -> None:
-        """Set up for `camera` (full-size image); the bootstrap road is the prior (lateral [m], heading [rad])."""
+                 prior_heading_rad: float = 0.0, pool: "VisionPool | None" = None) -> None:
+        """Set up for `camera` (full-size image); the bootstrap road is the prior (lateral [m], heading [rad]); `pool`: vision workers."""
         self.camera = camera
         self.config = config
+        self.pool = pool
         self.small = camera.scaled(config.cols, config.rows)
         self.k = half_width_rate(self.small, config.road_width_m)
         self.horizon = self.small.horizon_row
@@ -65,8 +82,8 @@ class Scarf:
 
     def reduce(self, image: np.ndarray) -> np.ndarray:
         """Return the reduced image (rows, cols, 3) float32 [0–255] (area averaging)."""
-        self.camera.check_image(image)
-        return cv2.resize(image, (self.config.cols, self.config.rows), interpolation=cv2.INTER_AREA).astype(np.float32)
+        c = self.config
+        return look(self.camera.check_image(image), LookParams(c.rows, c.cols, False, c.texture_alpha, c.texture_threshold, None)).rgb
 
     def _prior_triangle(self) -> TriangleRoad:
         """Return the triangle of the prior road (for the bootstrap)."""
@@ -77,13 +94,18 @@ class Scarf:
         apex = float(u[1] + (v[1] - self.horizon) * math.tan(skew))
         return TriangleRoad(apex_col=apex, skew_rad=skew, horizon_row=self.horizon, half_width_rate=self.k)
 
-    def _learn(self, rgb: np.ndarray, road: TriangleRoad) -> None:
-        """Re-estimate the colour classes from the road found (nearest-mean clustering on each side)."""
+    def _learn(self, rgb: np.ndarray, road: TriangleRoad, texture: np.ndarray | None = None) -> None:
+        """Re-estimate the colour classes from the road found (nearest-mean clustering or ISODATA on each side)."""
         c = self.config
         below = np.arange(c.rows)[:, None] > self.horizon + 1.0
         inner = triangle_mask(rgb.shape[:2], road, c.road_margin) & below
         outer = ~triangle_mask(rgb.shape[:2], road, c.offroad_margin) & below
-        got = estimate_classes(rgb, inner, outer, self.classes, k=c.classes_per_side)
+        if c.colour_model == "isodata":
+            got = isodata_classes(rgb, inner, outer, self.classes, k=c.classes_per_side)
+        else:
+            got = estimate_classes(rgb, inner, outer, self.classes, k=c.classes_per_side)
+        if got is not None and texture is not None:
+            got = attach_texture(got, texture, inner, outer, self.classes)
         if got is not None:
             self.classes = got
 
@@ -91,13 +113,16 @@ class Scarf:
                 motion: VehicleMotion | None = None) -> RoadObservation:
         """Find the road in `image` (H, W, 3) uint8 (see module docstring); `motion` is not needed by SCARF."""
         t0 = time.perf_counter()
-        rgb = self.reduce(image)
+        c = self.config
+        seen = look(self.camera.check_image(image),
+                    LookParams(c.rows, c.cols, c.texture, c.texture_alpha, c.texture_threshold, self.classes), self.pool)
+        rgb, texture = seen.rgb, seen.texture
         if self.classes is None:
-            self._learn(rgb, self._prior_triangle())
+            self._learn(rgb, self._prior_triangle(), texture)
         if self.classes is None:
             return RoadObservation(method="scarf", stamp=stamp, found=False, confidence=0.0,
                                    ms_per_frame=(time.perf_counter() - t0) * 1e3)
-        cl = classify(rgb, self.classes)
+        cl = seen.classified if seen.classified is not None else classify(rgb, self.classes, texture)
         weight = 2.0 * cl.p_road - 1.0
         road = best_triangle(weight, self.horizon, self.k, self.apex_cols, self.skews)
         inside = triangle_mask(rgb.shape[:2], road)
@@ -107,7 +132,7 @@ class Scarf:
         branches = ()
         if found:
             self.road = road
-            self._learn(rgb, road)
+            self._learn(rgb, road, texture)
             if self.config.intersections:
                 branches = find_branches(cl.p_road, self.small.ground_grid, lateral, heading, self.config.road_width_m)
         return RoadObservation(method="scarf", stamp=stamp, found=found, lateral_offset_m=lateral, heading_rad=heading,

@@ -8,7 +8,9 @@ near ones only, and a straight road); the trackers look in them and report found
 clipped / illumination shift / too large; every found feature, moved back onto the spine by its
 offset, joins the points of the last three frames (carried into the current vehicle frame by the
 odometry), and the spine is the robust M-estimate through them, which rejects outliers. At the
-start the spine is a prior (the seed's bootstrap: the vehicle in its lane, along the road).
+start the spine is a prior (the seed's bootstrap: the vehicle in its lane, along the road) — or,
+without one (`prior=None`, issue 41), the road is located by the vanishing-point Hough
+(`yarf_bootstrap`, §5.5) in each frame until YARF has found it once.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from modules.road_following.camera import CameraGeometry
 from modules.road_following.follower import FeatureReport, RoadObservation, VehicleMotion
 from modules.road_following.spine_fit import Spine, fit_spine_lsq, fit_spine_robust
+from modules.road_following.yarf_bootstrap import BootstrapConfig, bootstrap_spine
 from modules.road_following.yarf_trackers import BrightnessModel, predict_window, track_white, track_yellow
 
 __all__ = ["StripeFeature", "LaneModel", "YarfConfig", "Yarf"]
@@ -74,12 +77,14 @@ class Yarf:
     """YARF on one camera (see module docstring); `observe` one frame after another."""
 
     def __init__(self, camera: CameraGeometry, lane: LaneModel = LaneModel(), config: YarfConfig = YarfConfig(), *,
-                 prior: Spine = Spine(offset=1.75)) -> None:
-        """Set up for `camera`; `prior` is the bootstrap spine in `vehicle` (default: driving in the right lane)."""
+                 prior: Spine | None = Spine(offset=1.75), bootstrap: BootstrapConfig = BootstrapConfig()) -> None:
+        """Set up for `camera`; `prior` is the starting spine in `vehicle` (default: driving in the right lane; None: locate the road by the vanishing-point Hough)."""
         self.camera = camera
         self.lane = lane
         self.config = config
-        self.spine = prior
+        self.bootstrap = bootstrap
+        self.located = prior is not None  # a spine to acquire from: the prior, or the Hough's, or the road found
+        self.spine = prior if prior is not None else Spine()
         self._history: deque[np.ndarray] = deque(maxlen=config.frames_fitted)  # (N, 2) spine samples per frame
         self._models: dict[int, BrightnessModel] = {}
         self._last_stamp: float | None = None
@@ -135,6 +140,13 @@ class Yarf:
         if motion is not None:
             self._move(motion)
         self._last_stamp = stamp
+        if not self.located:
+            located = bootstrap_spine(image, self.camera, tuple((f.kind, f.offset_m) for f in self.lane.features), self.bootstrap)
+            if located.spine is None:
+                return RoadObservation(method="yarf", stamp=stamp, found=False, confidence=0.0,
+                                       ms_per_frame=(time.perf_counter() - t0) * 1e3)
+            self.spine = located.spine
+            self._history.clear()  # points of a frame that found no road belonged to another guess
         reports, samples = self._look(image)
         self._history.append(samples)
         pts = np.vstack([h for h in self._history if len(h)]) if any(len(h) for h in self._history) else np.zeros((0, 2))
@@ -159,6 +171,7 @@ class Yarf:
                     r = np.abs(cur[:, 1] - self.spine.lateral(cur[:, 0]))
                     self._history[-1] = cur[r < 4.685 * fit.scale_m]
         self.tracking = found
+        self.located = self.located or found
         seen = sum(r.status == "found" for r in reports)
         confidence = (seen / max(len(reports), 1)) * inlier_share if found else 0.0
         s = self.spine

@@ -96,6 +96,42 @@ def bench_perception(
     _emit(result, as_json)
 
 
+@bench_app.command("terrain-planner")
+def bench_terrain_planner(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    vehicle: Annotated[str, typer.Option(help="navlab or terregator")] = "navlab",
+    seeds: Annotated[str, typer.Option(help="Comma-separated seeds of the generated scenes")] = "1,2,3",
+    repeats: Annotated[int, typer.Option(min=1, help="Plans per scene")] = 5,
+) -> None:
+    """A 50 m cross-country plan on 150k-cell generated maps: p50 ms, terrain queries, voxels per level; pyramid build ms."""
+    if vehicle not in ("navlab", "terregator"):
+        raise typer.BadParameter(f"must be navlab or terregator, got {vehicle!r}", param_hint="--vehicle")
+    try:
+        seed_list = tuple(int(s) for s in seeds.split(","))
+    except ValueError:
+        raise typer.BadParameter(f"must be comma-separated integers, got {seeds!r}", param_hint="--seeds") from None
+    mod = importlib.import_module("bench.terrain_planner")
+    _emit(_measure(mod, vehicle=vehicle, seeds=seed_list, repeats=repeats), as_json)
+
+
+@bench_app.command("parallel")
+def bench_parallel(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    world: Annotated[str, typer.Option(help="World of PERCEPTION's frames")] = "campus",
+    frames: Annotated[int, typer.Option(min=2, help="Frames per algorithm")] = 12,
+    rounds: Annotated[int, typer.Option(min=1, help="Times each frame is run (its median counts)")] = 3,
+    seed: Annotated[int, typer.Option(help="Seed for poses and sensor noise")] = 0,
+    max_workers: Annotated[int, typer.Option("--max-workers", min=0, max=64, help="Largest worker count (0: the machine's cores)")] = 0,
+) -> None:
+    """Parallel vision: time per frame and speed-up over 1, 2, 4 … workers per algorithm, beside the Warp's (issue 41)."""
+    mod = importlib.import_module("bench.parallel")
+    try:
+        result = _measure(mod, world=world, frames=frames, rounds=rounds, seed=seed, max_workers=max_workers or None)
+    except (FileNotFoundError, ValueError) as exc:
+        raise typer.BadParameter(f"--world {world!r}: {exc}") from None
+    _emit(result, as_json)
+
+
 @bench_app.command("secure")
 def bench_secure(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

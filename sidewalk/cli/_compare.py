@@ -51,7 +51,7 @@ def compare(
     rtf: Annotated[float, typer.Option(help="Real-time factor of every run (with --realtime)")] = 8.0,
     lockstep: Annotated[bool, typer.Option("--lockstep/--realtime", help="Lock-step (default: the simulator waits for every module; the same command gives the same table) or real time at --rtf (latency under load is measured)")] = True,
     arch: Annotated[str, typer.Option("--arch", help="Architectures to compare (those `sidewalk run` offers are run)")] = "codger,eddie",
-    faults: Annotated[str, typer.Option(help="Faults, each once per mission × architecture (default: all four; `none` to skip): kill-perception,position-jump,kill-central,wedge")] = "all",
+    faults: Annotated[str, typer.Option(help="Faults, each once per mission × architecture (default: all six; `none` to skip): kill-central,kill-service,kill-perception,wedge-driver,wedge-planner,position-jump")] = "all",
     speed_sweep: Annotated[Optional[str], typer.Option("--speed-sweep", help="Speed caps (m/s) to sweep, e.g. 1.0,2.0,3.0")] = None,
     out: Annotated[Path, typer.Option(help="Output directory (compare.json, compare.md, *.png, runs/)")] = Path("runs/compare"),
     jobs: Annotated[int, typer.Option(help="Runs at a time (1 on a 2-core machine: runs measure time)")] = 1,

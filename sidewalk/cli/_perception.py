@@ -196,11 +196,19 @@ def eval_cmd(
     perfect_map: Annotated[bool, typer.Option("--perfect-map", help="Predict objects from the world instead of the map file")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
     laser: Annotated[bool, typer.Option("--laser", help="Score the laser libraries instead: obstacles, landmarks, time per frame")] = False,
-    actors: Annotated[str, typer.Option("--actors", help="With --laser: objects not on the map (file or preset; default <world>-eval when it exists)")] = "",
+    actors: Annotated[str, typer.Option("--actors", help="With --laser or --fido: objects not on the map (file or preset; default <world>-eval when it exists)")] = "",
+    fido: Annotated[bool, typer.Option("--fido", help="Score FIDO's stereo beside OpenCV's SGBM and the laser: depth, obstacles, motion, time per step")] = False,
+    straight_leg: Annotated[float, typer.Option("--straight-leg", min=0.0, help="With --fido: the straight leg [m] driven for the motion figure (0: none)")] = 50.0,
+    vision_workers: Annotated[int, typer.Option("--vision-workers", min=1, max=64, help="Processes the per-pixel stages run on in stripes (1: this process alone)")] = 1,
 ) -> None:
     """Score colour, range and colored-range segmentation, position fixes and cycle time against truth."""
+    if laser and fido:
+        raise typer.BadParameter("--laser and --fido: choose one")
     if laser:
         _laser_eval(world, frames, seed, vehicle, actors, as_json)
+        return
+    if fido:
+        _fido_eval(world, frames, seed, vehicle, actors, straight_leg, as_json)
         return
     from sidewalk.perception_eval import evaluate
     from modules.perception.pipeline import PerceptionPipeline
@@ -216,11 +224,13 @@ def eval_cmd(
     except (FileNotFoundError, ValueError) as exc:
         raise typer.BadParameter(f"--world {world!r}: {exc}") from None
     rng = np.random.default_rng(seed)
-    pipe = PerceptionPipeline(src.table)
-    with np.errstate(all="ignore"):
+    from modules.parallel import VisionPool
+
+    with VisionPool(vision_workers, warm=("modules.perception",)) as pool, np.errstate(all="ignore"):
+        pipe = PerceptionPipeline(src.table, pool=pool)
         allowance = max(0.5, 2.0 * pe[0])  # what the PILOT would put in the driving unit for this prior
         report = evaluate(eval_frames(src, frames, rng, pe), pipe, error_allowance=allowance).as_dict()  # type: ignore[arg-type]
-    report.update({"frames_along": getattr(src, "routes_from", ""), "world": world, "vehicle": vehicle, "seed": seed, "map": "world" if perfect_map else "map", "pose_error": pose_error,
+    report.update({"vision_workers": vision_workers, "frames_along": getattr(src, "routes_from", ""), "world": world, "vehicle": vehicle, "seed": seed, "map": "world" if perfect_map else "map", "pose_error": pose_error,
                    "error_allowance_m": allowance})
     if as_json:
         typer.echo(dumps(report, sort_keys=True))
@@ -237,11 +247,10 @@ def eval_cmd(
     con.print({k: report[k] for k in ("position_fix", "cycle_ms_p50", "cycle_ms_p95", "capture_ms_p50")})
 
 
-def _laser_eval(world: str, frames: int, seed: int, vehicle: str, actors: str, as_json: bool) -> None:
-    """Run `perception eval --laser`: half the frames approach an actor, half anywhere on the routes."""
-    from sidewalk.laser_eval import LaserEvaluation, score_frame, truth_obstacles
+def _eval_source(world: str, vehicle: str, seed: int, actors: str):
+    """Return an evaluation's frame source, its actors (the flag's, or the world's `<world>-eval` preset; added to the
+    scene) with their name, and the routes to sample."""
     from vehicle_sim.actors import ACTOR_PRESETS, ActorError, load_actors
-    from vehicle_sim.sensors import CaptureRequest, capture
 
     try:
         src = FrameSource(world, vehicle=vehicle, seed=seed)
@@ -255,6 +264,61 @@ def _laser_eval(world: str, frames: int, seed: int, vehicle: str, actors: str, a
     if aset is not None:
         src.scene.add_actors(aset)
     routes, _ = _route_edges(src)
+    return src, aset, spec, routes
+
+
+#: FIDO's evaluation: steps per leg, metres per step, sim seconds per step and between legs' starts
+_LEG_STEPS, _STEP_M, _STEP_S, _LEG_S = 10, 1.0, 2.0, 60.0
+
+
+def _fido_eval(world: str, frames: int, seed: int, vehicle: str, actors: str, straight: float, as_json: bool) -> None:
+    """Run `perception eval --fido`: legs of 1 m steps, half approaching an actor, half anywhere on the routes, then the straight leg."""
+    from sidewalk.fido_eval import FidoEvaluation, approach_leg, segment_leg, straight_leg
+
+    src, aset, spec, routes = _eval_source(world, vehicle, seed, actors)
+    segments = [(p[i], p[i + 1]) for p, _ in routes for i in range(len(p) - 1) if np.linalg.norm(p[i + 1] - p[i]) > 2.0]
+    if not segments:
+        raise typer.BadParameter(f"--world {world!r}: no route piece longer than 2 m to drive along")
+    rng = np.random.default_rng(seed)
+    legs = []
+    steps = 0
+    while steps < frames:
+        t0 = _LEG_S * len(legs)
+        if aset is not None and len(aset) and len(legs) % 2 == 0:
+            st = aset.states(t0)[int(rng.integers(len(aset)))]
+            leg = approach_leg(segments, (st.x, st.y), min(_LEG_STEPS, frames - steps), _STEP_M, t0, _STEP_S, rng)
+        else:
+            leg = segment_leg(segments, min(_LEG_STEPS, frames - steps), _STEP_M, t0, _STEP_S, rng)
+        legs.append(leg)
+        steps += len(leg.poses)
+    if straight > 0:
+        leg = straight_leg(segments, straight, _STEP_M, _LEG_S * len(legs), _STEP_S, rng)
+        if leg is None:
+            raise typer.BadParameter(f"--straight-leg {straight:g}: no straight route piece of {straight + 2:g} m in {world!r}")
+        legs.append(leg)
+    ev = FidoEvaluation(scene=src.scene, world=src.world, actors=aset, vehicle=vehicle)
+    for leg in legs:
+        ev.run_leg(leg, rng)
+    from vehicle_sim.sensors import StereoConfig
+
+    cfg = StereoConfig()
+    report = ev.as_dict()
+    report.update({"world": world, "vehicle": vehicle, "seed": seed, "actors": spec, "legs": len(legs), "step_m": _STEP_M,
+                   "straight_leg_m": straight, "stereo": {"size_px": cfg.size, "hfov_deg": cfg.hfov_deg, "baseline_m": cfg.baseline}})
+    if as_json:
+        typer.echo(json.dumps(report, sort_keys=True, allow_nan=False))
+    else:
+        from rich.console import Console
+
+        Console().print(report)
+
+
+def _laser_eval(world: str, frames: int, seed: int, vehicle: str, actors: str, as_json: bool) -> None:
+    """Run `perception eval --laser`: half the frames approach an actor, half anywhere on the routes."""
+    from sidewalk.laser_eval import LaserEvaluation, score_frame, truth_obstacles
+    from vehicle_sim.sensors import CaptureRequest, capture
+
+    src, aset, spec, routes = _eval_source(world, vehicle, seed, actors)
     weights = np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum() for p, _ in routes])
     rng = np.random.default_rng(seed)
     ev = LaserEvaluation()
@@ -297,6 +361,7 @@ def _run_command() -> None:
         speed: Annotated[float, typer.Option(min=0.01, help="desired speed for the view/resolution table (m/s)")] = 1.0,
         max_wait: Annotated[float, typer.Option(min=0.01, help="longest wait for the image input position (s, sim time)")] = 6.0,
         name: Annotated[str, typer.Option(help="module name (liveliness, heartbeat)")] = "perception",
+        vision_workers: Annotated[int, typer.Option("--vision-workers", min=1, max=64, help="processes the per-pixel stages run on in stripes (1: this process alone)")] = 1,
     ) -> None:
         """Run the PERCEPTION process: answer driving units from the blackboard with the simulator's sensors."""
         from pydantic import ValidationError
@@ -305,7 +370,7 @@ def _run_command() -> None:
         from runtime import run_module, setup_logging
 
         try:
-            cfg = PerceptionConfig(vehicle=vehicle, speed=speed, max_wait_s=max_wait)
+            cfg = PerceptionConfig(vehicle=vehicle, speed=speed, max_wait_s=max_wait, vision_workers=vision_workers)
         except ValidationError as exc:
             raise typer.BadParameter("; ".join(f"--{e['loc'][0]}: {e['msg']}" for e in exc.errors())) from None
         setup_logging()

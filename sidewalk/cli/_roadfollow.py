@@ -104,6 +104,23 @@ class RouteFrames:
         self.legs, self.centres = mission_legs(self.world)
         if not self.legs:
             raise ValueError(f"world {self.world.name!r} has no shipped mission with a follow-road leg (worlds/*.yaml)")
+        import shapely
+
+        roads = [shapely.Polygon(o.polygon) for o in self.world.objects if o.kind in ("road", "intersection") and o.polygon is not None]
+        self.roads = shapely.union_all(roads) if roads else shapely.Polygon()
+        shapely.prepare(self.roads)
+
+    def road_shadow(self, pose, near_m: float = 5.0, far_m: float = 20.0, step_m: float = 0.5) -> float | None:
+        """Return the share (0–1) of the road ground `near_m`–`far_m` [m] ahead of `pose` that lies in shadow (truth); None: no road there."""
+        import shapely
+
+        xs, ys = np.meshgrid(np.arange(near_m, far_m, step_m), np.arange(-far_m / 2.0, far_m / 2.0, step_m))
+        c, s = math.cos(pose.yaw), math.sin(pose.yaw)
+        wx, wy = pose.x + c * xs - s * ys, pose.y + s * xs + c * ys
+        on = shapely.contains_xy(self.roads, wx, wy)
+        if not on.any():
+            return None
+        return float(np.mean(self.scene.sunlit_at(wx[on], wy[on]) < 0.5))
 
     def capture(self, pose, rng: np.random.Generator):
         """Return the capture (camera image and calibration) at a `DrivePose`."""
@@ -117,7 +134,7 @@ class RouteFrames:
 
         for p in poses:
             cap = self.capture(p, rng)
-            yield EvalFrame(pose=p, image=cap.camera_image, centre_world=self.centres[p.leg]), cap
+            yield EvalFrame(pose=p, image=cap.camera_image, centre_world=self.centres[p.leg], road_shadow=self.road_shadow(p)), cap
 
 
 def _world_or_exit(world: str, seed: int, **kw) -> RouteFrames:
@@ -138,6 +155,15 @@ def eval_cmd(
     seed: Annotated[int, typer.Option(help="Seed for the drive, sensor noise and odometry noise")] = 0,
     model: Annotated[str, typer.Option(help="ALVINN weights (.npz from `sidewalk roadfollow train`)")] = "",
     intersections: Annotated[bool, typer.Option("--intersections", help="SCARF: also search for branch roads")] = False,
+    texture: Annotated[bool, typer.Option("--texture", help="SCARF: feed the texture operator's image (blue pyramid) to the classifier")] = False,
+    colour_model: Annotated[str, typer.Option("--colour-model", help="SCARF: how the colour classes are made: nearest_mean (default) or isodata (the paper's generator)")] = "nearest_mean",
+    vision_workers: Annotated[int, typer.Option("--vision-workers", min=1, max=64, help="SCARF: processes its per-pixel stages run on in row stripes (1: this process alone)")] = 1,
+    bootstrap: Annotated[bool, typer.Option("--bootstrap", help="YARF: lock-on from no prior (the vanishing-point Hough): --starts runs of --start-frames frames, each off its lane by up to ±2 m and ±10°")] = False,
+    starts: Annotated[int, typer.Option(min=1, help="With --bootstrap: how many starts")] = 40,
+    start_frames: Annotated[int, typer.Option("--start-frames", min=1, help="With --bootstrap: frames per start")] = 8,
+    intersection: Annotated[bool, typer.Option("--intersection", help="YARF: drive through the route's first intersection (approach, branch, path into the lane): --runs runs")] = False,
+    to: Annotated[str, typer.Option("--to", help="With --intersection: the place the route leads to (default: the world's mission destination; schenley: green turns left, clubhouse right)")] = "",
+    runs: Annotated[int, typer.Option(min=1, help="With --intersection: runs, each with its own offset in the lane (±0.5 m) and noise")] = 5,
     lane_offset: Annotated[Optional[float], typer.Option("--lane-offset", help="Where the vehicle drives, left of the road centre [m] (negative: right; default: the world's lane); ALVINN is scored against that lane")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
 ) -> None:
@@ -148,6 +174,12 @@ def eval_cmd(
 
     if method not in DEFAULT_WORLD:
         raise typer.BadParameter(f"--method: expected scarf, yarf or alvinn, got {method!r}")
+    if intersection and method != "yarf":
+        raise typer.BadParameter(f"--intersection: YARF's intersection navigation, not {method}")
+    if bootstrap and method != "yarf":
+        raise typer.BadParameter(f"--bootstrap: only YARF locates the road without a prior (the vanishing-point Hough), not {method}")
+    if colour_model not in ("nearest_mean", "isodata"):
+        raise typer.BadParameter(f"--colour-model: expected nearest_mean or isodata, got {colour_model!r}")
     world = world or DEFAULT_WORLD[method]
     net = None
     if method == "alvinn":
@@ -160,6 +192,12 @@ def eval_cmd(
     src = _world_or_exit(world, seed)
     rng = np.random.default_rng(seed)
     lane = LANE_OFFSET.get(src.world.name, 0.0) if lane_offset is None else lane_offset
+    if bootstrap:
+        _bootstrap_eval(src, rng, seed, lane, step, starts, start_frames, as_json)
+        return
+    if intersection:
+        _intersection_eval(src, rng, seed, lane, to, runs, as_json)
+        return
     poses = plan_drive(src.legs, frames, rng, step_m=step, lane_offset_m=lane)
 
     last: list = [None]  # the capture of the frame being scored: its camera model builds a fresh follower
@@ -167,7 +205,7 @@ def eval_cmd(
     def make(fr):
         cam = CameraGeometry.from_capture(last[0])
         if method == "scarf":
-            return Scarf(cam, ScarfConfig(intersections=intersections))
+            return Scarf(cam, ScarfConfig(intersections=intersections, texture=texture, colour_model=colour_model), pool=pool)
         if method == "yarf":
             return Yarf(cam, prior=Spine(offset=-lane))
         return Alvinn(cam, net)  # type: ignore[arg-type]
@@ -178,15 +216,139 @@ def eval_cmd(
             # ALVINN steers to the lane it was trained on: its road point is scored against that lane's centre
             yield lane_frame(fr, lane) if method == "alvinn" else fr
 
+    from modules.parallel import VisionPool
+
     t0 = time.perf_counter()
-    scores = list(evaluate(stream(), make, rng=rng))
+    with VisionPool(vision_workers, warm=("modules.road_following",)) as pool:
+        scores = list(evaluate(stream(), make, rng=rng))
     report = {"method": method, "world": src.world.name, "seed": seed, **summarise(scores),
               "wall_s": round(time.perf_counter() - t0, 2)}
+    if method == "scarf":
+        report.update(texture=texture, colour_model=colour_model, vision_workers=vision_workers)
+    _echo_report(report, as_json)
+
+
+def _echo_report(report: dict, as_json: bool, width: int = 24) -> None:
+    """Print an evaluation's report: one JSON object, or one `name: value` line per figure."""
     if as_json:
         typer.echo(dumps(report, sort_keys=True))
         return
     for k, v in report.items():
-        typer.echo(f"{k:>24}: {v}")
+        typer.echo(f"{k:>{width}}: {v}")
+
+
+def _bootstrap_eval(src: RouteFrames, rng: np.random.Generator, seed: int, lane: float, step: float, starts: int, frames: int,
+                    as_json: bool) -> None:
+    """Run `roadfollow eval --method yarf --bootstrap`: lock-on from no prior at random starts off the lane."""
+    from modules.road_following import CameraGeometry, Yarf
+    from sidewalk.roadfollow_eval import evaluate_starts, plan_starts, summarise_starts
+
+    runs = plan_starts(src.legs, starts, frames, rng, step_m=step, lane_offset_m=lane)
+    if not runs:
+        raise typer.BadParameter(f"--start-frames: no leg of {src.world.name!r} is {frames * step:g} m long")
+    last: list = [None]
+
+    def frames_of(run):
+        for fr, cap in src.frames(run, rng):
+            last[0] = cap
+            yield fr
+
+    t0 = time.perf_counter()
+    locks = list(evaluate_starts((list(frames_of(r)) for r in runs), lambda fr: Yarf(CameraGeometry.from_capture(last[0]), prior=None), rng=rng))
+    report = {"method": "yarf", "bootstrap": True, "world": src.world.name, "seed": seed, "start_frames": frames, "step_m": step,
+              **summarise_starts(locks), "wall_s": round(time.perf_counter() - t0, 2)}
+    _echo_report(report, as_json)
+
+
+def _intersection_route(src: RouteFrames, to: str):
+    """Return the route's centre line (N, 2) to place `to` and its first intersection: node (2,), polygon, index of the node's vertex."""
+    import shapely
+
+    from modules.captain.missionfile import MissionFileError, load_mission
+    from modules.map_navigator.mapdata import MapData
+    from modules.map_navigator.route import RouteError, RouteOptions, select_route
+    from modules.vocabulary.mission import Destination, StepConstraints
+    from vehicle_sim.worldfile import WORLDS_DIR
+
+    w = src.world
+    if not to:
+        for path in sorted(WORLDS_DIR.glob("*.yaml")):
+            try:
+                mission = load_mission(path)
+            except MissionFileError:
+                continue
+            if mission.world == w.name and mission.steps and mission.steps[0].destination.place:
+                to = mission.steps[0].destination.place
+                break
+    try:
+        route = select_route(MapData(w), (w.start.x, w.start.y), Destination(place=to), StepConstraints(), RouteOptions(vehicle="navlab"))
+    except (RouteError, ValueError) as exc:
+        raise typer.BadParameter(f"--to {to!r}: {str(exc).splitlines()[0]}") from None
+    line = np.asarray(route.polyline(), float)
+    nodes = [n for n in w.nodes if n.node_kind == "intersection"]
+    for i, q in enumerate(line):
+        for n in nodes:
+            if math.hypot(q[0] - n.x, q[1] - n.y) < 0.5:
+                poly = next((shapely.Polygon(o.polygon) for o in w.objects if o.kind == "intersection" and o.polygon is not None
+                             and shapely.Polygon(o.polygon).contains(shapely.Point(n.x, n.y))), None)
+                if poly is not None and 0 < i < len(line) - 1:
+                    return line, np.array([n.x, n.y]), poly, i, to
+    raise typer.BadParameter(f"--to {to!r}: the route of {w.name!r} crosses no intersection")
+
+
+def _intersection_eval(src: RouteFrames, rng: np.random.Generator, seed: int, lane: float, to: str, runs: int, as_json: bool) -> None:
+    """Run `roadfollow eval --method yarf --intersection`: YARF and its intersection navigation through the route's first intersection."""
+    import shapely
+
+    from modules.road_following import CameraGeometry, Spine, VehicleMotion, Yarf
+    from modules.road_following.yarf_intersection import IntersectionConfig, IntersectionNavigator
+    from wire.se2 import wrap_angle
+    from sidewalk.roadfollow_eval import (DrivePose, EvalFrame, IntersectionTruth, _resample, score_intersection,
+                                          summarise_intersection, to_vehicle)
+
+    line, node, poly, k, to = _intersection_route(src, to)
+    before, after = line[k] - line[k - 1], line[k + 1] - line[k]
+    turn = "left" if before[0] * after[1] - before[1] * after[0] > 0 else "right"  # what the route says, as a mission would
+    bdir = after / np.linalg.norm(after)
+    centre = shapely.LineString(line)
+    s_node = centre.project(shapely.Point(*node))
+    cross = centre.intersection(poly.exterior)  # where the route enters and leaves the intersection: enters first
+    s_edge = min(centre.project(p) for p in getattr(cross, "geoms", [cross]))
+    lane_after = node + bdir * 10.0 + np.array([-bdir[1], bdir[0]]) * lane
+    out = []
+    t0 = time.perf_counter()
+    for r in range(runs):
+        extra = float(rng.uniform(-0.5, 0.5))
+        path = np.asarray(centre.offset_curve(lane + extra, join_style="round").coords)
+        if np.linalg.norm(path[0] - line[0]) > np.linalg.norm(path[-1] - line[0]):
+            path = path[::-1]
+        pts, s, hd = _resample(path, 2.0)
+        along = np.array([centre.project(shapely.Point(*p)) for p in pts])
+        keep = (along > s_edge - 110.0) & (along < s_node + 20.0)
+        poses = [DrivePose(leg=0, x=float(p[0]), y=float(p[1]), yaw=float(h), stamp=float(si) / 4.2)
+                 for p, si, h in zip(pts[keep], s[keep], hd[keep])]
+        yarf = nav = prev = None
+        scores = []
+        for pose, a in zip(poses, along[keep]):
+            cap = src.capture(pose, rng)
+            if yarf is None:
+                cam = CameraGeometry.from_capture(cap)
+                yarf = Yarf(cam, prior=Spine(offset=-lane - extra))
+                nav = IntersectionNavigator(cam, turn=turn, config=IntersectionConfig(lane_offset_m=lane))
+            motion = None
+            if prev is not None:
+                d = to_vehicle(np.array([[pose.x, pose.y]]), prev)[0]
+                motion = VehicleMotion(dx=float(d[0] + rng.normal(0.0, 0.01)), dy=float(d[1] + rng.normal(0.0, 0.01)),
+                                       dyaw=float(wrap_angle(pose.yaw - prev.yaw) + rng.normal(0.0, math.radians(0.1))))
+            prev = pose
+            obs = yarf.observe(cap.camera_image, stamp=pose.stamp, motion=motion)
+            view = nav.observe(cap.camera_image, motion, obs)
+            truth = IntersectionTruth(distance_m=float(s_edge - a), branch_point=tuple(node), branch_dir=tuple(bdir), lane_point=tuple(lane_after))
+            scores.append(score_intersection(view, pose, truth))
+        out.append(scores)
+    report = {"method": "yarf", "intersection": True, "world": src.world.name, "to": to, "turn": turn, "seed": seed,
+              **summarise_intersection(out), "wall_s": round(time.perf_counter() - t0, 2)}
+    _echo_report(report, as_json, width=36)
 
 
 @roadfollow_app.command("dataset")

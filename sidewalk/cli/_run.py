@@ -80,11 +80,12 @@ def run(
     obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors or actors in the world file)")] = None,
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
     # ---- issue 10: faults and the speed cap ----
-    fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-perception, position-jump, kill-central, wedge; repeatable")] = None,
+    fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-central, kill-service, kill-perception, wedge-driver, wedge-planner, position-jump; repeatable")] = None,
     max_speed: Annotated[Optional[float], typer.Option("--max-speed", help="Cap the speed (m/s): CODGER the PILOT's for every segment, EDDIE the route's and the controller's")] = None,
     # ---- issue 13: road following as the Navlab did it ----
     road_method: Annotated[str, typer.Option("--road-method", help="How the road is found: perception (colored-range segmentation), scarf, yarf or alvinn — PERCEPTION's method (codger), vision road following's (eddie)")] = "perception",
     alvinn_weights: Annotated[Optional[Path], typer.Option("--alvinn-weights", help="ALVINN's weights (.npz from `sidewalk roadfollow train`), needed with --road-method alvinn")] = None,
+    vision_workers: Annotated[int, typer.Option("--vision-workers", help="Processes the vision of PERCEPTION (codger) or of vision road following (eddie) runs on, in stripes (issue 41; 1: the module's own process)")] = 1,
     lockstep: Annotated[bool, typer.Option("--lockstep/--realtime", help="Lock-step: the simulator steps only once every module handled its inputs (reproducible; --rtf unused), or real time at --rtf (latency under load is part of the result)")] = False,
 ) -> None:
     """Run a mission as OS processes on loopback Zenoh (CODGER: blackboard and modules; --arch eddie: EDDIE, no blackboard); writes run.mcap."""
@@ -125,6 +126,7 @@ def run(
                         secure=secure, actors=actors, obstacles=obstacles, map_file=map_file,  # issue 12
                         faults=fault_specs, max_speed=max_speed,  # issue 10
                         road_method=road_method, alvinn_weights=alvinn_weights,  # issue 13
+                        vision_workers=vision_workers,  # issue 41
                         lockstep=lockstep)
     except ValidationError as exc:
         e = exc.errors()[0]

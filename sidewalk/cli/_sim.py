@@ -115,6 +115,7 @@ def render(
     seed: Annotated[int, typer.Option("--seed", help="Seed of the scene texture and sensor noise")] = 0,
     stamp: Annotated[float, typer.Option("--stamp", help="Sim time of the capture [s] (illumination drift)")] = 0.0,
     out: Annotated[str, typer.Option("--out", help="Output directory")] = ...,  # type: ignore[assignment]
+    stereo: Annotated[bool, typer.Option("--stereo", help="Also FIDO's stereo pair: stereo_left.png, stereo_right.png")] = False,
 ) -> None:
     """Capture both sensors at one pose; write camera.png, range.png, labels.png, colored_range.png, map.png."""
     import numpy as np
@@ -135,7 +136,7 @@ def render(
         typer.echo(str(exc), err=True)
         raise typer.Exit(2) from None
     scene = Scene(w, seed=seed)
-    res = capture(scene, xyyaw, stamp, CaptureRequest(), vehicle=vehicle, rng=np.random.default_rng(seed))
+    res = capture(scene, xyyaw, stamp, CaptureRequest(stereo=stereo), vehicle=vehicle, rng=np.random.default_rng(seed))
     try:
         paths = write_render(out, scene, res)
     except OSError as exc:

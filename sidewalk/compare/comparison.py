@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from sidewalk.compare.errors import CompareError
 from sidewalk.compare.fault_outcome import FaultOutcome, judge_fault
-from sidewalk.compare.faults import FaultSpec
+from sidewalk.compare.faults import ROLES, TARGETS, FaultSpec
 from sidewalk.compare.glue import GlueCount, count_glue
 from sidewalk.compare.grid import GridResult, GridRun, run_grid
 from sidewalk.compare.measures import RunMeasures, measure_dir
@@ -194,7 +194,7 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
     t0 = time.monotonic()
     archs = [a for a in cfg.architectures if a in available]
     grid = _cells(cfg, archs, cfg.seeds)
-    n_fault = len(cfg.faults) * len(cfg.missions) * len(archs)
+    n_fault = sum(TARGETS.get(a, {}).get(f) is not None for f in cfg.faults for a in archs) * len(cfg.missions)
     n_sweep = len(cfg.speeds) * len(cfg.missions) * len(cfg.seeds) * len([a for a in archs if a in SPEED_CAPPED])
     if total:
         total(len(grid) + n_fault + n_sweep)
@@ -203,15 +203,19 @@ async def run_comparison(cfg: CompareConfig, available: list[str], *, total: Cal
     measured = [e.measures for e in entries if e.measures is not None]
 
     fault_cells = []
+    outcomes = []
     for f in cfg.faults:
         for m in cfg.missions:
             for a in archs:
+                if TARGETS.get(a, {}).get(f) is None:  # nothing plays that role here: no run, and said so
+                    outcomes.append(FaultOutcome(architecture=a, mission=mission_name(m), seed=cfg.seeds[0], fault=f, injected=False,
+                                                 verdict="not injected", how=f"{a} has no part for {f} ({ROLES[f]})"))
+                    continue
                 base = [x.mission_time_s for x in measured if x.architecture == a and x.mission == mission_name(m)]
                 at = round(FAULT_AT * float(np.median(base)), 1) if base else 30.0
                 fault_cells += _cells(cfg, [a], cfg.seeds[:1], tag=f"-{f}", fault=FaultSpec(name=f, at_s=at), mission=m,  # type: ignore[arg-type]
                                       measured=measured)
     fault_entries = [_entry(r) for r in await run_grid(fault_cells, **kw)]
-    outcomes = []
     for e in fault_entries:
         if e.report is None or e.measures is None:
             outcomes.append(FaultOutcome(architecture=e.architecture, mission=e.mission, seed=e.seed, fault=e.fault or "?",

@@ -1,8 +1,12 @@
-"""Fault injection: the same four faults for both architectures, injected at a sim time by the launcher.
+"""Fault injection: faults in pairs that mean the same thing in both architectures, injected at a sim time by the launcher.
 
-`kill-perception` SIGKILLs the perception module and starts it again; `kill-central` does the same
-to the central piece (CODGER: the blackboard node; EDDIE: the map manager); `wedge` SIGSTOPs the
-module that plans the vehicle's local paths (CODGER: the PILOT; EDDIE: road following) for `WEDGE_S` [s] sim, then SIGCONTs it;
+Each fault hits the part of each architecture that plays the same role (`TARGETS`, `ROLES`):
+`kill-central` SIGKILLs the central piece every other module depends on (CODGER: the blackboard node;
+EDDIE: the integrated controller) and starts it again; `kill-service` does the same to the other shared
+service (CODGER has none; EDDIE: the map manager); `kill-perception` to the module that perceives the road
+(CODGER: PERCEPTION; EDDIE: road following); `wedge-driver` SIGSTOPs the module that drives the vehicle
+(CODGER: the HELM; EDDIE: the controller) and `wedge-planner` the one that plans its local paths (CODGER:
+the PILOT; EDDIE: road following), each for `WEDGE_S` [s] sim, then SIGCONTs it;
 `position-jump` moves the position estimate by `JUMP_M` [m] to the left: the simulator's odometry
 slips (a wheel slip or encoder glitch, `wire.drive.OdometrySlip`), so the estimate of either
 architecture, built on that odometry, jumps the same way whatever it does with position fixes (a
@@ -22,12 +26,15 @@ from pydantic import BaseModel, ConfigDict, Field
 from sidewalk.compare.errors import CompareError
 from sidewalk.run_record import FaultEvent
 
-__all__ = ["FaultName", "FaultSpec", "FAULTS", "TARGETS", "WEDGE_S", "JUMP_M", "parse_fault", "inject_fault"]
+__all__ = ["FaultName", "FaultSpec", "FAULTS", "RENAMED", "ROLES", "TARGETS", "WEDGE_S", "JUMP_M", "parse_fault", "inject_fault"]
 
-FaultName = Literal["kill-perception", "position-jump", "kill-central", "wedge"]
+FaultName = Literal["kill-central", "kill-service", "kill-perception", "wedge-driver", "wedge-planner", "position-jump"]
 
 #: Every fault, in the order the comparison runs them.
-FAULTS: tuple[str, ...] = ("kill-perception", "position-jump", "kill-central", "wedge")
+FAULTS: tuple[str, ...] = ("kill-central", "kill-service", "kill-perception", "wedge-driver", "wedge-planner", "position-jump")
+
+#: Faults by another name before issue 36 (each split or moved so that both architectures lose the same role).
+RENAMED: dict[str, str] = {"wedge": "wedge-planner (the old `wedge`) or wedge-driver"}
 
 #: How long a wedged module stays stopped [s] sim.
 WEDGE_S = 5.0
@@ -35,10 +42,22 @@ WEDGE_S = 5.0
 #: How far the position jump moves the estimate [m].
 JUMP_M = 2.0
 
-#: architecture → fault → the process it hits (None: the architecture has no such part yet).
+#: fault → the role it takes away, the same in both architectures.
+ROLES: dict[str, str] = {
+    "kill-central": "the central piece every module depends on",
+    "kill-service": "the other shared service",
+    "kill-perception": "road perception",
+    "wedge-driver": "the module that drives the vehicle",
+    "wedge-planner": "the module that plans the local path",
+    "position-jump": "the position estimate (odometry slip)",
+}
+
+#: architecture → fault → the process it hits (None: the architecture has no such part).
 TARGETS: dict[str, dict[str, Optional[str]]] = {
-    "codger": {"kill-perception": "perception", "kill-central": "blackboard", "wedge": "pilot", "position-jump": "sim"},
-    "eddie": {"kill-perception": "road_following", "kill-central": "map_manager", "wedge": "road_following", "position-jump": "sim"},
+    "codger": {"kill-central": "blackboard", "kill-service": None, "kill-perception": "perception", "wedge-driver": "helm",
+               "wedge-planner": "pilot", "position-jump": "sim"},
+    "eddie": {"kill-central": "controller", "kill-service": "map_manager", "kill-perception": "road_following",
+              "wedge-driver": "controller", "wedge-planner": "road_following", "position-jump": "sim"},
 }
 
 
@@ -58,6 +77,9 @@ class FaultSpec(BaseModel):
 def parse_fault(text: str) -> FaultSpec:
     """Parse NAME@T (T [s] sim after submission); raise CompareError naming the flag."""
     name, sep, at = text.partition("@")
+    if name not in FAULTS and name in RENAMED:
+        raise CompareError(f"--fault {text!r}: {name!r} was split into pairs that hit the same role in both architectures: "
+                           f"use {RENAMED[name]}")
     if name not in FAULTS:
         raise CompareError(f"--fault {text!r}: unknown fault {name!r}; known: {', '.join(FAULTS)}")
     try:
@@ -84,13 +106,13 @@ async def inject_fault(system, spec: FaultSpec, arch: str) -> FaultEvent:  # noq
     if target is None or target not in system.plans:
         why = f"{arch} has no part for {spec.name}" if target is None else f"the run has no {target} process"
         return FaultEvent(name=spec.name, injected=False, at_sim_s=at, detail=why)
-    if spec.name in ("kill-perception", "kill-central"):
+    if spec.name.startswith("kill-"):
         await system.kill(target)
         killed = system.stamps()[1]
         await system.restart(target)
         return FaultEvent(name=spec.name, target=target, injected=True, at_sim_s=killed, restored_sim_s=system.stamps()[1],
                           detail=f"{target} SIGKILLed and started again")
-    if spec.name == "wedge":
+    if spec.name.startswith("wedge-"):
         proc = system.sup.procs[target].proc
         proc.send_signal(signal.SIGSTOP)
         try:

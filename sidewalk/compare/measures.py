@@ -29,11 +29,11 @@ MEASURES: dict[str, tuple[str, str]] = {
     "cross_track_error_max_m": ("accuracy", "cross-track error max [m]"),
     "sense_to_act_ms_p50": ("reaction", "sense-to-act p50 [ms sim]"),
     "sense_to_act_ms_p95": ("reaction", "sense-to-act p95 [ms sim]"),
-    "sense_to_act_wall_ms_p50": ("reaction", "sense-to-act p50 [ms wall]"),
     "driving_unit_ms_p50": ("reaction", "driving unit → perception p50 [ms sim]"),
     "driving_unit_ms_p95": ("reaction", "driving unit → perception p95 [ms sim]"),
-    "messages_per_s": ("cost", "messages out per s sim (all processes)"),
-    "bytes_per_s": ("cost", "bytes out per s sim (all processes)"),
+    "messages_per_s": ("cost", "messages out per s sim (all processes, without the lock-step barrier's)"),
+    "bytes_per_s": ("cost", "bytes out per s sim (all processes, without the lock-step barrier's)"),
+    "barrier_messages_per_s": ("cost", "lock-step barrier's messages out per s sim (the run mode's cost; 0 in real time)"),
     "cpu_s": ("cost", "CPU [s] (all processes)"),
     "cpu_s_modules": ("cost", "CPU [s] (modules, central piece, no sim/observers)"),
     "rss_mb": ("cost", "resident memory [MB] (sum of processes)"),
@@ -65,11 +65,11 @@ class RunMeasures(BaseModel):
     cross_track_error_max_m: Optional[float] = None
     sense_to_act_ms_p50: Optional[float] = None
     sense_to_act_ms_p95: Optional[float] = None
-    sense_to_act_wall_ms_p50: Optional[float] = None
     driving_unit_ms_p50: Optional[float] = None
     driving_unit_ms_p95: Optional[float] = None
     messages_per_s: float
     bytes_per_s: float
+    barrier_messages_per_s: float = 0.0
     cpu_s: float
     cpu_s_modules: float
     rss_mb: float
@@ -91,9 +91,6 @@ def measure_run(report: RunReport, latencies: Latencies | None = None) -> RunMea
     mods = report.modules
     lat = latencies
     s2a = lat.sense_to_act if lat is not None else None
-    wall = None
-    if s2a is not None and s2a.p50_ms is not None and report.rtf_achieved > 0:
-        wall = round(s2a.p50_ms / report.rtf_achieved, 1)
     return RunMeasures(
         architecture=report.architecture, mission=report.mission, seed=report.seed,
         success=float(report.success), claimed_success=float(report.claimed_success),
@@ -104,10 +101,10 @@ def measure_run(report: RunReport, latencies: Latencies | None = None) -> RunMea
         position_error_rms_m=report.position_error_m.rms, position_error_max_m=report.position_error_m.max,
         cross_track_error_rms_m=report.cross_track_error_m.rms, cross_track_error_max_m=report.cross_track_error_m.max,
         sense_to_act_ms_p50=s2a.p50_ms if s2a else None, sense_to_act_ms_p95=s2a.p95_ms if s2a else None,
-        sense_to_act_wall_ms_p50=wall,
         driving_unit_ms_p50=lat.driving_unit.p50_ms if lat else None, driving_unit_ms_p95=lat.driving_unit.p95_ms if lat else None,
-        messages_per_s=round(sum(m.msgs_out for m in mods.values()) / span, 2),
-        bytes_per_s=round(sum(m.bytes_out for m in mods.values()) / span, 1),
+        messages_per_s=round(sum(m.msgs_out - m.barrier_msgs_out for m in mods.values()) / span, 2),
+        bytes_per_s=round(sum(m.bytes_out - m.barrier_bytes_out for m in mods.values()) / span, 1),
+        barrier_messages_per_s=round(sum(m.barrier_msgs_out for m in mods.values()) / span, 2),
         cpu_s=round(sum(m.cpu_s for m in mods.values()), 3),
         cpu_s_modules=round(sum(m.cpu_s for n, m in mods.items() if n not in OBSERVERS), 3),
         rss_mb=round(sum(m.rss_mb for m in mods.values()), 1),

@@ -9,7 +9,7 @@ import numpy as np
 
 from sidewalk.compare.comparison import FAULT_AT, SPEED_CAPPED, Comparison
 from sidewalk.compare.fault_outcome import BEFORE_S, HELD_S, SLOWER, WORSE_M
-from sidewalk.compare.faults import JUMP_M, WEDGE_S
+from sidewalk.compare.faults import JUMP_M, ROLES, TARGETS, WEDGE_S
 from sidewalk.compare.glue import TRANSPORT
 from sidewalk.compare.measures import MEASURES, OBSERVERS
 from sidewalk.compare.summary import Spread
@@ -58,7 +58,7 @@ def render_markdown(c: Comparison, command: str = "") -> str:
         out.append(f"Not run: {', '.join(missing)} — `sidewalk run --help` does not offer it on this build; no rows are shown for it.")
     out += ["", "Every figure is `median [min–max]` over the runs (seeds × missions), the range being the spread; "
             "a single figure means every run gave it. Latencies are by the recorder's **sim clock** (run.mcap log "
-            "times); the wall column divides by the run's achieved real-time factor.", ""]
+            "times); no wall latency is shown (a sim figure divided by the real-time factor is not a wall measurement).", ""]
     for group in ("outcome", "accuracy", "reaction", "cost"):
         out += [f"## {group.capitalize()}", ""]
         rows = []
@@ -94,10 +94,18 @@ def render_markdown(c: Comparison, command: str = "") -> str:
                     mods = [rep["modules"][n] for rep in reports if n in rep["modules"]]
                     spans = [rep["sim_time_s"] for rep in reports if n in rep["modules"]]
                     med = lambda k: float(np.median([m[k] for m in mods]))  # noqa: E731
-                    rate = float(np.median([m["msgs_out"] / s for m, s in zip(mods, spans) if s > 0])) if spans else 0.0
-                    brate = float(np.median([m["bytes_out"] / s for m, s in zip(mods, spans) if s > 0])) if spans else 0.0
-                    rows.append([a, n, _num(med("cpu_s")), _num(med("rss_mb")), _num(rate), _num(brate)])
-            out += _table(["arch", "process", "CPU [s]", "RSS [MB]", "msgs out / s sim", "bytes out / s sim"], rows) + [""]
+                    own = lambda m, k: m[k] - m.get(f"barrier_{k}", 0)  # noqa: E731 - the barrier's is the run mode's
+                    rate = float(np.median([own(m, "msgs_out") / s for m, s in zip(mods, spans) if s > 0])) if spans else 0.0
+                    brate = float(np.median([own(m, "bytes_out") / s for m, s in zip(mods, spans) if s > 0])) if spans else 0.0
+                    barrier = float(np.median([m.get("barrier_msgs_out", 0) / s for m, s in zip(mods, spans) if s > 0])) if spans else 0.0
+                    rows.append([a, n, _num(med("cpu_s")), _num(med("rss_mb")), _num(rate), _num(brate), _num(barrier)])
+            out += _table(["arch", "process", "CPU [s]", "RSS [MB]", "msgs out / s sim", "bytes out / s sim",
+                           "barrier msgs out / s sim"], rows) + [""]
+            if cfg.lockstep:
+                out += ["This grid ran in lock-step: every process answered the barrier's asks at each step. Those messages are "
+                        "counted apart (the last column; the run mode's cost, not the architecture's); the CPU they took cannot "
+                        "be told apart and is in the CPU figures. Compare the architectures' cost on a real-time grid "
+                        "(`--realtime`).", ""]
     out += ["## Runs", ""]
     rows = []
     for r in c.runs:
@@ -114,11 +122,14 @@ def render_markdown(c: Comparison, command: str = "") -> str:
     if cfg.faults:
         out += ["## Faults", "",
                 f"Each fault once per mission and architecture (seed {cfg.seeds[0]}), at {FAULT_AT:.0%} of the mission's median "
-                f"baseline time. kill-perception / kill-central: SIGKILL, then started again; wedge: SIGSTOP for {WEDGE_S:g} s sim; "
+                f"baseline time. kill-*: SIGKILL, then started again; wedge-*: SIGSTOP for {WEDGE_S:g} s sim; "
                 f"position-jump: the estimate moved {JUMP_M:g} m. Degraded: succeeded, but slower than {SLOWER:g}× the baseline, "
                 f"a position error peak over {WORSE_M:g} m above it, longer off the path, or a collision. Recovery: from the "
                 f"injection until the vehicle drove at ≥ half its speed of the {BEFORE_S:g} s before for {HELD_S:g} s with its "
                 "position error under max(1 m, 2× the error at injection) [s sim].", ""]
+        hits = [[f, ROLES[f], *(TARGETS.get(a, {}).get(f) or "— (no such part)" for a in archs)] for f in cfg.faults if f in ROLES]
+        out += ["Each fault takes away the same role in each architecture:", ""]
+        out += _table(["fault", "role", *archs], hits) + [""]
         rows = [[f.fault, f.architecture, f.mission, f"{f.at_s:.0f}" if f.at_s is not None else "–", f.verdict,
                  _num(f.recovery_s) if f.recovery_s is not None else ("never" if f.injected else "–"), f.how[:120]] for f in c.faults]
         out += _table(["fault", "arch", "mission", "at [s sim]", "verdict", "recovery [s sim]", "how / why"], rows) + [""]

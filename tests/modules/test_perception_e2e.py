@@ -70,9 +70,12 @@ async def test_real_perception_corrects_a_wrong_start_pose() -> None:
                 if r.fix.kind == "line":  # a straight walk: exact across it (up to the map's own 0.3 m offset)
                     n = (-math.sin(r.fix.direction), math.cos(r.fix.direction))
                     assert abs((r.fix.point[0] - tp.x) * n[0] + (r.fix.point[1] - tp.y) * n[1]) < 0.45
-            est = (await bb.retrieve(Spec(type="position_estimate", newest=True)))[0]
+            # perception corrected the estimate, and the correction held: the newest estimate may be dead
+            # reckoning (the PILOT reports the segment's end only once the vehicle stands still, issue 38)
+            ests = await bb.retrieve(Spec(type="position_estimate"))
+            assert any(e.attrs.source == "perception" for e in ests)
+            est = max(ests, key=lambda e: e.stamp)
             tp = min(truth, key=lambda t: abs(t.stamp - est.stamp))
-            assert est.attrs.source == "perception"
             assert math.dist((est.attrs.pose.x, est.attrs.pose.y), (tp.x, tp.y)) < 0.4  # started 0.67 m off
     finally:
         if link is not None:

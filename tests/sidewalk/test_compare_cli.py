@@ -49,7 +49,7 @@ def test_resume_reuses_only_a_report_of_the_same_cell(tmp_path):
     assert _finished(cell) == (0 if rep.success else 1)
     assert _finished(cell.model_copy(update={"seed": rep.seed + 1})) is None
     assert _finished(cell.model_copy(update={"architecture": "eddie"})) is None
-    assert _finished(cell.model_copy(update={"fault": FaultSpec(name="wedge", at_s=3.0)})) is None
+    assert _finished(cell.model_copy(update={"fault": FaultSpec(name="wedge-planner", at_s=3.0)})) is None
     assert _finished(cell.model_copy(update={"max_speed": 2.0})) is None
     (tmp_path / "report.json").write_text("{not json")
     assert _finished(cell) is None
@@ -60,9 +60,9 @@ def test_every_fault_runs_unless_told_otherwise():
     from sidewalk.cli._compare import _fault_list
     from sidewalk.compare.faults import FAULTS
 
-    assert _fault_list("all") == FAULTS == ("kill-perception", "position-jump", "kill-central", "wedge")
+    assert _fault_list("all") == FAULTS == ("kill-central", "kill-service", "kill-perception", "wedge-driver", "wedge-planner", "position-jump")
     assert _fault_list("none") == ()
-    assert _fault_list("wedge, kill-central") == ("wedge", "kill-central")
+    assert _fault_list("wedge-planner, kill-central") == ("wedge-planner", "kill-central")
     help_text = subprocess.run([sys.executable, "-m", "sidewalk", "compare", "--help"], capture_output=True, text=True,
                                timeout=60, env={**__import__("os").environ, "COLUMNS": "300"}).stdout
-    assert "default: all four; `none` to skip" in help_text
+    assert "default: all six; `none` to skip" in help_text

@@ -19,14 +19,14 @@ DATA = Path(__file__).parent / "data"
 @pytest.mark.parametrize("lockstep", [False, True], ids=["realtime", "lockstep"])
 async def test_kill_wedge_and_jump_each_happen_in_a_run(tmp_path, lockstep):
     # the kill comes once the recorder has heard the first life's heartbeats (1 s wall each), so both lives count
-    faults = (FaultSpec(name="kill-perception", at_s=12.0), FaultSpec(name="wedge", at_s=20.0),
+    faults = (FaultSpec(name="kill-perception", at_s=12.0), FaultSpec(name="wedge-planner", at_s=20.0),
               FaultSpec(name="position-jump", at_s=30.0))
     cfg = RunConfig(world="campus", mission=str(DATA / "short-hop.yaml"), rtf=10.0, seed=3, out=tmp_path, faults=faults,
                     max_wall_time_s=240.0, pilot_grace_s=60.0, lockstep=lockstep)
     report = await run_mission(cfg)
     rec = load_record(tmp_path / RECORD_FILE)
     by_name = {f.name: f for f in report.faults}
-    assert set(by_name) == {"kill-perception", "wedge", "position-jump"}
+    assert set(by_name) == {"kill-perception", "wedge-planner", "position-jump"}
     assert all(f.injected for f in report.faults), [f.detail for f in report.faults]
     # the killed PERCEPTION came back: two lives, and its restart was after the kill
     kp = by_name["kill-perception"]
@@ -34,7 +34,7 @@ async def test_kill_wedge_and_jump_each_happen_in_a_run(tmp_path, lockstep):
     assert report.exit_codes.get("perception") is not None
     assert len({p.pid for p in rec.processes if p.name == "perception"}) == 2 or report.modules["perception"].incarnations == 2
     # the wedged PILOT stayed stopped for the wedge's sim time (in lock-step too: the barrier stops waiting for it)
-    w = by_name["wedge"]
+    w = by_name["wedge-planner"]
     assert w.target == "pilot" and w.restored_sim_s - w.at_sim_s >= WEDGE_S, w
     # the jump shows in the estimate the recorder sampled: its error against truth rose by about JUMP_M
     j = by_name["position-jump"]

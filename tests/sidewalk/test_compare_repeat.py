@@ -7,7 +7,7 @@ import sys
 from sidewalk.compare.repeat import check_repeat, load_summary, render_repeat
 from sidewalk.compare.summary import ArchSummary, spread
 
-CONFIG = {"missions": ["campus-tour"], "seeds": [0, 1, 2], "rtf": 8.0, "architectures": ["codger", "eddie"], "faults": ["wedge"],
+CONFIG = {"missions": ["campus-tour"], "seeds": [0, 1, 2], "rtf": 8.0, "architectures": ["codger", "eddie"], "faults": ["wedge-planner"],
           "speeds": [], "out": "runs/x"}
 
 
@@ -18,7 +18,7 @@ def _grid(path, latency: list[float], verdict: str = "completed", highest: float
     for arch, lat in (("codger", latency), ("eddie", [900.0, 950.0, 1000.0])):
         measures = {"success": spread([1.0, 1.0, 1.0]), "sense_to_act_ms_p50": spread(lat), "bytes_per_s": spread(list(byte_rates))}
         summary[arch] = ArchSummary(architecture=arch, mission="*", runs=3, success_rate=1.0, measures=measures).model_dump(mode="json")
-    faults = [{"architecture": a, "mission": "campus-tour", "seed": 0, "fault": "wedge", "verdict": verdict if a == "codger" else "completed"}
+    faults = [{"architecture": a, "mission": "campus-tour", "seed": 0, "fault": "wedge-planner", "verdict": verdict if a == "codger" else "completed"}
               for a in ("codger", "eddie")]
     per_mission = [dict(v, mission="campus-tour") for v in summary.values()]  # one mission: the same figures
     path.mkdir()

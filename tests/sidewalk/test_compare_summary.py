@@ -12,6 +12,7 @@ from sidewalk.compare import (
 )
 from sidewalk.compare.fault_outcome import judge_fault, recovery_s
 from sidewalk.compare.latency import Latencies, LatencySeries
+from sidewalk.compare.measures import RunMeasures
 from sidewalk.compare.tables import fmt_spread
 from sidewalk.report import build_report
 from sidewalk.run_record import FaultEvent, load_record
@@ -48,7 +49,13 @@ def test_measures_of_a_recorded_run_match_its_report(record):
     assert m.cpu_s_modules < m.cpu_s  # the simulator and router are left out
     assert m.messages_per_s == pytest.approx(sum(c.msgs_out for c in rep.modules.values()) / rep.sim_time_s, rel=1e-3)
     assert m.sense_to_act_ms_p50 == 1000.0
-    assert m.sense_to_act_wall_ms_p50 == pytest.approx(1000.0 / rep.rtf_achieved, abs=0.1)
+    assert "sense_to_act_wall_ms_p50" not in RunMeasures.model_fields  # a sim figure over the RTF is no wall measurement
+    # the lock-step barrier's asks and answers are the run mode's cost, counted apart from the modules' messages
+    c = next(iter(rep.modules.values()))
+    lock = rep.model_copy(update={"modules": {**rep.modules, "extra": c.model_copy(update={"msgs_out": c.msgs_out + 500, "barrier_msgs_out": 500})}})
+    ml = measure_run(lock)
+    assert ml.messages_per_s == pytest.approx(m.messages_per_s + c.msgs_out / rep.sim_time_s, rel=1e-3)
+    assert ml.barrier_messages_per_s == pytest.approx(500 / rep.sim_time_s, rel=1e-3) and m.barrier_messages_per_s == 0.0
     assert m.mean_speed_m_s == pytest.approx(rep.distance_m / rep.sim_time_s, abs=1e-3)
 
 
@@ -72,9 +79,9 @@ def test_sense_to_act_takes_the_first_command_per_capture():
 
 
 def test_fault_flags_are_parsed_or_named():
-    f = parse_fault("wedge@42.5")
-    assert (f.name, f.at_s, f.flag()) == ("wedge", 42.5, "wedge@42.5")
-    for bad in ("wedge", "wedge@", "wedge@-1", "wedge@x", "nap@3", "wedge@inf"):
+    f = parse_fault("wedge-planner@42.5")
+    assert (f.name, f.at_s, f.flag()) == ("wedge-planner", 42.5, "wedge-planner@42.5")
+    for bad in ("wedge-planner", "wedge-planner@", "wedge-planner@-1", "wedge-planner@x", "nap@3", "wedge-planner@inf", "wedge@3"):
         with pytest.raises(CompareError, match="--fault"):
             parse_fault(bad)
 
@@ -90,9 +97,9 @@ def test_recovery_follows_the_recorded_motion(record):
 
 def test_a_fault_run_is_judged_against_its_baseline(record):
     at = record.submitted_sim_s + 50.0
-    rec = record.model_copy(update={"faults": (FaultEvent(name="wedge", target="pilot", injected=True, at_sim_s=at),)})
+    rec = record.model_copy(update={"faults": (FaultEvent(name="wedge-planner", target="pilot", injected=True, at_sim_s=at),)})
     rep = build_report(rec)
-    assert rep.faults[0].name == "wedge"
+    assert rep.faults[0].name == "wedge-planner"
     m = measure_run(rep)
     out = judge_fault(rep, rec, m, [m])
     assert out.verdict == "failed" and out.how == rep.reason and out.at_s == 50.0
@@ -148,17 +155,33 @@ def test_compare_md_holds_every_table_and_names_what_did_not_run(record, tmp_pat
     runs = [RunEntry(architecture="codger", mission=rep.mission, seed=s, out=str(tmp_path), exit_code=1,
                      report=rep.model_dump(mode="json"), measures=m.model_copy(update={"seed": s})) for s in (0, 1)]
     runs.append(RunEntry(architecture="codger", mission=rep.mission, seed=2, out=str(tmp_path), exit_code=2, error="no report (exit 2)"))
-    c = Comparison(config=CompareConfig(missions=(rep.mission,), seeds=(0, 1, 2), faults=("wedge",)), available=["codger"],
+    c = Comparison(config=CompareConfig(missions=(rep.mission,), seeds=(0, 1, 2), faults=("wedge-planner",)), available=["codger"],
                    requested=["codger", "eddie"], runs=runs, summary={s.architecture: s for s in summarise([r.measures for r in runs[:2]])},
                    per_mission=summarise([r.measures for r in runs[:2]], mission=rep.mission),
-                   faults=[FaultOutcome(architecture="codger", mission=rep.mission, seed=0, fault="wedge", injected=True,
+                   faults=[FaultOutcome(architecture="codger", mission=rep.mission, seed=0, fault="wedge-planner", injected=True,
                                         verdict="degraded", how="slower", at_s=40.0, recovery_s=3.5)],
                    glue=[count_glue(SOURCE_ROOT, "codger"), count_glue(SOURCE_ROOT, "eddie")])
     md = render_markdown(c, "sidewalk compare --seeds 3")
     for heading in ("## Outcome", "## Accuracy", "## Reaction", "## Cost", "## Runs", "## Faults", "## Lines of glue"):
         assert heading in md
     assert "Not run: eddie" in md and "no report" in md
-    assert "| wedge | codger |" in md and "degraded" in md
+    assert "| wedge-planner | codger |" in md and "degraded" in md
+    assert "| wedge-planner | the module that plans the local path | pilot |" in md  # what the fault hits, said
     assert "| success rate (truth) | 0% |" in md
     files = plot_comparison(c, tmp_path)
     assert [f.name for f in files] == ["measures.png"] and files[0].stat().st_size > 10_000
+
+
+def test_faults_come_in_pairs_that_take_the_same_role():
+    from sidewalk.compare.faults import FAULTS, ROLES, TARGETS
+
+    assert set(ROLES) == set(FAULTS)
+    for arch in ("codger", "eddie"):
+        assert set(TARGETS[arch]) == set(FAULTS), arch
+    # the central piece: what every other module needs (not a service a module can drive without)
+    assert (TARGETS["codger"]["kill-central"], TARGETS["eddie"]["kill-central"]) == ("blackboard", "controller")
+    assert (TARGETS["codger"]["wedge-driver"], TARGETS["eddie"]["wedge-driver"]) == ("helm", "controller")
+    assert (TARGETS["codger"]["wedge-planner"], TARGETS["eddie"]["wedge-planner"]) == ("pilot", "road_following")
+    assert TARGETS["codger"]["kill-service"] is None and TARGETS["eddie"]["kill-service"] == "map_manager"
+    with pytest.raises(CompareError, match="wedge-planner"):
+        parse_fault("wedge@3")  # the old name says what it became

@@ -14,6 +14,7 @@ import threading
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from wire.network import NetworkConfig
@@ -181,6 +182,26 @@ def test_capture_carries_truth_only_when_asked(served):
     (r,) = z.get_blocking(k.truth_capture, encode(CaptureRequest(camera_width=64, camera_height=48)), timeout=30.0)
     cap = decode_capture(r.payload)
     assert cap.truth_pose is not None and cap.laser_labels is not None and cap.camera_labels.shape == (48, 64)
+
+
+@pytest.mark.timeout(60)  # quiet run ~2 s
+def test_capture_serves_the_stereo_pair_with_its_truth_on_the_truth_key(served):
+    """FIDO's pair comes from sim/capture like the other sensors (calibration with it), its true depth only from sim/truth_capture."""
+    from wire.capture import CaptureRequest, decode_capture
+
+    node, z, k = served
+    req = encode(CaptureRequest(laser=False, camera=False, stereo=True, stereo_size=128))
+    (r,) = z.get_blocking(k.capture, req, timeout=30.0)
+    assert r.ok, r.payload[:300]
+    cap = decode_capture(r.payload)
+    assert cap.stereo_left.shape == cap.stereo_right.shape == (128, 128, 3) and cap.laser_range is None
+    assert cap.stereo_K.shape == (3, 3) and cap.T_vehicle_stereo_left[1, 3] - cap.T_vehicle_stereo_right[1, 3] == pytest.approx(0.5)
+    assert cap.stereo_depth_true is None and cap.stereo_labels is None
+    (r,) = z.get_blocking(k.truth_capture, req, timeout=30.0)
+    cap = decode_capture(r.payload)
+    assert cap.stereo_depth_true.shape == (128, 128) and np.isfinite(cap.stereo_depth_true).any()
+    (r,) = z.get_blocking(k.capture, b'{"stereo": true, "stereo_size": 100}', as_json=True, timeout=30.0)
+    assert not r.ok and b"stereo_size" in r.payload
 
 
 def _run_cli(args: list[str]) -> subprocess.Popen:

@@ -58,6 +58,10 @@ def test_cli_render_and_errors(tmp_path) -> None:
     assert r.exit_code == 0, r.output
     for name in FILES:
         assert (out / name).stat().st_size > 1000
+    r = runner.invoke(app, ["sim", "render", "--world", "campus", "--pose", "63,50,90", "--stereo", "--out", str(tmp_path / "s")])
+    assert r.exit_code == 0, r.output
+    left, right = (cv2.imread(str(tmp_path / "s" / f"stereo_{side}.png")) for side in ("left", "right"))
+    assert left.shape == right.shape == (512, 512, 3) and not np.array_equal(left, right)
     r = runner.invoke(app, ["sim", "render", "--world", "campus", "--pose", "63,50", "--out", str(out)])
     assert r.exit_code == 2 and "--pose" in r.output
     r = runner.invoke(app, ["sim", "render", "--world", "campus", "--pose", "63,east,90", "--out", str(out)])

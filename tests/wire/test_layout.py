@@ -71,7 +71,7 @@ def _error_classes(package: str) -> set[type]:
 ERROR_PACKAGES = [
     ("wire", ()), ("blackboard", ()), ("sidewalk", ()), ("vehicle_sim", ()), ("modules", ()),
     ("modules.captain", ()), ("modules.map_navigator", ()), ("modules.pilot", ()), ("modules.helm", ()), ("runtime", ()),
-    ("modules.perception", ()), ("eddie", ()),
+    ("modules.perception", ()), ("modules.fido", ()), ("eddie", ()),
 ]
 
 

@@ -124,11 +124,14 @@ def _sky(el: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Exposure:
-    """A camera image before its pixel noise: `light` (height, width, 3) float32 [DN], `labels`, `gain`."""
+    """A camera image before its pixel noise: `light` (height, width, 3) float32 [DN], `labels`, `gain`;
+    with `expose(depth=True)` also `depth` (height, width) float32, the true depth along the optical axis [m]
+    (inf = sky, NaN = a depth edge inside the pixel, where the truth is not one surface)."""
 
     light: np.ndarray
     labels: np.ndarray
     gain: float
+    depth: np.ndarray | None = None
 
 
 def shoot(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: CameraModel,
@@ -137,8 +140,10 @@ def shoot(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: Cam
     return develop(expose(scene, origin, yaw, stamp, model), model, rng)
 
 
-def expose(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: CameraModel) -> Exposure:
-    """Render the noiseless image (see `shoot`); draws nothing from any generator, so it may run beside other work."""
+def expose(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: CameraModel, *,
+           depth: bool = False) -> Exposure:
+    """Render the noiseless image (see `shoot`), with `depth` its true depth image too; draws nothing from any
+    generator, so it may run beside other work."""
     cfg = model.config
     hits = scene.cast(origin, yaw + model.grid_az, model.grid_el, reach=cfg.reach)
     alb = scene.albedo(hits, stamp)
@@ -152,7 +157,27 @@ def expose(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: Ca
     col *= np.float32(gain)
     img = cv2.remap(col, model.map_x, model.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
     labels = cv2.remap(hits.label, model.map_x, model.map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
-    return Exposure(light=img, labels=labels, gain=gain)
+    z = _optical_depth(hits.xyz, origin, yaw, model) if depth else None
+    return Exposure(light=img, labels=labels, gain=gain, depth=z)
+
+
+#: grid depths beyond this [m] are sky while they are resampled (cv2.remap cannot carry inf)
+_FAR = np.float32(1e6)
+
+
+def _optical_depth(xyz: np.ndarray, origin: np.ndarray, yaw: float, model: CameraModel) -> np.ndarray:
+    """Return the pixels' true depth along the optical axis (height, width) float32 [m] from the grid's hit points
+    (Hg, Wg, 3) [m] (`world`): interpolated where the four grid rays around a pixel meet one surface, NaN where they
+    straddle a depth edge, inf for sky."""
+    p = math.radians(model.pitch_deg)
+    axis = np.array([math.cos(p) * math.cos(yaw), math.cos(p) * math.sin(yaw), -math.sin(p)], np.float32)
+    zg = (xyz - np.asarray(origin, np.float32)) @ axis
+    zg = np.where(np.isfinite(zg), zg, _FAR).astype(np.float32)
+    lin = cv2.remap(zg, model.map_x, model.map_y, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    near = cv2.remap(zg, model.map_x, model.map_y, cv2.INTER_NEAREST, borderMode=cv2.BORDER_REPLICATE)
+    out = np.where(np.abs(lin - near) <= 0.05 * near + 0.02, lin, np.float32(np.nan)).astype(np.float32)
+    out[near >= _FAR] = np.inf
+    return out
 
 
 def develop(exposure: Exposure, model: CameraModel, rng: np.random.Generator) -> CameraFrame:

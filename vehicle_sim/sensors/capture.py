@@ -1,9 +1,10 @@
-"""Capture both sensors at a vehicle pose: stamped images, registered colored-range, truth labels.
+"""Capture the sensors at a vehicle pose: stamped images, registered colored-range, the stereo pair, truth labels.
 
 `capture` is the one call the simulator node (and the render/bench commands) make; the result
 (`wire.capture.CaptureResult`, truth included) is self-describing, and the node sends it with
 `wire.capture.encode_capture`, truth only when the request asks for it.
-Frames: `vehicle` (x forward, y left, z up, origin on the ground), `laser`, `camera` (optical).
+Frames: `vehicle` (x forward, y left, z up, origin on the ground), `laser`, `camera`, `stereo_left`,
+`stereo_right` (optical).
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from vehicle_sim.sensors.camera import CameraConfig, camera_model, develop, expo
 from vehicle_sim.sensors.extrinsics import extrinsics_for, world_from_vehicle
 from vehicle_sim.sensors.laser import LaserConfig, laser_angles, scan
 from vehicle_sim.sensors.registration import register
+from vehicle_sim.sensors.stereo import StereoConfig, shoot_stereo, stereo_model, stereo_mount_for
 
 __all__ = [
     "capture",
@@ -93,6 +95,14 @@ def capture(scene: Scene, pose_world: tuple[float, float, float], stamp: float,
         if lf is not None:
             cr = register(out["laser_xyz"], lf.valid, cf.image, ext.camera_from_vehicle, model.K)
             out.update(colored_range=cr.colour, colored_range_uv=cr.uv, colored_range_valid=cr.valid)
+    if request.stereo:  # after the laser and the camera: their noise draws stay those of a capture without the pair
+        cfg = StereoConfig(size=request.stereo_size)
+        mount = stereo_mount_for(vehicle, cfg)
+        model = stereo_model(cfg, mount.pitch_deg)
+        sf = shoot_stereo(scene, w_v, yaw, float(stamp), mount, model, rng)
+        out.update(stereo_K=model.K.copy(), T_vehicle_stereo_left=mount.vehicle_from_left.matrix,
+                   T_vehicle_stereo_right=mount.vehicle_from_right.matrix, stereo_left=sf.left, stereo_right=sf.right,
+                   stereo_labels=sf.labels, stereo_depth_true=sf.depth)
     return CaptureResult(**out)
 
 

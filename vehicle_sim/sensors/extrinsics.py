@@ -23,6 +23,7 @@ __all__ = [
     "extrinsics_for",
     "world_from_vehicle",
     "vehicle_from_world",
+    "vehicle_from_optical",
 ]
 
 VEHICLES: tuple[str, ...] = ("navlab", "terregator")
@@ -76,6 +77,11 @@ def _rot_y(a: float) -> np.ndarray:
 _OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
+def vehicle_from_optical(position: tuple[float, float, float], pitch_deg: float) -> Transform:
+    """Return `vehicle ← camera` for a camera at `position` [m] (`vehicle`) looking ahead, pitched down by `pitch_deg` [deg]."""
+    return Transform(_rot_y(math.radians(pitch_deg)) @ _OPTICAL, np.asarray(position, np.float64))
+
+
 def world_from_vehicle(x: float, y: float, yaw: float, z: float = 0.0) -> Transform:
     """Return `world ← vehicle` for a level vehicle at (x, y) [m], heading `yaw` [rad], ground height z [m]."""
     return Transform(_rot_z(yaw), np.array([x, y, z], np.float64))
@@ -108,8 +114,7 @@ class Extrinsics:
     @property
     def vehicle_from_camera(self) -> Transform:
         """Return `vehicle ← camera` (optical frame, pitched down by `camera_pitch_deg`)."""
-        R = _rot_y(math.radians(self.camera_pitch_deg)) @ _OPTICAL
-        return Transform(R, np.asarray(self.camera_position, np.float64))
+        return vehicle_from_optical(self.camera_position, self.camera_pitch_deg)
 
     @property
     def camera_from_vehicle(self) -> Transform:

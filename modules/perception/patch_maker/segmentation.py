@@ -7,14 +7,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from modules.perception.patch_maker.colour import ColourModel
+from modules.perception.patch_maker.colour_stripes import classify
 from modules.perception.image import ColoredRangeImage
 from modules.perception.patch_maker.overlap import overlap_labels, split_label
 from modules.perception.patch_maker.patches import PatchSet, make_patches
 from modules.perception.patch_maker.range_seg import RangeSegParams, SurfaceType, segment_range
+
+if TYPE_CHECKING:
+    from modules.parallel import VisionPool
 
 __all__ = ["Segmentation", "SegmentationParams", "Segmented", "make_segmentation"]
 
@@ -53,12 +58,14 @@ def make_segmentation(
     model: ColourModel | None = None,
     adapt: bool = True,
     training: np.ndarray | None = None,
+    pool: "VisionPool | None" = None,
 ) -> Segmented:
     """Segment one colored-range frame with the chosen module; colour modules adapt `model` in place.
 
     `training` (H, W) int: the colour type each pixel is known to have (1-based into `model.types`,
     0 = unknown); the colour classes are first fitted to those pixels of this frame (Wallace), then
-    classify, then follow the confidently classified pixels to the next frame (SCARF).
+    classify, then follow the confidently classified pixels to the next frame (SCARF). A `pool` of
+    several vision workers classifies the pixels in row stripes (the same labels).
     """
     colour_lab = None
     if method in (Segmentation.COLOUR, Segmentation.COLORED_RANGE):
@@ -69,7 +76,7 @@ def make_segmentation(
             if training.shape != mask.shape:
                 raise ValueError(f"{method.value} segmentation: training labels {training.shape}, image {mask.shape}")
             model.train(img.rgb, np.where(mask, training, 0), rate=params.train_rate)
-        colour_lab, cls_idx, post = model.classify(img.rgb, mask)
+        colour_lab, cls_idx, post = classify(model, img.rgb, mask, pool)
         if adapt and params.adapt_rate > 0:
             # what the predicted objects contradict teaches nothing (a shadow taken for another colour type)
             agreed = colour_lab if training is None else np.where((training == 0) | (training == colour_lab), colour_lab, 0)

@@ -1,0 +1,46 @@
+"""PERCEPTION over vision workers: the same registration, patches, objects and fix as one process, bit for bit, on simulator frames."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from modules.parallel import VisionPool
+from modules.perception.monitor import ResolutionTable
+from modules.perception.patch_maker import Segmentation
+from modules.perception.pipeline import PerceptionPipeline, PipelineOutput
+from modules.perception.sensor_frame import colored_range_image
+from sidewalk.cli._perception import FrameSource, eval_frames
+
+pytestmark = pytest.mark.timeout(300)  # quiet run ~25 s (frames, worker start-up, 8 cycles three times)
+
+
+def _digest(out: PipelineOutput) -> tuple:
+    cal = out.calibration
+    return (out.method, out.segmented.labels.tobytes(), out.segmented.patches.ids.tobytes(),
+            tuple((p.polygon, p.edge_flags, p.colour_type, p.surface, p.neighbours) for p in out.segmented.patches.patches),
+            tuple((f.predicted.obj.object_id, tuple(p.id for p in f.patches)) for f in out.found),
+            None if out.navigable is None else out.navigable.wkb,
+            None if cal is None else (cal.pose, cal.covariance.tobytes(), cal.kind), out.failure, out.fix_note)
+
+
+def _run(frames, table: ResolutionTable, pool: VisionPool | None) -> list[tuple]:
+    pipe = PerceptionPipeline(ResolutionTable(table.sensor, max_distance=table.max_distance), pool=pool)
+    got = []
+    for fr in frames:
+        img = colored_range_image(fr.sensor, pool=pool)
+        got.append((tuple(a.tobytes() for a in (img.xyz, img.ground_xy, img.range_m, img.valid, img.rgb)),
+                    _digest(pipe.process(img, fr.objects, fr.prior_pose, error_allowance=1.0, step=1))))
+    return got
+
+
+def test_two_and_three_workers_give_what_one_process_gives() -> None:
+    src = FrameSource("campus", seed=3)
+    frames = list(eval_frames(src, 8, np.random.default_rng(3), (0.5, 2.0)))  # half on the slope and stairs (colored range)
+    alone = _run(frames, src.table, None)
+    methods = {d[0] for _, d in alone}
+    assert {Segmentation.COLOUR, Segmentation.COLORED_RANGE} <= methods, methods
+    assert sum(d[6] is not None for _, d in alone) >= 4  # frames with a fix: the comparison covers the whole cycle
+    for workers in (2, 3):
+        with VisionPool(workers, warm=("modules.perception",)) as pool:
+            assert _run(frames, src.table, pool) == alone, f"{workers} workers differ from one process"

@@ -55,6 +55,7 @@ bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench eddie --json
 	$(VENV)/bin/sidewalk bench cli --json
 	$(VENV)/bin/sidewalk bench terrain-planner --json
+	$(VENV)/bin/sidewalk bench terrain --json
 	@mkdir -p runs; for arch in codger eddie; do \
 	  out=runs/bench-rtf50-$$arch-$$(date -u +%Y%m%dT%H%M%SZ); \
 	  $(VENV)/bin/sidewalk run --mission campus-tour --rtf 50 --arch $$arch --out $$out > $$out.log 2>&1; \

@@ -41,6 +41,7 @@ from modules.dense_stereo import disparity_depth, disparity_points, lk_step, sgb
 from modules.fido import FidoConfig, PlanarMotion, StereoPair, StereoRig, fido_step
 from modules.perception.obstacles import LaserScan, detect_obstacles, obstacles_from_points
 from sidewalk.laser_eval import ObstacleCounts, laser_truth_points, truth_obstacles, world_of
+from wire.summary import percentile
 
 __all__ = ["DEPTH_BANDS", "GROUND_KINDS", "Leg", "DepthErrors", "MotionLeg", "ClutterCounts", "FidoEvaluation", "straight_leg", "segment_leg",
            "approach_leg", "relative_motion", "stereo_truth_points", "ground_grid", "json_ready"]
@@ -66,8 +67,7 @@ def json_ready(obj):
 
 
 def _pct(values, q: float) -> float | None:
-    v = np.asarray(values, np.float64)
-    return float(np.percentile(v, q)) if len(v) else None
+    return percentile(np.asarray(values, np.float64), q)
 
 
 # ---- legs -----------------------------------------------------------------------------------------------------

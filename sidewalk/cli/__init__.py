@@ -56,6 +56,8 @@ COMMANDS: tuple[LazyCommand, ...] = (
     LazyCommand("compare", "sidewalk.cli._compare", "register",
                 "Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables "
                 "and plots."),
+    LazyCommand("worldgen", "sidewalk.cli._worldgen", "register",
+                "Generate a world of KIND from a seed: the world and its map (with their terrain rasters) and a mission across it."),
     LazyCommand("compare-check", "sidewalk.cli._compare", "register",
                 "Hold two grids of the same command against each other: does each median lie within the other's range? Exit 1 "
                 "if not."),
@@ -71,6 +73,7 @@ COMMANDS: tuple[LazyCommand, ...] = (
     LazyCommand("eddie", "sidewalk.cli._eddie", "eddie_app", "EDDIE: annotated maps (compile a mission into triggers, inspect a file)."),
     LazyCommand("roadfollow", "sidewalk.cli._roadfollow", "roadfollow_app",
                 "Road following as the Navlab did it: SCARF, YARF, ALVINN (data set, training, evaluation)."),
+    LazyCommand("terrain", "sidewalk.cli._terrain", "terrain_app", "Terrain from the laser: elevation maps scored against the truth raster."),
 )
 _BY_NAME = {c.name: c for c in COMMANDS}
 

@@ -132,6 +132,25 @@ def bench_parallel(
     _emit(result, as_json)
 
 
+@bench_app.command("terrain")
+def bench_terrain(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    world: Annotated[str, typer.Option(help="World name or file, with terrain")] = "cross_country",
+    images: Annotated[int, typer.Option(min=1, max=500, help="ERIM images along the track")] = 30,
+    seed: Annotated[int, typer.Option(help="Seed of sensor noise")] = 0,
+) -> None:
+    """The robot's elevation-map update per ERIM image (locus map, z registration, fusion), with the maps' accuracy beside it."""
+    from sidewalk.terrain_eval import TerrainEvalError
+    from vehicle_sim.worldfile import WorldFileError
+
+    mod = importlib.import_module("bench.terrain")
+    try:
+        result = _measure(mod, world=world, images=images, seed=seed)
+    except (FileNotFoundError, WorldFileError, TerrainEvalError) as exc:
+        raise typer.BadParameter(" ".join(str(exc).split())[:400], param_hint="--world") from None
+    _emit(result, as_json)
+
+
 @bench_app.command("secure")
 def bench_secure(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

@@ -306,7 +306,7 @@ def _fido_eval(world: str, frames: int, seed: int, vehicle: str, actors: str, st
     report.update({"world": world, "vehicle": vehicle, "seed": seed, "actors": spec, "legs": len(legs), "step_m": _STEP_M,
                    "straight_leg_m": straight, "stereo": {"size_px": cfg.size, "hfov_deg": cfg.hfov_deg, "baseline_m": cfg.baseline}})
     if as_json:
-        typer.echo(json.dumps(report, sort_keys=True, allow_nan=False))
+        typer.echo(dumps(report, sort_keys=True))
     else:
         from rich.console import Console
 

@@ -44,6 +44,13 @@ def test_good_mission_parses_every_form() -> None:
     assert parse_mission("mission: x\nsteps:\n  - destination: quad\n").start is None
 
 
+def test_an_off_road_point_is_the_point_itself() -> None:
+    m = parse_mission("mission: x\nsteps:\n  - destination: {x: 395.1, y: 47.0, off_road: true}\n")
+    assert m.steps[0].destination == Destination(xy=(395.1, 47.0), off_road=True)
+    assert "off road" in m.steps[0].destination.describe()
+    assert parse_mission("mission: x\nsteps:\n  - destination: {x: 1, y: 2}\n").steps[0].destination.off_road is False
+
+
 def test_json_is_accepted() -> None:
     m = parse_mission('{"name": "j", "steps": [{"destination": "gym", "trigger": "wait 2.5s"}]}')
     assert m.name == "j" and m.steps[0].trigger.wait_s == 2.5
@@ -80,6 +87,8 @@ def _problems(text: str) -> list[tuple[int | None, str, str]]:
     ("mission: x\nstart: {x: 1, y: 2, yaw_deg: east}\nsteps:\n  - destination: quad\n", 2, "start.yaw_deg", "finite number"),
     ("mission: x\nstart: {x: 1, y: 2, yaw_deg: 0, z: 3}\nsteps:\n  - destination: quad\n", 2, "start.z", "unknown field"),
     ("mission: x\nstart: dorm\nsteps:\n  - destination: quad\n", 2, "start", "mapping"),
+    ("mission: x\nsteps:\n  - destination: {x: 1, y: 2, off_road: maybe}\n", 3, "steps[0].destination.off_road", "true or false"),
+    ("mission: x\nsteps:\n  - destination: {place: quad, off_road: true}\n", 3, "steps[0].destination", "not both"),
 ])
 def test_bad_missions_name_line_and_field(text: str, line: int, field: str, needle: str) -> None:
     problems = _problems(text)

@@ -51,6 +51,7 @@ class GlueCount(BaseModel):
     algorithm_lines: int = 0
     algorithm_files: int = 0
     glue_by_file: dict[str, int] = {}
+    algorithm_by_file: dict[str, int] = {}
 
 
 def logical_lines(source: str) -> int:
@@ -115,7 +116,11 @@ def count_glue(root: Path, architecture: str, packages: Sequence[str] | None = N
         names = _imports(tree, m, files[m].name == "__init__.py")
         if any(n == t or n.startswith(t + ".") for n in names for t in TRANSPORT):
             wire_users.add(m)
-        deps[m] = {n for n in names if n in files} | {n.rsplit(".", 1)[0] for n in names if n.rsplit(".", 1)[0] in files}
+        # `from a.b import c` names a.b (a module) and a.b.c (a module or a name in a.b); a package's __init__ is a
+        # dependency only when it is imported itself (`from a import x`), not because a sibling was (a file is glue
+        # by what it imports itself: importing a.b runs a/__init__.py, which is reached but not what a.b uses)
+        deps[m] = {n for n in names if n in files} | {n.rsplit(".", 1)[0] for n in names
+                                                      if n not in files and n.rsplit(".", 1)[0] in files}
     mains = [m for m, f in files.items() if f.name == "__main__.py"]
     entries = [m for m in mains if m.removesuffix(".__main__") in ENTRY_POINTS[architecture]] if architecture in ENTRY_POINTS else mains
     reached: set[str] = set()
@@ -141,4 +146,5 @@ def count_glue(root: Path, architecture: str, packages: Sequence[str] | None = N
         substrate_lines=sum(lines[m] for m in substrate),
         algorithm_lines=sum(lines[m] for m in algo), algorithm_files=len(algo),
         glue_by_file={str(files[m].relative_to(root)): lines[m] for m in sorted(glue)},
+        algorithm_by_file={str(files[m].relative_to(root)): lines[m] for m in sorted(algo)},
     )

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 
 from sidewalk.compare.comparison import FAULT_AT, SPEED_CAPPED, Comparison
 from sidewalk.compare.fault_outcome import BEFORE_S, HELD_S, SLOWER, WORSE_M
 from sidewalk.compare.faults import JUMP_M, ROLES, TARGETS, WEDGE_S
-from sidewalk.compare.glue import TRANSPORT
+from sidewalk.compare.glue import TRANSPORT, GlueCount
 from sidewalk.compare.measures import MEASURES, OBSERVERS
 from sidewalk.compare.summary import Spread
 
@@ -150,4 +150,18 @@ def render_markdown(c: Comparison, command: str = "") -> str:
     rows = [[g.architecture, str(g.glue_lines) if g.present else "absent", str(g.glue_files), str(g.substrate_lines),
              str(g.algorithm_lines), str(g.algorithm_files)] for g in c.glue]
     out += _table(["arch", "glue lines", "glue files", "of which substrate", "algorithm lines", "algorithm files"], rows) + [""]
+    out += glue_appendix(c.glue)
     return "\n".join(out) + "\n"
+
+
+def glue_appendix(glue: Sequence[GlueCount]) -> list[str]:
+    """Return the appendix of the glue count: every counted file per architecture, its kind and logical lines."""
+    out = ["## Appendix: the files counted", "",
+           "Every file each architecture's processes reach, as the rule above classed it, with its logical lines: the "
+           "sums are the table's.", ""]
+    for g in glue:
+        if not g.present:
+            continue
+        rows = [[f, "glue", str(n)] for f, n in g.glue_by_file.items()] + [[f, "algorithm", str(n)] for f, n in g.algorithm_by_file.items()]
+        out += [f"### {g.architecture}", ""] + _table(["file", "kind", "lines"], sorted(rows)) + [""]
+    return out

@@ -186,7 +186,7 @@ def _map(world: World, cfg: RunConfig, out: Path) -> tuple[Path, World]:
 def _destination_xy(world: World, dest: Destination) -> Optional[tuple[float, float]]:
     """Return a step's true destination (x, y) [m] in `world`: the place (or node) it names, or its point on the nearest path."""
     if dest.xy is not None:
-        if not world.edges:
+        if not world.edges or dest.off_road:
             return float(dest.xy[0]), float(dest.xy[1])
         p = Point(dest.xy)
         on = min((LineString(e.coords) for e in world.edges), key=lambda line: line.distance(p))

@@ -13,6 +13,11 @@ first sample whose elevation angle reaches the ray's, a "voxel-space" renderer) 
 intersected analytically per column. Frames: everything here is in the `world` frame (x east,
 y north, z up) [m]; azimuths are math angles CCW from +x [rad].
 
+In a world with terrain (`World.terrain_raster`) the terrain's bilinear height lies under every
+ground material, and each standing object stands on the terrain at its centre (its heights are
+above it). A sensor tilted by the vehicle's roll and pitch casts its own rays (`Scene.cast_rays`,
+compiled in `vehicle_sim.ray_cast`) instead of a level grid.
+
 Surfaces take their colour from each object's `appearance` (the world file's; an object without one
 is drawn in its map colour). With the world's `weather`, ground covers also carry wet patches and
 fallen leaves whose extent swings over the run (`Scene.albedo` at a sim time), seeded and
@@ -31,6 +36,7 @@ from scipy.ndimage import gaussian_filter
 from scipy.special import ndtri
 
 from vehicle_sim.markings import PaintRaster
+from vehicle_sim.ray_cast import bin_solids, cast_rays
 from vehicle_sim.solid_cast import cast_cylinders, cast_ellipsoids, cast_prisms
 from vehicle_sim.voxel_march import march_ground
 
@@ -203,21 +209,36 @@ class Scene:
         nrm = np.concatenate([-grad, np.ones((m, 1), np.float32)], axis=1)
         self._g_normal = (nrm / np.linalg.norm(nrm, axis=1, keepdims=True)).astype(np.float32)
         self._g_riser_normal = np.concatenate([-self._g_ax, np.zeros((m, 1), np.float32)], axis=1).astype(np.float32)
+        # terrain under every material (a world's optional raster); flat worlds carry a 2×2 placeholder never read
+        self.terrain = world.terrain_raster
+        self._has_terrain = self.terrain is not None
+        if self.terrain is not None:
+            self._t_z = np.ascontiguousarray(self.terrain.z, np.float32)
+            self._t_org = (float(self.terrain.origin_x), float(self.terrain.origin_y), 1.0 / float(self.terrain.resolution))
+        else:
+            self._t_z = np.zeros((2, 2), np.float32)
+            self._t_org = (0.0, 0.0, 1.0)
 
-        # solids
+        # solids (in a terrain world, standing on the terrain at their centre)
         cyl, ell, prisms = [], [], []
         for i, o in enumerate(world.objects):
             s = o.shape
+            if not isinstance(s, (TreeShape, PostShape, PrismShape)):
+                continue
+            base = 0.0
+            if self.terrain is not None:
+                cx, cy = o.center if o.center is not None else tuple(o.vertices.mean(axis=0))
+                base = self.terrain.height_at(float(cx), float(cy))
             if isinstance(s, TreeShape):
                 cx, cy = o.center  # type: ignore[misc]
-                cyl.append((cx, cy, s.trunk_radius, s.z0, s.z0 + s.crown_base + 0.25 * (s.height - s.crown_base), i + 1))
+                cyl.append((cx, cy, s.trunk_radius, base + s.z0, base + s.z0 + s.crown_base + 0.25 * (s.height - s.crown_base), i + 1))
                 b = 0.5 * (s.height - s.crown_base)
-                ell.append((cx, cy, s.z0 + s.crown_base + b, s.crown_radius, b, crown_mat[i]))
+                ell.append((cx, cy, base + s.z0 + s.crown_base + b, s.crown_radius, b, crown_mat[i]))
             elif isinstance(s, PostShape):
                 cx, cy = o.center  # type: ignore[misc]
-                cyl.append((cx, cy, float(o.radius), s.z0, s.z0 + s.height, i + 1))  # type: ignore[arg-type]
-            elif isinstance(s, PrismShape):
-                prisms.append((o.vertices.astype(np.float64), s.z0, s.z0 + s.height, i + 1))
+                cyl.append((cx, cy, float(o.radius), base + s.z0, base + s.z0 + s.height, i + 1))  # type: ignore[arg-type]
+            else:
+                prisms.append((o.vertices.astype(np.float64), base + s.z0, base + s.z0 + s.height, i + 1))
         self.cylinders = np.asarray(cyl, np.float64).reshape(-1, 6)
         self.ellipsoids = np.asarray(ell, np.float64).reshape(-1, 6)
         self.prisms = prisms
@@ -398,6 +419,8 @@ class Scene:
         if mat is None:
             mat = self.ground_material(x, y)
         z = np.take(self._g_z0, mat)
+        if self._has_terrain:
+            z = z + self.terrain.height(np.column_stack([np.ravel(x), np.ravel(y)])).reshape(np.shape(x)).astype(np.float32)  # type: ignore[union-attr]
         if not self._any_tilted:
             return z
         sel = np.nonzero(np.take(self._g_tilted, mat))
@@ -492,7 +515,8 @@ class Scene:
         h, w = self.shape
         march_ground(ox, oy, oz, ca, sa, tan_el, S, self._grid_flat, w, h, float(self.origin[0]), float(self.origin[1]),
                      1.0 / self.res, self._any_tilted, self._g_z0, self._g_tilted, self._g_a0, self._g_a1, self._g_b,
-                     self._g_steps, self._g_rise, self._g_normal, self._g_riser_normal, s_buf, mat, normal, tex, riser)
+                     self._g_steps, self._g_rise, self._g_normal, self._g_riser_normal, s_buf, mat, normal, tex, riser,
+                     self._has_terrain, self._t_z, *self._t_org)
         ground_mat = mat.copy()
         t = tan_el[:, None]
 
@@ -503,11 +527,12 @@ class Scene:
         ctx = _Ctx(ox, oy, oz, ca, sa, tan_el, -tan_el,
                    -az if W < 2 or bool(np.all(np.diff(az) < 0)) else None, az_mid,
                    s_buf, mat, normal, tex)
-        if reach > self.max_range:  # far ground: the plane z = 0 beyond the march
-            far = (mat == MATERIAL_SKY) & (tan_el[:, None] < -1e-4) & (oz > 0.0)
+        if reach > self.max_range:  # far ground: the plane z = 0 beyond the march (with terrain: at the ground below)
+            z_far = float(self.terrain.height_at(ox, oy)) if self.terrain is not None else 0.0
+            far = (mat == MATERIAL_SKY) & (tan_el[:, None] < -1e-4) & (oz > z_far)
             if far.any():
                 rr, cc = np.nonzero(far)
-                sf = (oz / -tan_el[rr]).astype(np.float32)
+                sf = ((oz - z_far) / -tan_el[rr]).astype(np.float32)
                 ok = (sf > self.max_range) & (sf <= reach)
                 rr, cc, sf = rr[ok], cc[ok], sf[ok]
                 fx, fy = ox + sf * ca[cc], oy + sf * sa[cc]
@@ -537,6 +562,72 @@ class Scene:
         riser &= hit
         return Hits(s=s_buf, rng=rng3, xyz=xyz, label=label,
                     material=mat, normal=ctx.normal, tex=ctx.tex, riser=riser)
+
+    def cast_rays(self, origin: np.ndarray, directions: np.ndarray, reach: float | None = None) -> Hits:
+        """Cast rays of any direction from `origin` (3,) [m]: `directions` (H, W, 3) or (N, 3), world frame (need not be unit).
+
+        Returns `Hits` of the directions' leading shape. An (H, W) grid is an image (row 0 the top), marched
+        column by column from the bottom row up (see `vehicle_sim.ray_cast`). For a tilted sensor (see `vehicle_sim.ray_cast`);
+        the ground is marched out to `max_range` [m] and solids are intersected out to `reach` [m]
+        (default `max_range`). `tex` holds the hit's ground cell (solids are not textured here).
+        """
+        reach = self.max_range if reach is None else float(reach)
+        ox, oy, oz = (float(v) for v in origin)
+        d = np.asarray(directions, np.float64)
+        shape = d.shape[:-1]
+        d = d.reshape(-1, 3)
+        hn = np.maximum(np.hypot(d[:, 0], d[:, 1]), 1e-9)
+        ca, sa, tan = d[:, 0] / hn, d[:, 1] / hn, d[:, 2] / hn
+        az = np.arctan2(sa, ca)
+        az_mid = float(np.arctan2(np.sin(az).mean(), np.cos(az).mean())) if len(az) else 0.0
+        rel = (az - az_mid + np.pi) % (2.0 * np.pi) - np.pi
+        az_lo = float(rel.min()) - 1e-6 if len(rel) else -np.pi
+        n_bins = 256
+        inv_bin = n_bins / max(float(rel.max()) + 1e-6 - az_lo, 1e-6) if len(rel) else 1.0
+        solids = []
+        for table, radius_col in ((self.cylinders, 2), (self.ellipsoids, 3)):
+            near = table[np.hypot(table[:, 0] - ox, table[:, 1] - oy) - table[:, radius_col] < reach]
+            near = np.ascontiguousarray(near)
+            start, index = bin_solids(near[:, 0], near[:, 1], near[:, radius_col], ox, oy, az_mid, az_lo, inv_bin, n_bins)
+            solids += [near, start, index]
+        near = []
+        for p in list(self.prisms) + list(self._actor_solids):
+            c = p[0].mean(axis=0)
+            r = float(np.linalg.norm(p[0] - c, axis=1).max())
+            if math.hypot(c[0] - ox, c[1] - oy) - r < reach:
+                near.append((p, c, r))
+        prisms = _PrismTable.pack([p for p, _, _ in near])
+        centre = np.array([c for _, c, _ in near], np.float64).reshape(-1, 2)
+        p_start, p_index = bin_solids(centre[:, 0], centre[:, 1], np.array([r for _, _, r in near], np.float64),
+                                      ox, oy, az_mid, az_lo, inv_bin, n_bins)
+        n = len(ca)
+        s_buf = np.empty(n, np.float64)
+        mat = np.empty(n, np.int32)
+        normal = np.empty((n, 3), np.float64)
+        riser = np.empty(n, np.bool_)
+        h, w = self.shape
+        cast_rays(ox, oy, oz, ca, sa, tan, self._samples, self._grid_flat, w, h, float(self.origin[0]), float(self.origin[1]),
+                  1.0 / self.res, self._any_tilted, self._g_z0, self._g_tilted, self._g_a0, self._g_a1, self._g_b,
+                  self._g_steps, self._g_rise, self._g_normal, self._g_riser_normal, self._has_terrain, self._t_z, *self._t_org,
+                  az_mid, az_lo, inv_bin, n_bins, *solids, prisms.verts, prisms.start, prisms.edges, prisms.edges_unit,
+                  prisms.z_bottom, prisms.z_top, prisms.material, p_start, p_index, shape[0] if len(shape) == 2 else 1,
+                  s_buf, mat, normal, riser)
+        too_far = s_buf > reach
+        mat[too_far] = MATERIAL_SKY
+        s_buf[too_far] = np.inf
+        hit = mat != MATERIAL_SKY
+        s_fin = np.where(hit, s_buf, 0.0)
+        xyz = np.column_stack([ox + s_fin * ca, oy + s_fin * sa, oz + s_fin * tan]).astype(np.float32)
+        xyz[~hit] = np.nan
+        tex = np.column_stack([np.floor(xyz[:, 0] / self.res), np.floor(xyz[:, 1] / self.res)])
+        tex = np.where(hit[:, None], tex, 0).astype(np.int32)
+        label = np.take(self.mat_label, np.maximum(mat, 0))
+        label[~hit] = LABEL_SKY
+        rng3 = np.where(hit, s_buf * np.sqrt(1.0 + tan * tan), np.inf)
+        return Hits(s=s_buf.astype(np.float32).reshape(shape), rng=rng3.astype(np.float32).reshape(shape),
+                    xyz=xyz.reshape(shape + (3,)), label=label.reshape(shape), material=mat.reshape(shape),
+                    normal=normal.astype(np.float32).reshape(shape + (3,)), tex=tex.reshape(shape + (2,)),
+                    riser=(riser & hit).reshape(shape))
 
     # solids -----------------------------------------------------------------------------
 

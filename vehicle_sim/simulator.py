@@ -2,6 +2,9 @@
 
 No network, no wall clock: `Simulator.step()` advances sim time by one physics step (1 / physics_hz [s]).
 Frames: truth in `world`; odometry in `local` (starts at (0, 0, 0) at the start pose and drifts).
+On rough ground (a world with terrain) the body rests on its wheels (`vehicle_sim.ground_contact`):
+the truth carries its height, roll and pitch, and a tip-over or a high-centring stops the vehicle for
+good (an event each), a collision with the ground blocks it as a collision with an object does.
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from wire.drive import DriveCommand, Odometry, SimClock, SimEvent, TruthPose, VehicleLimits
 from wire.se2 import compose_tuple, wrap_angle
 from vehicle_sim.actors import ActorSet
+from vehicle_sim.ground_contact import GroundPose, body_for, hazards, rest_on_ground
 from vehicle_sim.kinematics import VehicleParams, VehicleState, limits_of, params_for, step
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, NoiseSource, OdometryModel, OdometryState, odometry_step
 from vehicle_sim.watchdog import CommandSupervisor
@@ -86,6 +90,14 @@ class Simulator:
         self._off_path = False
         self._setup_ground_lookup()
         self._check_ground(self.state, initial=True)
+        # rough ground: the body on its wheels, the hazards it meets; `disabled` says why it can move no more
+        self.ground: GroundPose | None = None
+        self.disabled: str | None = None
+        self._terrain_kinds: set[str] = set()
+        self._terrain_checked: tuple[float, float, float] | None = None
+        self._body = body_for(config.vehicle) if world.terrain_raster is not None else None
+        if self._body is not None:
+            self._check_terrain(self.state, initial=True)
 
     # ---- ground lookup (cheap per step) --------------------------------------------------
 
@@ -182,6 +194,8 @@ class Simulator:
                                          detail="timed commands ran out: stopping"))
         prev = self.state
         new = step(prev, sup.command, self.dt, self.params)
+        if self.disabled is not None:  # tipped over or high-centred: it stays where it is
+            new = VehicleState(x=prev.x, y=prev.y, yaw=prev.yaw, v=0.0, kappa=prev.kappa, omega=0.0)
         self.steps += 1
         self.t = self.steps * self.dt
         ds = 0.5 * (prev.v + new.v) * self.dt  # the arc length the kinematics integrated [m]
@@ -191,7 +205,15 @@ class Simulator:
         if len(self.actors) and self._check_actors(new) and self.config.collisions_block:
             new = VehicleState(x=prev.x, y=prev.y, yaw=prev.yaw, v=0.0, kappa=prev.kappa, omega=0.0)
             ds = 0.0
+<<<<<<< HEAD
         dyaw = wrap_angle(new.yaw - prev.yaw)
+=======
+        if self._body is not None and self._check_terrain(new) and self.config.collisions_block:
+            new = VehicleState(x=prev.x, y=prev.y, yaw=prev.yaw, v=0.0, kappa=prev.kappa, omega=0.0)
+            ds = 0.0
+            self.ground = rest_on_ground(self.world.elevation, new.x, new.y, new.yaw, self._body)
+        dyaw = (new.yaw - prev.yaw + math.pi) % (2.0 * math.pi) - math.pi
+>>>>>>> bcee7afe77969595c142c4e71649140df51e7191
         self.odom = odometry_step(self.odom, ds, dyaw, self.dt, self.config.odometry, self._noise.pair())
         self.state = new
         return self.drain_events()
@@ -214,6 +236,47 @@ class Simulator:
         for _ in range(n):
             out += self.step()
         return out
+
+    def _check_terrain(self, s: VehicleState, initial: bool = False) -> bool:
+        """Rest the body on the terrain at `s`; log tip-over, high-centring, a collision with the ground; True when blocked.
+
+        The body's pose is found every step, the hazards whenever it moved 5 cm or turned 0.5° since.
+        """
+        body = self._body
+        assert body is not None
+        height = self.world.elevation
+        last = self._terrain_checked
+        if not initial and last is not None and math.hypot(s.x - last[0], s.y - last[1]) < 0.05 \
+                and abs((s.yaw - last[2] + math.pi) % (2.0 * math.pi) - math.pi) < math.radians(0.5):
+            self.ground = rest_on_ground(height, s.x, s.y, s.yaw, body)
+            return "collision" in self._terrain_kinds
+        self._terrain_checked = (s.x, s.y, s.yaw)
+        self.ground, found = hazards(height, s.x, s.y, s.yaw, body)
+        kinds = {h.kind for h in found}
+        for h in found:
+            if h.kind not in self._terrain_kinds and not initial:
+                self._events.append(SimEvent(stamp=self.t, kind=h.kind, x=s.x, y=s.y, object_kind="terrain",  # type: ignore[arg-type]
+                                             detail=h.detail))
+            if h.kind in ("tip-over", "high-centred") and self.disabled is None and not initial:
+                self.disabled = h.kind
+        self._terrain_kinds = kinds
+        return "collision" in kinds
+
+    def blocked_at(self, x: float, y: float, yaw: float) -> str | None:
+        """Return why the vehicle could not stand at (x, y) [m], heading yaw [rad] (a solid touched, a terrain hazard), or None.
+
+        A truth query for generators and evaluation: it logs no event and changes nothing.
+        """
+        cells = self._cells(self.footprint_world(VehicleState(x=x, y=y, yaw=yaw)))
+        solid = self._solid[cells]
+        if solid.any():
+            obj = self.world.objects[int(cells[solid][0]) - 1]
+            return f"touches {obj.kind} {obj.id!r}"
+        if self._body is not None:
+            _, found = hazards(self.world.elevation, x, y, yaw, self._body)
+            if found:
+                return "; ".join(f"{h.kind}: {h.detail}" for h in found)
+        return None
 
     def _check_actors(self, s: VehicleState) -> bool:
         """Move the actors to now, track the closest approach, log a collision on first contact; True while touching."""
@@ -244,6 +307,10 @@ class Simulator:
     def truth(self) -> TruthPose:
         """Return the true pose of the vehicle in the world frame now."""
         s = self.state
+        if self.ground is not None:
+            g = self.ground
+            return TruthPose(stamp=self.t, x=s.x, y=s.y, z=g.z, yaw=s.yaw, v=s.v, omega=s.omega, curvature=s.kappa,
+                             roll=g.roll, pitch=g.pitch)
         z = self.world.elevation_at(s.x, s.y)
         return TruthPose(stamp=self.t, x=s.x, y=s.y, z=z, yaw=s.yaw, v=s.v, omega=s.omega, curvature=s.kappa)
 

@@ -12,6 +12,10 @@ exposure, rendered on two threads, march on two cores at once.
 Arithmetic is float32 throughout, in the order the array version used, so hits agree with it to
 the last bit except where a ray's tangent equals a sample's to within 1e-11 (the array version
 compared tangents offset by 256 per column in float64). Frames: `world` (x east, y north, z up) [m].
+
+In a world with terrain (`has_terrain`) the terrain raster's bilinear height (`terrain_height`) is
+added to every sample's and the hit's ground normal follows the terrain's slope (`terrain_gradient`);
+flat worlds take none of this and march exactly as before.
 """
 
 from __future__ import annotations
@@ -19,7 +23,65 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["march_ground"]
+__all__ = ["march_ground", "cover_height", "terrain_height", "terrain_gradient", "ground_normal"]
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def cover_height(x: np.float32, y: np.float32, m: int, any_tilted: bool, g_z0: np.ndarray, g_tilted: np.ndarray,
+                 g_a0: np.ndarray, g_a1: np.ndarray, g_b: np.ndarray, g_steps: np.ndarray, g_rise: np.ndarray) -> np.float32:
+    """Return the height [m] (float32) of ground material `m` at world point (x, y) [m]: its z0, plus its slope or step rise."""
+    z = g_z0[m]
+    if any_tilted and g_tilted[m]:
+        t = x * g_a0[m] + y * g_a1[m] - g_b[m]
+        t = min(max(t, np.float32(0.0)), np.float32(1.0))
+        n = g_steps[m]
+        if n > np.float32(0.0):
+            g = (min(np.float32(np.floor(t * n)), n - np.float32(1.0)) + np.float32(1.0)) / max(n, np.float32(1.0))
+        else:
+            g = t
+        z += np.float32(g_rise[m] * g)
+    return z
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def _terrain_cell(x: float, y: float, t_z: np.ndarray, t_ox: float, t_oy: float, t_inv_res: float) -> tuple[int, int, float, float]:
+    """Return the raster sample (i, j) below-left of world point (x, y) [m] and the fractions (fu, fv) into its cell."""
+    ny, nx = t_z.shape
+    u = min(max((x - t_ox) * t_inv_res, 0.0), nx - 1.0)
+    v = min(max((y - t_oy) * t_inv_res, 0.0), ny - 1.0)
+    j = min(int(u), nx - 2)
+    i = min(int(v), ny - 2)
+    return i, j, u - j, v - i
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def terrain_height(x: float, y: float, t_z: np.ndarray, t_ox: float, t_oy: float, t_inv_res: float) -> np.float32:
+    """Return the terrain raster's bilinear height [m] (float32) at world point (x, y) [m] (edge samples hold outside)."""
+    i, j, fu, fv = _terrain_cell(x, y, t_z, t_ox, t_oy, t_inv_res)
+    z0 = t_z[i, j] * (1.0 - fu) + t_z[i, j + 1] * fu
+    z1 = t_z[i + 1, j] * (1.0 - fu) + t_z[i + 1, j + 1] * fu
+    return np.float32(z0 * (1.0 - fv) + z1 * fv)
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def terrain_gradient(x: float, y: float, t_z: np.ndarray, t_ox: float, t_oy: float, t_inv_res: float) -> tuple[float, float]:
+    """Return the terrain's slope (dz/dx, dz/dy) [m/m] at world point (x, y) [m], of the bilinear cell holding it."""
+    i, j, fu, fv = _terrain_cell(x, y, t_z, t_ox, t_oy, t_inv_res)
+    gx = ((t_z[i, j + 1] - t_z[i, j]) * (1.0 - fv) + (t_z[i + 1, j + 1] - t_z[i + 1, j]) * fv) * t_inv_res
+    gy = ((t_z[i + 1, j] - t_z[i, j]) * (1.0 - fu) + (t_z[i + 1, j + 1] - t_z[i, j + 1]) * fu) * t_inv_res
+    return gx, gy
+
+
+@njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
+def ground_normal(x: float, y: float, nx: float, ny: float, nz: float, t_z: np.ndarray, t_ox: float, t_oy: float,
+                  t_inv_res: float) -> tuple[float, float, float]:
+    """Return the unit normal of a ground material with normal (nx, ny, nz) laid on the terrain at (x, y) [m]."""
+    gx, gy = terrain_gradient(x, y, t_z, t_ox, t_oy, t_inv_res)
+    inv = 1.0 / max(nz, 1e-6)
+    ax = -(gx - nx * inv)
+    ay = -(gy - ny * inv)
+    nn = np.sqrt(ax * ax + ay * ay + 1.0)
+    return ax / nn, ay / nn, 1.0 / nn
 
 
 @njit(cache=True, nogil=True, boundscheck=False, error_model="numpy")
@@ -28,14 +90,16 @@ def march_ground(ox: float, oy: float, oz: float, ca: np.ndarray, sa: np.ndarray
                  inv_res: float, any_tilted: bool, g_z0: np.ndarray, g_tilted: np.ndarray, g_a0: np.ndarray,
                  g_a1: np.ndarray, g_b: np.ndarray, g_steps: np.ndarray, g_rise: np.ndarray, g_normal: np.ndarray,
                  g_riser_normal: np.ndarray, s_buf: np.ndarray, mat: np.ndarray, normal: np.ndarray,
-                 tex: np.ndarray, riser_out: np.ndarray) -> None:
+                 tex: np.ndarray, riser_out: np.ndarray, has_terrain: bool, t_z: np.ndarray,
+                 t_ox: float, t_oy: float, t_inv_res: float) -> None:
     """March the ground for rays from (ox, oy, oz) [m]: columns (ca, sa) (W,) float32, rows `tan_el` (H,) float32.
 
     Writes, per ray (H, W): `s_buf` horizontal distance [m] (inf: the ground is not reached within
     `S`), `mat` ground material (-1: none), `normal` (H, W, 3) unit normal, `tex` (H, W, 2) texture
     cell and `riser_out` (the ray met the ground at a vertical step). A ray that misses keeps the
     normal the step test of the last two samples gives it, as the array version did. Every output
-    is overwritten.
+    is overwritten. With `has_terrain`, the terrain raster `t_z` (ny, nx) float32 [m] (sample (0, 0) at
+    (t_ox, t_oy) [m], 1 / spacing `t_inv_res` [1/m]) lies under every material.
     """
     H = tan_el.shape[0]
     W = ca.shape[0]
@@ -68,16 +132,9 @@ def march_ground(ox: float, oy: float, oz: float, ca: np.ndarray, sa: np.ndarray
             ix = min(max(ix, 0), grid_w - 1)
             iy = min(max(iy, 0), grid_h - 1)
             m = np.int32(grid_flat[iy * grid_w + ix])
-            z = g_z0[m]
-            if any_tilted and g_tilted[m]:
-                t = x * g_a0[m] + y * g_a1[m] - g_b[m]
-                t = min(max(t, zero), one)
-                n = g_steps[m]
-                if n > zero:
-                    g = (min(np.float32(np.floor(t * n)), n - one) + one) / max(n, one)
-                else:
-                    g = t
-                z += np.float32(g_rise[m] * g)
+            z = cover_height(x, y, m, any_tilted, g_z0, g_tilted, g_a0, g_a1, g_b, g_steps, g_rise)
+            if has_terrain:
+                z += terrain_height(x, y, t_z, t_ox, t_oy, t_inv_res)
             Hg[k] = z
             G[k] = m
             a = (z - f_oz) / S[k]
@@ -128,6 +185,12 @@ def march_ground(ox: float, oy: float, oz: float, ca: np.ndarray, sa: np.ndarray
                     normal[i, j, 0] = -c
                     normal[i, j, 1] = -s
                     normal[i, j, 2] = zero
+            elif has_terrain and hit:
+                nx, ny, nz = ground_normal(f_ox + sg * c, f_oy + sg * s, g_normal[gm, 0], g_normal[gm, 1], g_normal[gm, 2],
+                                           t_z, t_ox, t_oy, t_inv_res)
+                normal[i, j, 0] = nx
+                normal[i, j, 1] = ny
+                normal[i, j, 2] = nz
             else:
                 normal[i, j, 0] = g_normal[gm, 0]
                 normal[i, j, 1] = g_normal[gm, 1]

@@ -3,7 +3,8 @@
 Ground queries (`World.elevation`, `World.label_at`, `World.object_index_at`) are vectorised over
 (N, 2) arrays and answered from a raster of the object footprints (resolution `raster_res` [m],
 default 0.1 m), painted in `KIND_PRIORITY` order (later features win ties), with elevation computed
-analytically from the shape of the object found there. The schema names are re-exported here.
+analytically from the shape of the object found there, plus, in a world with terrain (its optional
+`terrain` raster, `wire.terrainfile`), the terrain's height. The schema names are re-exported here.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import numpy as np
 if TYPE_CHECKING:
     from vehicle_sim.actors import ActorSet
 
+from wire.terrainfile import TerrainRaster, TerrainRef
 from wire.mapfile import (
     COLOUR_TYPES, EDGE_END_TOLERANCE, EDGE_MODES, KIND_PRIORITY, KINDS, MARKING_COLOURS, NODE_KINDS, OBJECT_KINDS, ROLES,
     SHAPES_BY_KIND, WORLDS_DIR, Appearance, ColourStats, ColourType, FlatShape, MapColour, MapFile, Marking, PathEdge, PathNode, PostShape,
@@ -51,9 +53,11 @@ class World(MapFile):
         weather: Weather | None = None,
         raster_res: float = 0.1,
         actors: Iterable[dict] = (),
+        terrain: TerrainRef | None = None,
+        terrain_raster: TerrainRaster | None = None,
     ) -> None:
         super().__init__(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source,
-                         weather=weather, actors=actors)
+                         weather=weather, actors=actors, terrain=terrain, terrain_raster=terrain_raster)
         self.actor_set()  # a bad `actors` entry fails the load, naming the file and the entry
         self.raster_res = float(raster_res)
         self._raster: np.ndarray | None = None
@@ -134,15 +138,17 @@ class World(MapFile):
         """Return the ground height z [m] at points `xy` (N, 2) [m], world frame → (N,) float64.
 
         The ground of flat/slope/stairs objects is their surface; under standing objects (buildings,
-        trees, posts) it is their base `z0`; outside every object it is 0.
+        trees, posts) it is their base `z0`; outside every object it is 0; in a world with terrain,
+        each of these lies on the terrain (its height added).
         """
         xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         idx = self.object_index_at(xy)
-        z = np.zeros(len(xy))
+        z = self.terrain_raster.height(xy) if self.terrain_raster is not None else np.zeros(len(xy))
+        z += self._level_lut[idx + 1]  # flat covers and standing objects: one height each
         for i in self._non_zero_ground:
             m = idx == i
             if m.any():
-                z[m] = self.objects[i].ground_z(xy[m])
+                z[m] += self.objects[i].ground_z(xy[m])
         return z
 
     def elevation_at(self, x: float, y: float) -> float:
@@ -151,22 +157,28 @@ class World(MapFile):
         h, w = raster.shape
         i = int(math.floor((x - self._origin[0]) / self.raster_res))
         j = int(math.floor((y - self._origin[1]) / self.raster_res))
+        base = self.terrain_raster.height_at(x, y) if self.terrain_raster is not None else 0.0
         if not (0 <= i < w and 0 <= j < h):
-            return 0.0
+            return base
         k = int(raster[j, i])
-        return self.objects[k - 1].ground_z_at(x, y) if k > 0 else 0.0
+        return base + self.objects[k - 1].ground_z_at(x, y) if k > 0 else base
+
+    @cached_property
+    def _level_lut(self) -> np.ndarray:
+        """Return the ground height [m] of each object of one level (flat covers, standing objects) by index + 1, else 0."""
+        lut = np.zeros(len(self.objects) + 1)
+        for i, o in enumerate(self.objects):
+            s = o.shape
+            if isinstance(s, FlatShape):
+                lut[i + 1] = s.z
+            elif isinstance(s, (PrismShape, TreeShape, PostShape)):
+                lut[i + 1] = s.z0
+        return lut
 
     @cached_property
     def _non_zero_ground(self) -> tuple[int, ...]:
-        out = []
-        for i, o in enumerate(self.objects):
-            s = o.shape
-            if isinstance(s, FlatShape) and s.z == 0.0:
-                continue
-            if isinstance(s, (PrismShape, TreeShape, PostShape)) and s.z0 == 0.0:
-                continue
-            out.append(i)
-        return tuple(out)
+        """Return the indices of the objects whose ground is not level (slopes, stairs)."""
+        return tuple(i for i, o in enumerate(self.objects) if isinstance(o.shape, (SlopeShape, StairsShape)))
 
 
 def load_world(path: str | Path, *, kind: Literal["world", "map"] = "world", raster_res: float = 0.1) -> World:

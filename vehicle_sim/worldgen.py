@@ -38,7 +38,7 @@ from vehicle_sim.worldfile import (
     WorldObject,
 )
 
-__all__ = ["Material", "WEATHERING", "ROADSIDE_CLEARANCE", "build_campus", "build_north_hills", "build_schenley",
+__all__ = ["Material", "WorldBuilder", "WEATHERING", "ROADSIDE_CLEARANCE", "build_campus", "build_north_hills", "build_schenley",
            "WORLD_BUILDERS",
            "write_worlds", "main"]
 
@@ -172,6 +172,10 @@ class _Builder:
     def world(self, *, sun: Sun, start: StartPose, weather: Weather | None = None) -> World:
         return World(name=self.name, objects=self.objects, nodes=self.nodes, edges=self.edges, sun=sun, start=start,
                      weather=weather, source=f"<worldgen:{self.name}>")
+
+
+#: The builder of worlds: objects with their map colour and their own weathered look (the generated worlds use it too).
+WorldBuilder = _Builder
 
 
 # =========================================================================================

@@ -59,6 +59,8 @@ class CaptureResult:
     Laser: `laser_code` uint8 range code; `laser_range` float32 measured range [m] (= code × step,
     wrapped modulo `ambiguity`; 0 where invalid); `laser_valid` bool; `laser_reflectance` uint8;
     `laser_xyz` (64, 256, 3) float32 point of the measured range, vehicle frame [m] (NaN where invalid).
+    `attitude` (2,) float32 [rad]: the vehicle's own inclinometer reading of its roll and pitch (REP-103) at
+    the capture, with its error; present on rough ground (a world with terrain) only.
     Camera: `camera_image` (h, w, 3) uint8 RGB.
     Colored-range: `colored_range` (64, 256, 3) uint8 RGB, `colored_range_uv` (64, 256, 2) float32
     camera pixel (NaN = none), `colored_range_valid` bool.
@@ -67,7 +69,8 @@ class CaptureResult:
     `worldfile.KINDS` of the surface each ray meets ("sky" = nothing within 45 m for the laser,
     150 m for the camera; laser pixels beyond the 40 m maximum range keep their surface label but
     are not `laser_valid`); `laser_range_true` float32 true range [m] (inf = no return);
-    `laser_mixed` bool (the pixel is a mixed point).
+    `laser_mixed` bool (the pixel is a mixed point); `truth_attitude` (2,) float64 the true roll and pitch [rad];
+    `truth_world_laser` (4, 4) float64 the laser's true full 3-D pose, homogeneous `world ← laser`.
     """
 
     stamp: float
@@ -94,10 +97,14 @@ class CaptureResult:
     colored_range_valid: np.ndarray | None = None
     truth_pose: np.ndarray | None = None
     truth_z: float | None = None
+    attitude: np.ndarray | None = None
+    truth_attitude: np.ndarray | None = None
+    truth_world_laser: np.ndarray | None = None
 
 
 #: The fields that are truth: sent only when the request asks for them.
-TRUTH_FIELDS = ("truth_pose", "truth_z", "laser_labels", "camera_labels", "laser_range_true", "laser_mixed")
+TRUTH_FIELDS = ("truth_pose", "truth_z", "laser_labels", "camera_labels", "laser_range_true", "laser_mixed", "truth_attitude",
+                "truth_world_laser")
 
 _SCALARS = ("stamp", "vehicle", "truth_z", "range_step", "ambiguity")
 _ARRAY_FIELDS = tuple(f.name for f in fields(CaptureResult) if f.name not in _SCALARS)
@@ -107,6 +114,7 @@ _DTYPES = {
     "laser_valid": "bool", "laser_reflectance": "uint8", "laser_xyz": "float32", "laser_labels": "uint8",
     "laser_range_true": "float32", "laser_mixed": "bool", "camera_image": "uint8", "camera_labels": "uint8",
     "colored_range": "uint8", "colored_range_uv": "float32", "colored_range_valid": "bool",
+    "attitude": "float32", "truth_attitude": "float64", "truth_world_laser": "float64",
 }
 
 
@@ -179,7 +187,8 @@ def decode_capture(payload: bytes) -> CaptureResult:
         if name not in out:
             raise CaptureDecodeError(f"capture payload: required array {name!r} is missing")
     out.setdefault("camera_K", None)
-    expect = {"truth_pose": (3,), "T_vehicle_laser": (4, 4), "T_vehicle_camera": (4, 4), "camera_K": (3, 3)}
+    expect = {"truth_pose": (3,), "T_vehicle_laser": (4, 4), "T_vehicle_camera": (4, 4), "camera_K": (3, 3), "attitude": (2,),
+              "truth_attitude": (2,), "truth_world_laser": (4, 4)}
     for name, shp in expect.items():
         if out.get(name) is not None and out[name].shape != shp:
             raise CaptureDecodeError(f"capture payload: array {name!r} must have shape {shp}, got {out[name].shape}")

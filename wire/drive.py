@@ -127,7 +127,9 @@ class Odometry(PoseFields, BaseModel):
 class TruthPose(PoseFields, BaseModel):
     """True pose of `vehicle` in the `world` frame at sim time `stamp` [s] (evaluation and monitor only).
 
-    x, y, z [m] (z = ground height), yaw [rad], v [m/s], omega [rad/s], curvature [1/m] actually driven.
+    x, y, z [m] (z = ground height), yaw [rad], v [m/s], omega [rad/s], curvature [1/m] actually driven;
+    roll, pitch [rad] of the body resting on rough ground (REP-103: roll > 0 left side up, pitch > 0 nose
+    down; 0 on flat worlds).
     """
 
     model_config = _FROZEN
@@ -140,6 +142,8 @@ class TruthPose(PoseFields, BaseModel):
     v: float
     omega: float
     curvature: float
+    roll: float = 0.0
+    pitch: float = 0.0
     frame: Literal["world"] = "world"
 
 
@@ -148,13 +152,16 @@ class SimEvent(BaseModel):
 
     kinds: collision (with `object_id`), off-path / on-path (leaving / re-entering path objects),
     watchdog (commands stopped arriving: vehicle stopped), commands-exhausted (timed commands ran out),
-    rejected (a command the vehicle cannot execute; `detail` says why).
+    rejected (a command the vehicle cannot execute; `detail` says why); on rough ground (a world with
+    terrain) tip-over (roll or pitch beyond the vehicle's static stability) and high-centred (ground
+    under the body, between the wheels, above its clearance); a collision with the ground itself (a
+    step a wheel cannot climb, a bank the body's overhang meets) has `object_kind` "terrain".
     """
 
     model_config = _FROZEN
 
     stamp: float
-    kind: Literal["collision", "off-path", "on-path", "watchdog", "commands-exhausted", "rejected"]
+    kind: Literal["collision", "off-path", "on-path", "watchdog", "commands-exhausted", "rejected", "tip-over", "high-centred"]
     x: float
     y: float
     object_id: str | None = None

@@ -9,7 +9,7 @@ Schema (worlds/MISSIONS.md)::
     start: {x: 0, y: -28, yaw_deg: 90}   # optional: where the vehicle stands (world frame [m], [deg])
     steps:                          # required, at least one
       - name: to the quad           # optional (default "step N")
-        destination: quad           # a place name, {place: NAME} or {x: X, y: Y} (world frame [m])
+        destination: quad           # a place name, {place: NAME} or {x: X, y: Y[, off_road: true]} (world frame [m])
         constraints: [keep_right, avoid_stairs, {speed_limit: 1.0}]   # or a mapping
         trigger: {action: wait, seconds: 5}                            # or stop | continue | "wait 5"
         tolerance: 1.5              # optional: how close [m] the vehicle must truly get (default 1.5)
@@ -172,12 +172,12 @@ def _destination(node: yaml.Node, field: str, c: _Collector) -> Destination | No
     if isinstance(node, yaml.ScalarNode):
         name = _string(node, field, c)
         return Destination(place=name) if name is not None else None
-    m = _mapping(node, field, c, ("place", "x", "y"))
+    m = _mapping(node, field, c, ("place", "x", "y", "off_road"))
     if m is None:
         return None
     if "place" in m:
-        if "x" in m or "y" in m:
-            c.add(node, field, "give either place or x and y, not both")
+        if "x" in m or "y" in m or "off_road" in m:
+            c.add(node, field, "give either place or x and y (with off_road), not both")
             return None
         name = _string(m["place"][1], f"{field}.place", c)
         return Destination(place=name) if name is not None else None
@@ -186,7 +186,14 @@ def _destination(node: yaml.Node, field: str, c: _Collector) -> Destination | No
         return None
     x = _number(m["x"][1], f"{field}.x", c)
     y = _number(m["y"][1], f"{field}.y", c)
-    return Destination(xy=(x, y)) if x is not None and y is not None else None
+    off_road = False
+    if "off_road" in m:
+        v = _value(m["off_road"][1])
+        if not isinstance(v, bool):
+            c.add(m["off_road"][1], f"{field}.off_road", f"must be true or false, got {_kind(m['off_road'][1])}")
+            return None
+        off_road = v
+    return Destination(xy=(x, y), off_road=off_road) if x is not None and y is not None else None
 
 
 def _constraints(node: yaml.Node, field: str, c: _Collector) -> StepConstraints | None:

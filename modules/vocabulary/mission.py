@@ -31,10 +31,14 @@ TERMINAL_STATES: frozenset[str] = frozenset({"succeeded", "failed", "cancelled"}
 
 
 class Destination(Frozen):
-    """Where a step goes: a named place of the map, or a point (x [m], y [m]) in the world frame."""
+    """Where a step goes: a named place of the map, or a point (x [m], y [m]) in the world frame.
+
+    `off_road`: the point itself, reached across country (Navlab 1990 §2.4), not projected onto a path.
+    """
 
     place: str | None = None
     xy: XY | None = None
+    off_road: bool = False
 
     @model_validator(mode="after")
     def _exactly_one(self) -> "Destination":
@@ -42,6 +46,8 @@ class Destination(Frozen):
             raise ValueError("give exactly one of place (a named place) or xy (world coordinates)")
         if self.place is not None and not self.place.strip():
             raise ValueError("place must be a non-empty name")
+        if self.off_road and self.xy is None:
+            raise ValueError("off_road needs a point (x, y), not a place")
         return self
 
     def describe(self) -> str:
@@ -49,7 +55,7 @@ class Destination(Frozen):
         if self.place is not None:
             return f"place {self.place!r}"
         assert self.xy is not None
-        return f"({self.xy[0]:.1f}, {self.xy[1]:.1f})"
+        return f"({self.xy[0]:.1f}, {self.xy[1]:.1f}){' off road' if self.off_road else ''}"
 
 
 class StepConstraints(Frozen):

@@ -130,6 +130,29 @@ app = typer.Typer(
     cls=_LazyGroup,
 )
 
+<<<<<<< HEAD
+=======
+# (module, attribute, name) — each area registers its commands in its own file.
+_SUBAPPS = [
+    ("sidewalk.cli._router", "router_app", "router"),
+    ("sidewalk.cli._blackboard", "blackboard_app", "blackboard"),
+    ("sidewalk.cli._bb", "bb_app", "bb"),
+    ("sidewalk.cli._sim", "sim_app", "sim"),
+    ("sidewalk.cli._bench", "bench_app", "bench"),
+    ("sidewalk.cli._perception", "perception_app", "perception"),
+    ("sidewalk.cli._security", "security_app", "security"),
+    ("sidewalk.cli._eddie", "eddie_app", "eddie"),
+    ("sidewalk.cli._roadfollow", "roadfollow_app", "roadfollow"),
+    ("sidewalk.cli._terrain", "terrain_app", "terrain"),
+]
+_COMMANDS = [
+    ("sidewalk.cli._run", "register"),
+    ("sidewalk.cli._monitor", "register"),
+    ("sidewalk.cli._mapbuild", "register"),
+    ("sidewalk.cli._compare", "register"),
+    ("sidewalk.cli._worldgen", "register"),
+]
+>>>>>>> bcee7afe77969595c142c4e71649140df51e7191
 
 @app.callback()
 def _top() -> None:

@@ -1,8 +1,9 @@
 """A colour camera: pinhole projection, sun shadows, slow global illumination change, pixel noise.
 
 The image is rendered by casting a level azimuth/elevation grid that covers the camera's field of
-view (`Scene.cast`) and resampling it to the pinhole pixels with a fixed `cv2.remap` (the vehicle
-stays level, so the map is computed once per camera). Frames: pixel rays in the `camera` optical
+view (`Scene.cast`) and resampling it to the pinhole pixels with a fixed `cv2.remap` (on flat worlds
+the vehicle stays level, so the map is computed once per camera; rolled and pitched on rough ground,
+`tilted_view` computes the grid and the remap for that attitude). Frames: pixel rays in the `camera` optical
 frame (x right, y down, z forward); `K` maps camera-frame points to pixels (u right, v down; pixel
 centres at integer coordinates).
 """
@@ -19,7 +20,8 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from vehicle_sim.scene import Scene
 
-__all__ = ["CameraConfig", "CameraModel", "CameraFrame", "Exposure", "camera_model", "illumination_gain", "shoot", "expose", "develop"]
+__all__ = ["CameraConfig", "CameraModel", "CameraFrame", "Exposure", "camera_model", "tilted_view", "illumination_gain", "shoot",
+           "expose", "develop"]
 
 #: Shadowed surfaces receive only skylight: a little bluer than sunlight (multiplies the ambient term).
 _SKY_TINT = np.array([0.90, 0.96, 1.12], np.float32)
@@ -86,6 +88,29 @@ def camera_model(config: CameraConfig, pitch_deg: float) -> CameraModel:
                        az.astype(np.float32), el.astype(np.float32))
 
 
+def tilted_view(model: CameraModel, roll: float, pitch: float) -> CameraModel:
+    """Return the camera's geometry on a vehicle rolled and pitched by `roll`, `pitch` [rad] (REP-103): grid and remap.
+
+    The pixel rays of `model` (level vehicle axes) are turned by Ry(pitch)·Rx(roll); the level az/el
+    grid is widened to cover them at the same angular step.
+    """
+    az, el = model.pixel_az.astype(np.float64), model.pixel_el.astype(np.float64)
+    d = np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], -1)
+    cr, sr, cp, sp = math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch)
+    R = np.array([[cp, 0.0, sp], [0.0, 1.0, 0.0], [-sp, 0.0, cp]]) @ np.array([[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
+    d = d @ R.T
+    taz = np.arctan2(d[..., 1], d[..., 0])
+    tel = np.arctan2(d[..., 2], np.hypot(d[..., 0], d[..., 1]))
+    step = float(model.grid_az[0] - model.grid_az[1])
+    az_hi, az_lo = taz.max() + step, taz.min() - step
+    el_hi, el_lo = tel.max() + step, tel.min() - step
+    wg = int(math.ceil((az_hi - az_lo) / step)) + 1
+    hg = int(math.ceil((el_hi - el_lo) / step)) + 1
+    return CameraModel(model.config, model.pitch_deg, model.K, az_hi - np.arange(wg) * step, el_hi - np.arange(hg) * step,
+                       ((az_hi - taz) / step).astype(np.float32), ((el_hi - tel) / step).astype(np.float32),
+                       taz.astype(np.float32), tel.astype(np.float32))
+
+
 @dataclass(frozen=True)
 class CameraFrame:
     """One colour image: `image` (height, width, 3) uint8 RGB; `labels` (height, width) uint8 class
@@ -132,13 +157,19 @@ class Exposure:
 
 
 def shoot(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: CameraModel,
-          rng: np.random.Generator) -> CameraFrame:
-    """Render the camera image from the camera origin (3,) [m] (world) at vehicle heading yaw [rad], sim time stamp [s]."""
-    return develop(expose(scene, origin, yaw, stamp, model), model, rng)
+          rng: np.random.Generator, attitude: tuple[float, float] = (0.0, 0.0)) -> CameraFrame:
+    """Render the camera image from the camera origin (3,) [m] (world) at vehicle heading yaw [rad], sim time stamp [s].
+
+    `attitude` is the vehicle's (roll, pitch) [rad] on rough ground; level by default.
+    """
+    return develop(expose(scene, origin, yaw, stamp, model, attitude), model, rng)
 
 
-def expose(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: CameraModel) -> Exposure:
+def expose(scene: Scene, origin: np.ndarray, yaw: float, stamp: float, model: CameraModel,
+           attitude: tuple[float, float] = (0.0, 0.0)) -> Exposure:
     """Render the noiseless image (see `shoot`); draws nothing from any generator, so it may run beside other work."""
+    if attitude[0] != 0.0 or attitude[1] != 0.0:
+        model = tilted_view(model, float(attitude[0]), float(attitude[1]))
     cfg = model.config
     hits = scene.cast(origin, yaw + model.grid_az, model.grid_el, reach=cfg.reach)
     alb = scene.albedo(hits, stamp)

@@ -4,6 +4,9 @@
 (`wire.capture.CaptureResult`, truth included) is self-describing, and the node sends it with
 `wire.capture.encode_capture`, truth only when the request asks for it.
 Frames: `vehicle` (x forward, y left, z up, origin on the ground), `laser`, `camera` (optical).
+On rough ground (a scene with terrain) the vehicle rests on its wheels (`vehicle_sim.ground_contact`):
+both sensors tilt with its roll and pitch, the capture carries the vehicle's inclinometer reading
+(`attitude`, with its error) and, as truth, the true attitude and the laser's full 3-D pose.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from wire.capture import CaptureRequest, CaptureResult
+from vehicle_sim.ground_contact import GroundPose, body_for, rest_on_ground
 from vehicle_sim.scene import Scene
 from vehicle_sim.sensors.camera import CameraConfig, camera_model, develop, expose
 from vehicle_sim.sensors.extrinsics import extrinsics_for, world_from_vehicle
@@ -30,6 +34,8 @@ __all__ = [
 _LASER_CFG = LaserConfig()
 _CAMERA_BASE = CameraConfig()
 _SIDE: tuple[int, ThreadPoolExecutor] | None = None
+#: The inclinometer's error (one sigma) [rad] on roll and pitch: an INS-grade 0.1°, assumed (the seeds give none).
+INCLINOMETER_SIGMA = math.radians(0.1)
 
 
 def _side() -> ThreadPoolExecutor:
@@ -42,11 +48,12 @@ def _side() -> ThreadPoolExecutor:
 
 def capture(scene: Scene, pose_world: tuple[float, float, float], stamp: float,
             request: CaptureRequest = CaptureRequest(), *, vehicle: str = "navlab",
-            rng: np.random.Generator | None = None) -> CaptureResult:
+            rng: np.random.Generator | None = None, ground: GroundPose | None = None) -> CaptureResult:
     """Capture the requested sensors with the vehicle at `pose_world` (x [m], y [m], yaw [rad]) at sim time `stamp` [s].
 
     Sensor noise comes from `rng`; without one it is derived from the scene seed and the stamp, so
-    the same seed, pose and stamp give the same frames.
+    the same seed, pose and stamp give the same frames. On rough ground the vehicle rests as `ground`
+    says (the simulator's), or as `ground_contact.rest_on_ground` finds it on the scene.
     """
     x, y, yaw = (float(v) for v in pose_world)
     if not all(math.isfinite(v) for v in (x, y, yaw, float(stamp))):
@@ -54,8 +61,13 @@ def capture(scene: Scene, pose_world: tuple[float, float, float], stamp: float,
     ext = extrinsics_for(vehicle)
     if rng is None:
         rng = np.random.default_rng([scene.seed, 0xCA97, int(round(float(stamp) * 1e6)) & 0xFFFFFFFFFFFF])
-    z = float(scene.elevation(np.array([[x, y]]))[0])
-    w_v = world_from_vehicle(x, y, yaw, z)
+    attitude = (0.0, 0.0)
+    if scene.terrain is not None:
+        ground = ground if ground is not None else rest_on_ground(scene.elevation, x, y, yaw, body_for(vehicle))
+        z, attitude = ground.z, (ground.roll, ground.pitch)
+    else:
+        z = float(scene.elevation(np.array([[x, y]]))[0])
+    w_v = world_from_vehicle(x, y, yaw, z, *attitude)
     laser_cfg = _LASER_CFG
     az, el = laser_angles(laser_cfg)
     cam_cfg = _CAMERA_BASE
@@ -68,14 +80,19 @@ def capture(scene: Scene, pose_world: tuple[float, float, float], stamp: float,
         T_vehicle_laser=ext.vehicle_from_laser.matrix, T_vehicle_camera=ext.vehicle_from_camera.matrix,
         camera_K=model.K.copy(), laser_az=az.astype(np.float32), laser_el=el.astype(np.float32),
     )
+    if scene.terrain is not None:  # the inclinometer draws from its own generator: the sensors' draws are unchanged
+        tilt = np.random.default_rng([scene.seed, 0x1C71, int(round(float(stamp) * 1e6)) & 0xFFFFFFFFFFFF])
+        out.update(attitude=(np.asarray(attitude) + tilt.normal(0.0, INCLINOMETER_SIGMA, 2)).astype(np.float32),
+                   truth_attitude=np.asarray(attitude, np.float64),
+                   truth_world_laser=w_v.compose(ext.vehicle_from_laser).matrix)
     lf = None
     cam_origin = w_v.apply(np.asarray(ext.camera_position))
     exposing = None
     if request.laser and request.camera:  # the camera renders on the side while the laser scans
-        exposing = _side().submit(expose, scene, cam_origin, yaw, float(stamp), model)
+        exposing = _side().submit(expose, scene, cam_origin, yaw, float(stamp), model, attitude)
     if request.laser:
         try:
-            lf = scan(scene, w_v.apply(np.asarray(ext.laser_position)), yaw, laser_cfg, rng)
+            lf = scan(scene, w_v.apply(np.asarray(ext.laser_position)), yaw, laser_cfg, rng, attitude)
         except BaseException:
             if exposing is not None:
                 exposing.exception()  # let the side render end before the error leaves
@@ -87,7 +104,7 @@ def capture(scene: Scene, pose_world: tuple[float, float, float], stamp: float,
                    laser_mixed=lf.mixed)
     if request.camera:
         # the laser draws from `rng` first, then the camera's noise: the same order as rendering one after the other
-        exp = exposing.result() if exposing is not None else expose(scene, cam_origin, yaw, float(stamp), model)
+        exp = exposing.result() if exposing is not None else expose(scene, cam_origin, yaw, float(stamp), model, attitude)
         cf = develop(exp, model, rng)
         out.update(camera_image=cf.image, camera_labels=cf.labels)
         if lf is not None:

@@ -1,8 +1,9 @@
 """Known mounting poses of the sensors on the vehicle, and rigid transforms between frames.
 
 Frames (REP-103 axes): `world` (x east, y north, z up) [m]; `vehicle` (origin on the ground under the
-rear-axle centre, x forward, y left, z up; the vehicle stays level: pose (x, y, yaw) with z the
-ground height under the origin); `laser` (origin at the scanner, axes parallel to `vehicle`: the
+rear-axle centre, x forward, y left, z up; on flat worlds the vehicle stays level: pose (x, y, yaw)
+with z the ground height under the origin; on rough ground it also rolls and pitches with the wheel
+plane, `vehicle_sim.ground_contact`); `laser` (origin at the scanner, axes parallel to `vehicle`: the
 scanner's azimuth axis is vertical and its elevation window is set by `LaserConfig.tilt_deg`);
 `camera` (optical frame: origin at the projection centre, x right, y down, z along the optical axis,
 pitched down by `pitch_deg`).
@@ -67,6 +68,11 @@ def _rot_z(a: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def _rot_x(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]])
+
+
 def _rot_y(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
@@ -76,14 +82,19 @@ def _rot_y(a: float) -> np.ndarray:
 _OPTICAL = np.array([[0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0, -1.0, 0.0]])
 
 
-def world_from_vehicle(x: float, y: float, yaw: float, z: float = 0.0) -> Transform:
-    """Return `world ← vehicle` for a level vehicle at (x, y) [m], heading `yaw` [rad], ground height z [m]."""
-    return Transform(_rot_z(yaw), np.array([x, y, z], np.float64))
+def world_from_vehicle(x: float, y: float, yaw: float, z: float = 0.0, roll: float = 0.0, pitch: float = 0.0) -> Transform:
+    """Return `world ← vehicle` at (x, y) [m], heading `yaw` [rad], ground height z [m], roll and pitch [rad].
+
+    R = Rz(yaw)·Ry(pitch)·Rx(roll) (REP-103: roll > 0 left side up, pitch > 0 nose down); level by default.
+    """
+    if roll == 0.0 and pitch == 0.0:
+        return Transform(_rot_z(yaw), np.array([x, y, z], np.float64))
+    return Transform(_rot_z(yaw) @ _rot_y(pitch) @ _rot_x(roll), np.array([x, y, z], np.float64))
 
 
-def vehicle_from_world(x: float, y: float, yaw: float, z: float = 0.0) -> Transform:
+def vehicle_from_world(x: float, y: float, yaw: float, z: float = 0.0, roll: float = 0.0, pitch: float = 0.0) -> Transform:
     """Return `vehicle ← world`, the inverse of `world_from_vehicle`."""
-    return world_from_vehicle(x, y, yaw, z).inverse()
+    return world_from_vehicle(x, y, yaw, z, roll, pitch).inverse()
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,8 @@ modulation, so it is known only modulo the ambiguity interval (2^8 steps of 8 cm
 reported as an 8-bit code. Noise grows with range and falls with the returned energy; at depth
 discontinuities the footprint straddles two surfaces and the measured phase is that of the sum of
 both returns (mixed points). Frames: rays are built in the `laser` frame (axes parallel to `vehicle`,
-azimuth about the vertical, elevation window centred on `tilt_deg`).
+azimuth about the vehicle's vertical, elevation window centred on `tilt_deg`); a vehicle rolled or
+pitched by rough ground tilts them, and each ray is then cast on its own (`Scene.cast_rays`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from vehicle_sim.scene import Hits, Scene
+from vehicle_sim.sensors.extrinsics import world_from_vehicle
 
 __all__ = [
     "LaserConfig",
@@ -180,10 +182,21 @@ def depth_edges(r: np.ndarray, cfg: LaserConfig) -> tuple[np.ndarray, np.ndarray
     return edge, nb
 
 
-def scan(scene: Scene, origin: np.ndarray, yaw: float, cfg: LaserConfig, rng: np.random.Generator) -> LaserFrame:
-    """Scan the scene from the laser origin (3,) [m] (world frame) with the vehicle heading yaw [rad]."""
+def scan(scene: Scene, origin: np.ndarray, yaw: float, cfg: LaserConfig, rng: np.random.Generator,
+         attitude: tuple[float, float] = (0.0, 0.0)) -> LaserFrame:
+    """Scan the scene from the laser origin (3,) [m] (world frame) with the vehicle heading yaw [rad].
+
+    `attitude` is the vehicle's (roll, pitch) [rad] (REP-103) on rough ground; level by default.
+    """
     az, el = _angles(cfg)
-    hits: Hits = scene.cast(origin, yaw + az, el)
+    roll, pitch = (float(a) for a in attitude)
+    tilted = roll != 0.0 or pitch != 0.0
+    if tilted:
+        R = world_from_vehicle(0.0, 0.0, yaw, 0.0, roll, pitch).R
+        tilted_dirs = (laser_directions(cfg).astype(np.float64) @ R.T).astype(np.float32)
+        hits: Hits = scene.cast_rays(origin, tilted_dirs)
+    else:
+        hits = scene.cast(origin, yaw + az, el)
     H, W = cfg.rows, cfg.cols
     r_true = hits.rng.astype(np.float64)
     in_range = hits.hit & (r_true <= cfg.max_range)
@@ -191,7 +204,10 @@ def scan(scene: Scene, origin: np.ndarray, yaw: float, cfg: LaserConfig, rng: np
     # effective reflectance: material reflectance × cos(incidence)
     dirs_l = laser_directions(cfg)
     c, s = math.cos(yaw), math.sin(yaw)
-    dirs_w = np.stack([c * dirs_l[..., 0] - s * dirs_l[..., 1], s * dirs_l[..., 0] + c * dirs_l[..., 1], dirs_l[..., 2]], -1)
+    if tilted:
+        dirs_w = tilted_dirs
+    else:
+        dirs_w = np.stack([c * dirs_l[..., 0] - s * dirs_l[..., 1], s * dirs_l[..., 0] + c * dirs_l[..., 1], dirs_l[..., 2]], -1)
     cos_i = np.abs(np.sum(hits.normal * dirs_w, axis=-1))
     rho = scene.mat_refl[np.maximum(hits.material, 0)] * np.clip(cos_i, 0.05, 1.0)
     rho = np.where(in_range, rho, 0.0)

@@ -10,7 +10,8 @@ import numpy as np
 
 from wire.mapfile.appearance import Sun, Weather
 from wire.mapfile.features import PathEdge, PathNode, StartPose, WorldObject
-from wire.mapfile.problems import WorldFileError
+from wire.mapfile.problems import Problem, WorldFileError
+from wire.terrainfile import TerrainRaster, TerrainRef
 from wire.mapfile.references import cross_check
 
 __all__ = ["MapFile"]
@@ -36,8 +37,15 @@ class MapFile:
         source: str = "<memory>",
         weather: Weather | None = None,
         actors: Iterable[dict] = (),
+        terrain: TerrainRef | None = None,
+        terrain_raster: TerrainRaster | None = None,
     ) -> None:
         self.name = name
+        #: the optional `terrain` entry (a raster file beside this one, `wire.terrainfile`) and its raster, loaded
+        self.terrain: TerrainRef | None = terrain
+        self.terrain_raster: TerrainRaster | None = terrain_raster
+        if (terrain is None) != (terrain_raster is None):
+            raise WorldFileError(source, [Problem(field="terrain", message="a terrain entry needs its raster, and a raster its entry")])
         #: objects not on the map (the world file's optional `actors` list, truth for the simulator only):
         #: kept as written; `vehicle_sim.worldfile.World` validates them
         self.actors: tuple[dict, ...] = tuple(actors)
@@ -125,6 +133,8 @@ class MapFile:
             coll["weather"] = self.weather.model_dump()
         if self.actors:
             coll["actors"] = list(self.actors)
+        if self.terrain is not None:
+            coll["terrain"] = self.terrain.model_dump()
         feats = [o.to_feature() for o in self.objects]
         feats += [n.to_feature() for n in self.nodes]
         feats += [e.to_feature() for e in self.edges]

@@ -78,7 +78,7 @@ SHAPES_BY_KIND: dict[str, tuple[str, ...]] = {
     "building": ("prism",),
     "hedge": ("prism",),
     "wall": ("prism",),
-    "rock": ("prism", "post"),
+    "rock": ("prism", "post", "flat"),  # flat: a rock of a terrain world, its shape in the terrain raster
     "tree": ("tree",),
     "mailbox": ("post", "prism"),
     "lamp_post": ("post",),

@@ -22,6 +22,7 @@ from wire.mapfile.kinds import OBJECT_KINDS, SHAPES_BY_KIND, EdgeMode
 from wire.mapfile.problems import Problem, WorldFileError
 from wire.mapfile.references import cross_check
 from wire.mapfile.shapes import FlatShape, PostShape, Shape, SlopeShape, StairsShape, TreeShape
+from wire.terrainfile import TerrainFileError, TerrainRef, load_terrain
 
 __all__ = ["WORLDS_DIR", "WORLD_ONLY_FIELDS", "world_path", "load_map_file", "parse_map_file"]
 
@@ -168,6 +169,19 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
             weather = Weather.model_validate(data["weather"])
         except ValidationError as exc:
             problems += _pyd_problems(exc, None, None, "weather")
+    terrain, terrain_raster = None, None
+    if "terrain" in data:
+        try:
+            terrain = TerrainRef.model_validate(data["terrain"])
+        except ValidationError as exc:
+            problems += _pyd_problems(exc, None, None, "terrain")
+        else:
+            base = Path(source).parent if Path(source).is_file() else Path.cwd()
+            try:
+                terrain_raster = load_terrain(base / terrain.file)
+            except TerrainFileError as exc:
+                problems.append(Problem(field="terrain.file", message=str(exc)))
+                terrain = None
     actors = data.get("actors", [])
     if not isinstance(actors, list) or not all(isinstance(a, dict) for a in actors):
         problems.append(Problem(field="actors", message="must be a list of actor objects ({\"id\", \"kind\", \"path\", …})"))
@@ -207,7 +221,9 @@ def parse_map_file(text: str | dict, *, source: str = "<string>", factory: Calla
         problems.append(p)
     if problems:
         raise WorldFileError(source, problems)
-    extra = {"actors": actors} if actors else {}
+    extra: dict[str, Any] = {"actors": actors} if actors else {}
+    if terrain is not None:
+        extra.update(terrain=terrain, terrain_raster=terrain_raster)
     return (factory or MapFile)(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source,
                                 weather=weather, **extra)
 

@@ -205,15 +205,11 @@ class Simulator:
         if len(self.actors) and self._check_actors(new) and self.config.collisions_block:
             new = VehicleState(x=prev.x, y=prev.y, yaw=prev.yaw, v=0.0, kappa=prev.kappa, omega=0.0)
             ds = 0.0
-<<<<<<< HEAD
-        dyaw = wrap_angle(new.yaw - prev.yaw)
-=======
         if self._body is not None and self._check_terrain(new) and self.config.collisions_block:
             new = VehicleState(x=prev.x, y=prev.y, yaw=prev.yaw, v=0.0, kappa=prev.kappa, omega=0.0)
             ds = 0.0
             self.ground = rest_on_ground(self.world.elevation, new.x, new.y, new.yaw, self._body)
-        dyaw = (new.yaw - prev.yaw + math.pi) % (2.0 * math.pi) - math.pi
->>>>>>> bcee7afe77969595c142c4e71649140df51e7191
+        dyaw = wrap_angle(new.yaw - prev.yaw)
         self.odom = odometry_step(self.odom, ds, dyaw, self.dt, self.config.odometry, self._noise.pair())
         self.state = new
         return self.drain_events()

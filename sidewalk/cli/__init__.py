@@ -56,6 +56,8 @@ COMMANDS: tuple[LazyCommand, ...] = (
     LazyCommand("compare", "sidewalk.cli._compare", "register",
                 "Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables "
                 "and plots."),
+    LazyCommand("worldgen", "sidewalk.cli._worldgen", "register",
+                "Generate a world of KIND from a seed: the world and its map (with their terrain rasters) and a mission across it."),
     LazyCommand("compare-check", "sidewalk.cli._compare", "register",
                 "Hold two grids of the same command against each other: does each median lie within the other's range? Exit 1 "
                 "if not."),
@@ -71,6 +73,7 @@ COMMANDS: tuple[LazyCommand, ...] = (
     LazyCommand("eddie", "sidewalk.cli._eddie", "eddie_app", "EDDIE: annotated maps (compile a mission into triggers, inspect a file)."),
     LazyCommand("roadfollow", "sidewalk.cli._roadfollow", "roadfollow_app",
                 "Road following as the Navlab did it: SCARF, YARF, ALVINN (data set, training, evaluation)."),
+    LazyCommand("terrain", "sidewalk.cli._terrain", "terrain_app", "Terrain from the laser: elevation maps scored against the truth raster."),
 )
 _BY_NAME = {c.name: c for c in COMMANDS}
 
@@ -130,29 +133,6 @@ app = typer.Typer(
     cls=_LazyGroup,
 )
 
-<<<<<<< HEAD
-=======
-# (module, attribute, name) — each area registers its commands in its own file.
-_SUBAPPS = [
-    ("sidewalk.cli._router", "router_app", "router"),
-    ("sidewalk.cli._blackboard", "blackboard_app", "blackboard"),
-    ("sidewalk.cli._bb", "bb_app", "bb"),
-    ("sidewalk.cli._sim", "sim_app", "sim"),
-    ("sidewalk.cli._bench", "bench_app", "bench"),
-    ("sidewalk.cli._perception", "perception_app", "perception"),
-    ("sidewalk.cli._security", "security_app", "security"),
-    ("sidewalk.cli._eddie", "eddie_app", "eddie"),
-    ("sidewalk.cli._roadfollow", "roadfollow_app", "roadfollow"),
-    ("sidewalk.cli._terrain", "terrain_app", "terrain"),
-]
-_COMMANDS = [
-    ("sidewalk.cli._run", "register"),
-    ("sidewalk.cli._monitor", "register"),
-    ("sidewalk.cli._mapbuild", "register"),
-    ("sidewalk.cli._compare", "register"),
-    ("sidewalk.cli._worldgen", "register"),
-]
->>>>>>> bcee7afe77969595c142c4e71649140df51e7191
 
 @app.callback()
 def _top() -> None:

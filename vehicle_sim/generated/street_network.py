@@ -21,6 +21,8 @@ import numpy as np
 import shapely
 from pydantic import BaseModel, ConfigDict, Field
 
+from wire.se2 import wrap_angle
+
 __all__ = ["NetworkParams", "Junction", "Street", "StreetNetwork", "draw_network", "ARC_STEP_M"]
 
 #: Spacing [m] of the points sampled along a bend.
@@ -182,7 +184,7 @@ def draw_network(rng: np.random.Generator, p: NetworkParams) -> StreetNetwork | 
             street(f"{jid}_{arm}", jid, pid, np.vstack([xy, end]), False)
             arms.append(heads[arm])
         junctions.append(Junction(jid, (round(float(xy[0]), 3), round(float(xy[1]), 3)), round(angle, 2), turns[i], kinds[i],  # type: ignore[arg-type]
-                                  tuple(math.remainder(a, 2.0 * math.pi) for a in arms)))
+                                  tuple(wrap_angle(a) for a in arms)))
         route.append(jid)
         pos, h = xy, heads[take]
     final = float(rng.uniform(*p.final_leg_m))

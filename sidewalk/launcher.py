@@ -260,6 +260,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
     kept_from, kept_to = submitted_sim - RECORD_LEAD_S, (math.inf if rest is None else max(rest, ended_sim) + RECORD_LEAD_S)
     return RunRecord(
         architecture=cfg.arch, mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
+        world_file=str(Path(cfg.world).resolve()) if Path(cfg.world).suffix in (".geojson", ".json") else None,
         perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
         rtf_requested=cfg.rtf, time_mode=cfg.time_mode, destinations=setup.destinations, lane_offsets=setup.lane_offsets,
         goal_points=setup.goal_points,

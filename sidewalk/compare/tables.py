@@ -42,6 +42,21 @@ def _table(head: list[str], rows: list[list[str]]) -> list[str]:
     return ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|", *("| " + " | ".join(r) + " |" for r in rows)]
 
 
+def _layouts(c: Comparison) -> list[str]:
+    """Return the generated layouts' section: totals per kind and architecture, then a row per layout."""
+    kinds = ", ".join(dict.fromkeys(f"{t.kind}" for t in c.layout_totals))
+    out = ["## Generated layouts", "",
+           f"Layouts of `sidewalk worldgen` ({kinds}), seeds 0..N-1, one mission each (start to the delivery mailbox); "
+           "success by truth; goal error median and 90th percentile over the layouts that reported one.", ""]
+    rows = [[t.kind, t.architecture, "with" if t.actors else "without", f"{t.successes}/{t.layouts}", _num(t.goal_error_median_m),
+             _num(t.goal_error_p90_m), str(t.collisions)] for t in c.layout_totals]
+    out += _table(["kind", "arch", "actors", "success (truth)", "goal error median [m]", "goal error p90 [m]", "collisions"], rows) + [""]
+    rows = [[r.layout, r.architecture, "with" if r.actors else "without", str(r.seed), "✔" if r.success else "✘", _num(r.goal_error_m),
+             str(r.collisions), r.reason[:100]] for r in c.layouts]
+    out += ["Per layout:", ""] + _table(["layout", "arch", "actors", "seed", "truth", "goal error [m]", "collisions", "why it failed"], rows)
+    return out + [""]
+
+
 def render_markdown(c: Comparison, command: str = "") -> str:
     """Return compare.md for a comparison."""
     archs = list(c.summary)
@@ -106,11 +121,13 @@ def render_markdown(c: Comparison, command: str = "") -> str:
                         "counted apart (the last column; the run mode's cost, not the architecture's); the CPU they took cannot "
                         "be told apart and is in the CPU figures. Compare the architectures' cost on a real-time grid "
                         "(`--realtime`).", ""]
+    if c.layouts:
+        out += _layouts(c)
     out += ["## Runs", ""]
     rows = []
     for r in c.runs:
         m = r.measures
-        what = r.fault or (f"v≤{r.max_speed:g}" if r.max_speed else "")
+        what = r.fault or (f"v≤{r.max_speed:g}" if r.max_speed else ("actors" if r.actors else ""))
         if m is None:
             rows.append([r.architecture, Path(r.mission).stem, str(r.seed), what, "✘ no report", "–", "–", "–", "–", "–", r.error[:80]])
             continue

@@ -63,6 +63,7 @@ async def _submitted_triggers(ns: str, ep: str) -> tuple[list[tuple[str, str]], 
     return [(t.annotation_id, t.trigger_type) for t in fired], fired
 
 
+@pytest.mark.missions
 @pytest.mark.timeout(1500)  # ~310 s on a busy machine (two AMV runs at RTF 5 with vision); no quiet figure yet
 def test_a_mission_submitted_to_an_eddie_system_started_with_up_fires_the_launched_runs_triggers(tmp_path: Path) -> None:
     launched = _launched_triggers(tmp_path / "run")

@@ -18,6 +18,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from sidewalk.compare.errors import CompareError
+from wire.summary import percentile
 
 __all__ = ["Layout", "LayoutRow", "LayoutTotal", "parse_generated", "write_layouts", "layout_rows", "layout_totals"]
 
@@ -136,6 +137,6 @@ def layout_totals(rows: Sequence[LayoutRow]) -> list[LayoutTotal]:
         err = np.array([r.goal_error_m for r in mine if r.goal_error_m is not None and math.isfinite(r.goal_error_m)], float)
         out.append(LayoutTotal(kind=kind, architecture=arch, actors=actors, layouts=len(mine), successes=sum(r.success for r in mine),
                                goal_error_median_m=round(float(np.median(err)), 3) if err.size else None,
-                               goal_error_p90_m=round(float(np.percentile(err, 90)), 3) if err.size else None,
+                               goal_error_p90_m=percentile(err, 90, digits=3),
                                collisions=sum(r.collisions for r in mine)))
     return out

@@ -11,7 +11,7 @@ included) per wall second [core]:
   waits for nothing but wall time;
 - `module_napping_cpu_core`: the same module napping `nap_s` [s sim] in a loop (`clock.sleep`), as a
   switched module's cycle does;
-- `codger_waiting_cpu_core`: a CODGER module (`modules.runtime.run_module`) that waits.
+- `codger_waiting_cpu_core`: a CODGER module (`runtime.run_module`) that waits.
 
 Beside them `clock_ticks_per_s` [1/s wall] and `naps_per_s` [1/s wall]. A module that waits
 should cost what the floor does: the ticks it hears, nothing more.
@@ -74,7 +74,7 @@ async def _eddie(net: NetworkConfig, seconds: float, nap_s: float) -> tuple[floa
 
 
 def _codger(net: NetworkConfig, seconds: float) -> float:
-    from modules.runtime.lifecycle import run_module
+    from runtime.lifecycle import run_module
 
     out: list[float] = []
 
@@ -85,7 +85,7 @@ def _codger(net: NetworkConfig, seconds: float) -> float:
         out.append((time.process_time() - c0) / (time.monotonic() - t0))
 
     with open(os.devnull, "w") as devnull:
-        run_module("bench-clock", body, net, use_blackboard=False, install_signals=False, stdout=devnull)
+        run_module("bench-clock", body, net, install_signals=False, stdout=devnull)
     return out[0]
 
 

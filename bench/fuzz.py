@@ -131,7 +131,7 @@ async def _still_serving(net: NetworkConfig, link: Link, why: dict[str, str]) ->
     from eddie.messages.map_manager import AnnotationQuery
     from eddie.messages.navigator import WorldFromLocal, WorldFromLocalQuery
     from eddie.toolkit import Module
-    from modules.captain.client import MissionClient, MissionRejected
+    from sidewalk.mission_client import MissionClient, MissionRejected
     from modules.vocabulary import MapPlaces
 
     ok: dict[str, bool] = {}

@@ -8,7 +8,7 @@
   cores; `load_avg_1min` says how busy the machine was);
 - `laser_ms_p50`, `camera_ms_p50`: the two sensors alone [ms];
 - `obstacle_check_ms_p50`: OBSTACLE STOP's check of each of those laser images
-  (`eddie.modules.obstacle_stop.obstacle_ahead`: the points in the corridor along the path ahead, at
+  (`eddie.obstacle_stop.obstacle_stop.obstacle_ahead`: the points in the corridor along the path ahead, at
   2 m/s; the scan as the module gets it, without reflectance) [ms] wall;
 - `step_us_p50`, `step_us_p95`: one `Simulator.step()` (kinematics, odometry, watchdog, ground checks) [µs];
 - `rtf_reached`: sim seconds per wall second of the pure simulator loop — physics at 100 Hz driving
@@ -60,7 +60,7 @@ def run(world: str = "campus", frames: int = 100) -> dict:
     """Benchmark the simulator on `world` (name or file) with `frames` captures; return the figures."""
     from dataclasses import replace
 
-    from eddie.modules.obstacle_stop import obstacle_ahead
+    from eddie.obstacle_stop.obstacle_stop import obstacle_ahead
     from modules.perception.obstacles import LaserScan
     from wire.drive import DriveCommand
     from vehicle_sim.scene import Scene

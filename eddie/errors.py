@@ -4,7 +4,7 @@ from __future__ import annotations
 
 __all__ = [
     "EddieError", "LinkError", "LinkTimeout", "NoSuchModule", "BadMessage", "UnknownMessageType",
-    "ServiceError", "SystemConfigError", "SupervisorError", "ControlRefused",
+    "ServiceError", "ControlRefused",
 ]
 
 
@@ -39,14 +39,6 @@ class UnknownMessageType(BadMessage):
 
 class ServiceError(EddieError):
     """A service answered with an error (the message names the module, service and the reason)."""
-
-
-class SystemConfigError(EddieError, ValueError):
-    """A bad system configuration file (the message names the file and the field)."""
-
-
-class SupervisorError(EddieError, RuntimeError):
-    """A configured module could not be started, or is not known to the supervisor."""
 
 
 class ControlRefused(EddieError):

@@ -3,10 +3,13 @@
 The run uses the CODGER run's router, simulator, recorder and monitor processes and the same
 `prepare_run` / `record_run` / `build_report`; what differs is the process plan and the observer:
 
-- the mission compiles into an annotated map (`eddie.missions`, along the MAP NAVIGATOR's route)
-  written as `annotated_map.geojson` into the run's out dir, which the map manager loads at start;
+- the mission compiles into trigger annotations (`eddie.missions`, along the MAP NAVIGATOR's route) in the
+  mission service when it is submitted, which hands them to the map manager (started empty) before it accepts
+  the mission — as for a mission submitted to a system started with `sidewalk up`; the launcher compiles it
+  too, first, so a mission that does not compile is a launch error, and writes it as `annotated_map.geojson`
+  into the run's out dir for the record (each step's route for the report);
 - the processes are the controller, the navigator (told the start belief as `world` ← `local`), the
-  map manager, the mission service (`eddie.modules.mission_service`: answers the CAPTAIN's mission
+  map manager, the mission service (`eddie.mission_service.mission_service`: answers the CAPTAIN's mission
   submit / status / cancel keys and publishes the mission events, so `sidewalk submit` works
   unchanged) and, unless `--no-perception`, vision road following, landmark matching and obstacle stop;
 - the observer follows the mission on the mission events stream (not a blackboard monitor), takes
@@ -22,32 +25,30 @@ from collections import deque
 import logging
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Optional
+from typing import Optional
 
 from pydantic import ValidationError
 
-from modules.runtime import Link
 from modules.vocabulary import MissionStatus
 from sidewalk.observers import observer_plans
 from sidewalk.eddie_observe import subscribe_eddie
-from sidewalk.health import BeatLog
 from sidewalk.recorder import Recorder
+from sidewalk.run_setup import LaunchError, RunConfig, RunSetup, road_method_flags, vision_flags
 from sidewalk.run_record import FiredTrigger, RecordedPlan, StampedStatus
 from sidewalk.supervisor import ProcessPlan
 from sidewalk.system import SystemRun
-from wire.keys import EddieKeys, MissionKeys, ModuleKeys
+from wire.keys import EddieKeys, MissionKeys
 from wire.se2 import compose
-
-if TYPE_CHECKING:
-    from sidewalk.launcher import RunSetup
 
 log = logging.getLogger(__name__)
 
-__all__ = ["EDDIE_MODULES", "EDDIE_PERCEPTION_MODULES", "ANNOTATED_MAP_NAME", "eddie_plans", "EddieSystemRun",
+__all__ = ["EDDIE_MODULES", "EDDIE_PERCEPTION_MODULES", "ANNOTATED_MAP_NAME", "EddieArchitecture", "eddie_plans", "EddieSystemRun",
            "PoseComposer", "compile_annotated_map", "route_plans"]
 
-#: The annotated map's file name in a run's output directory.
+#: The annotated map's file name in a run's output directory (the mission compiled at launch, for the record).
 ANNOTATED_MAP_NAME = "annotated_map.geojson"
+#: The map manager's state file in a run's output directory.
+MAP_MANAGER_STATE = "map_manager.state.json"
 
 #: EDDIE's always-on modules in start order (the consumers before the producers).
 EDDIE_MODULES = ("controller", "navigator", "map_manager", "mission_service")
@@ -84,11 +85,10 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
         ProcessPlan("controller", ("-m", "sidewalk", "up", "controller", "--vehicle", vehicle, *cap, *zflags)),
         ProcessPlan("navigator", ("-m", "sidewalk", "up", "navigator", f"--start-pose={sx},{sy},{syaw}", *zflags)),
     ]
-    if annotated_map is not None:
-        # its state file beside the run's annotated map: the manager restarted by a fault or the supervisor takes it up
-        state = Path(annotated_map).with_name("map_manager.state.json")
-        plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--annotated-map", str(annotated_map),
-                                                 "--state", str(state), *zflags)))
+    # the map manager starts empty: the mission service compiles each submitted mission and hands it the annotations;
+    # its state file in the run's out dir, which a manager restarted by a fault or the supervisor takes up
+    plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--state", str(Path(out) / MAP_MANAGER_STATE),
+                                             *zflags)))
     if perception:
         # obstacle stop sleeps until the route's `start_obstacles` triggers switch it on (issue 12)
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),
@@ -176,21 +176,12 @@ class EddieSystemRun(SystemRun):
         self.triggers: list[FiredTrigger] = []
         self._status_q: asyncio.Queue[MissionStatus] = asyncio.Queue()
 
-    async def start(self, *, on_starting: Callable[[str], None] | None = None, ready_timeout: float = 60.0) -> None:
-        """Start every process in order, then subscribe to the mission events, the pose parts and the triggers."""
-        for plan in self.plans.values():
-            if on_starting:
-                on_starting(plan.name)
-            await self.sup.start(plan, ready_timeout=ready_timeout)
-        self.link = Link.open(self.net)
-        self._beats = BeatLog(self.link, ModuleKeys(self.ns))  # heard from the first moment, as `SystemRun.start`
-        self.recorder = Recorder(self.link, None, self.ns, estimator=self.pose.at, lockstep=self.lockstep)
-        self.recorder.start()
-        await self.recorder.wait_clock()
-        # every process's first heartbeat heard, so a fault injected at once still counts the first life's cost
-        missing = await self.recorder.wait_usage(set(self.plans) - {"recorder", "monitor"}, timeout=5.0)
-        if missing:
-            log.warning("no heartbeat with usage yet from %s: their costs may miss this life", ", ".join(sorted(missing)))
+    async def _recorder(self) -> Recorder:
+        """Return the run's recorder, its estimate what the EDDIE modules believe (`PoseComposer`); no blackboard."""
+        return Recorder(self.link, None, self.ns, estimator=self.pose.at, lockstep=self.lockstep)
+
+    async def _follow(self) -> None:
+        """Follow the mission events stream, the pose parts and the triggers fired."""
         self.link.subscribe(MissionKeys(self.ns).events, self._on_status)
         subscribe_eddie(self.link, EddieKeys(self.ns), self.pose, self.triggers)
 
@@ -249,7 +240,7 @@ def route_plans(annotated_map: Path, *, stamp: float) -> list[RecordedPlan]:
     return plans
 
 
-def compile_annotated_map(setup: "RunSetup", out: Path) -> Optional[Path]:
+def compile_annotated_map(setup: RunSetup, out: Path) -> Path:
     """Compile the run's mission into trigger annotations along the MAP NAVIGATOR's route; write and return the file.
 
     The compiler is `eddie.missions` (it plans the route on the map the robot gets, `setup.map_file`,
@@ -257,7 +248,6 @@ def compile_annotated_map(setup: "RunSetup", out: Path) -> Optional[Path]:
     """
     from eddie.annotated_map.geojson_file import save_annotations
     from eddie.missions import MissionCompileError, compile_mission_files
-    from sidewalk.launcher import LaunchError
 
     path = Path(out) / ANNOTATED_MAP_NAME
     try:
@@ -266,3 +256,28 @@ def compile_annotated_map(setup: "RunSetup", out: Path) -> Optional[Path]:
         raise LaunchError(f"--arch eddie: {setup.mission_file}: {exc}") from None
     save_annotations(path, compiled.annotations, name=f"{compiled.mission} on {compiled.map_name}")
     return path
+
+
+class EddieArchitecture:
+    """EDDIE behind the seam: the mission compiled for the record before start, `eddie_plans`, `EddieSystemRun` observing."""
+
+    name = "eddie"
+
+    def prepare(self, setup: RunSetup, out: Path) -> Path:
+        """Compile the mission into the annotated map kept in `out` (a mission that does not compile: LaunchError); return its path."""
+        return compile_annotated_map(setup, out)
+
+    def plans(self, cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str, prepared: Path) -> list[ProcessPlan]:
+        """Return EDDIE's processes in start order (`eddie_plans`)."""
+        return eddie_plans(
+            out=Path(cfg.out), ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
+            watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
+            map_file=setup.map_file, annotated_map=prepared, perception=cfg.perception, record=cfg.record,
+            monitor_port=cfg.monitor_port, secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
+            road_method=road_method_flags(cfg, setup) + vision_flags(cfg))  # issues 13, 41
+
+    def system(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path, prepared: Path, secure: Path | None,
+               lockstep: bool) -> EddieSystemRun:
+        """Return the observer of the run: `EddieSystemRun` (no blackboard; the route from the annotated map)."""
+        return EddieSystemRun(plans, ns=ns, endpoint=endpoint, log_dir=log_dir, annotated_map=prepared, secure=secure,
+                              lockstep=lockstep)

@@ -1,9 +1,10 @@
-"""`sidewalk run`: the router, the blackboard node, the simulator and every module as OS processes on loopback.
+"""`sidewalk run`: the router, the simulator and every module of an architecture as OS processes on loopback.
 
-The launcher gives the MAP NAVIGATOR the shipped map or one derived with `--map-error`, starts the
-PILOT from the mission's (or else the map's) start plus `--pose-error`, starts each process and
-waits for its ready line, submits the mission to the CAPTAIN over Zenoh (as `sidewalk submit`
-does), follows the mission status on the blackboard, records the run (truth, estimates, events,
+The launcher is the same for CODGER and EDDIE (`sidewalk.architecture`: what each prepares, its process
+plans and its observer). It gives the robot the shipped map or one derived with `--map-error`, its start
+from the mission's (or else the map's) start plus `--pose-error`, starts each process and waits for its
+ready line, submits the mission to the mission service over Zenoh (as `sidewalk submit` does), follows
+the mission status (the architecture's observer), records the run (truth, estimates, events,
 statuses, route plans, heartbeats) into a `RunRecord`, builds the report from it, and stops
 everything — also on Ctrl-C.
 """
@@ -15,26 +16,26 @@ import os
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Callable, Literal, Optional
+from typing import Callable, Optional
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
 from shapely import LineString, Point
-from sidewalk.observers import RECORDING_NAME, observer_plans  # issue 11: monitor and recording
+from sidewalk.architecture import architecture
+from sidewalk.observers import RECORDING_NAME  # issue 11: monitor and recording
 
-from sidewalk.errors import SidewalkError
-from sidewalk.compare.faults import FaultSpec, inject_fault  # issue 10: fault injection
+from sidewalk.compare.faults import inject_fault  # issue 10: fault injection
 
 from modules.captain.missionfile import MissionFileError, load_mission
 from modules.vocabulary import Destination, Mission
 from sidewalk.lane_goal import judged_goals
-from sidewalk.map_error import MapErrorSummary, measure_map_error
+from sidewalk.map_error import measure_map_error
 from sidewalk.missions import mission_path
 from sidewalk.robot_map import map_beside
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
 from sidewalk.run_record import FaultEvent, RecordedPlan, RunRecord, save_record
-from sidewalk.supervisor import ProcessPlan, ProcessStartError, RestartPolicy
+from sidewalk.run_setup import LaunchError, RunConfig, RunSetup
+from sidewalk.supervisor import ProcessPlan, ProcessStartError
 from sidewalk.system import SystemRun
 from vehicle_sim.mapgen import map_with_error
 from vehicle_sim.worldfile import WORLDS_DIR, World, WorldFileError, load_world, world_path
@@ -42,8 +43,8 @@ from wire.timemode import LOCKSTEP_ENV, lockstep_env
 from wire.ports import free_port
 
 __all__ = [
-    "RunConfig", "RunSetup", "Progress", "preflight", "prepare_run", "build_plans", "prepare_out", "run_mission",
-    "mission_path", "MODULES", "LaunchError", "RECORD_FILE", "record_run", "lockstep_plans",
+    "RunConfig", "RunSetup", "Progress", "preflight", "prepare_run", "prepare_out", "run_mission",
+    "mission_path", "LaunchError", "RECORD_FILE", "record_run", "lockstep_plans",
 ]
 
 #: The run record's file name in the output directory.
@@ -54,67 +55,6 @@ RECORD_LEAD_S = 1.0
 
 #: Processes a lock-step simulator does not wait for: nothing the run does depends on them (only their hash seed is fixed).
 LOCKSTEP_BYSTANDERS = ("router", "recorder", "monitor")
-
-#: Every module of the Sidewalk system in start order (the consumers before the producers).
-MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
-
-
-class LaunchError(SidewalkError, RuntimeError):
-    """The run could not be set up (bad world, mission, flag) or a process would not start."""
-
-
-class RunConfig(BaseModel):
-    """What `sidewalk run` runs; every run is reproducible from `seed`."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
-    world: str = "campus"
-    mission: str = "campus-tour"
-    vehicle: Optional[str] = None  # default: the mission's vehicle, else terregator
-    rtf: float = Field(default=20.0, gt=0.0)
-    seed: int = 0
-    out: Path = Path("runs/latest")
-    perception: bool = True
-    pose_error_m: float = Field(default=0.0, ge=0.0)
-    pose_error_deg: float = 0.0
-    map_error_m: Optional[float] = Field(default=None, ge=0.0)
-    max_sim_time_s: float = Field(default=3600.0, gt=0.0)
-    max_wall_time_s: float = Field(default=1800.0, gt=0.0)
-    namespace: Optional[str] = None
-    watchdog_s: float = Field(default=1.0, gt=0.0)
-    #: how long [s] wall the MAP NAVIGATOR waits for a PILOT that went away before it fails the segment
-    pilot_grace_s: float = Field(default=15.0, gt=0.0)
-    # ---- monitor and recording (issue 11) ----
-    record: bool = True  # write run.mcap beside report.json
-    monitor_port: Optional[int] = Field(default=None, ge=1, le=65535)  # serve the monitor page on this port
-    # ---- end monitor and recording ----
-    secure: Optional[Path] = None  # `sidewalk security init` directory: TLS, passwords, access control (issue 14)
-    # ---- laser (issue 12) ----
-    actors: Optional[str] = None  # objects not on the map: an actors file or preset (vehicle_sim.actors)
-    obstacles: Optional[bool] = None  # run the OBSTACLE DETECTOR (default: when there are actors)
-    map_file: Optional[Path] = None  # the map the robot gets (e.g. from `sidewalk mapbuild`); default: the shipped one
-    # ---- end laser ----
-    #: which architecture runs the mission: the CODGER blackboard system or EDDIE (no blackboard)
-    arch: Literal["codger", "eddie"] = "codger"
-    # ---- issue 10: faults injected at a sim time after submission, and a speed cap for the PILOT ----
-    faults: tuple[FaultSpec, ...] = ()
-    max_speed: Optional[float] = Field(default=None, gt=0.0)
-    # ---- issue 13: the road method of PERCEPTION (CODGER) and of vision road following (EDDIE) ----
-    road_method: Literal["perception", "scarf", "yarf", "alvinn"] = "perception"
-    alvinn_weights: Optional[Path] = None  # ALVINN's weights (.npz), needed with road_method alvinn
-    # ---- end issue 13 ----
-    #: issue 41: processes the vision of PERCEPTION (CODGER) or vision road following (EDDIE) runs on (1: its own)
-    vision_workers: int = Field(default=1, ge=1, le=64)
-    #: issue 14: how the supervisor keeps the modules running (crashed: restarted with back-off; wedged: reported, restarted)
-    supervise: RestartPolicy = RestartPolicy()
-    #: lock-step (`wire.lockstep`): the simulator steps only once every process handled its inputs; `rtf` is then unused
-    lockstep: bool = False
-
-    @property
-    def time_mode(self) -> Literal["lockstep", "realtime"]:
-        """Return how sim time advanced: `lockstep` or `realtime` (at `rtf`)."""
-        return "lockstep" if self.lockstep else "realtime"
-
 
 @dataclass
 class Progress:
@@ -129,30 +69,6 @@ class Progress:
     state: str = "starting"
     namespace: str = ""
     endpoint: str = ""
-
-
-class RunSetup(BaseModel):
-    """What a run needs before anything starts: world (truth), mission, the map file the robot gets, start poses.
-
-    `start_truth` is where the simulator puts the vehicle (the mission's `start`; None: the world's
-    start); `start_belief` is the PILOT's start: the mission's start or else the map's, moved by the
-    injected pose error (x, y [m], yaw [rad] in `world`). `map_error` is the map measured against the world.
-    """
-
-    model_config = ConfigDict(frozen=True, arbitrary_types_allowed=True)
-
-    world: World
-    mission: Mission
-    mission_file: Path
-    vehicle: str
-    map_file: Path
-    map_error: MapErrorSummary
-    start_truth: Optional[tuple[float, float, float]] = None
-    start_belief: tuple[float, float, float]
-    destinations: tuple[Optional[tuple[float, float]], ...]
-    lane_offsets: tuple[float, ...] = ()
-    #: each step's point the truth verdict judges (`sidewalk.lane_goal`; None: a destination the world lacks)
-    goal_points: tuple[Optional[tuple[float, float]], ...] = ()
 
 
 def _with_pose_error(pose: tuple[float, float, float], cfg: RunConfig) -> tuple[float, float, float]:
@@ -291,42 +207,6 @@ def prepare_run(cfg: RunConfig) -> RunSetup:
     )
 
 
-def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list[ProcessPlan]:
-    """Return the processes of a run in start order: router, node, simulator, then the modules."""
-    secure = () if cfg.secure is None else ("--secure", str(cfg.secure))
-    zflags = ("--ns", ns, "--connect", endpoint, *secure)
-    out, vehicle = Path(cfg.out), setup.vehicle
-    sx, sy, syaw = setup.start_belief
-    sim_start = () if setup.start_truth is None else (
-        f"--start={setup.start_truth[0]},{setup.start_truth[1]},{math.degrees(setup.start_truth[2])}",)
-    plans = [
-        ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint, *secure)),
-        ProcessPlan("blackboard", ("-m", "sidewalk", "up", "blackboard", *zflags,
-                                   "--db", str(out / "blackboard.db"), "--types", "modules.vocabulary")),
-        ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", cfg.world, "--vehicle", vehicle, *sim_start,
-                            "--rtf", str(cfg.rtf), "--seed", str(cfg.seed), "--watchdog", str(cfg.watchdog_s), *zflags,
-                            *(("--actors", cfg.actors) if cfg.actors else ()))),
-        ProcessPlan("helm", ("-m", "sidewalk", "up", "helm", "--vehicle", vehicle, *zflags)),
-    ]
-    # ---- monitor and recording (issue 11): recorder and monitor start before the simulator ----
-    plans[2:2] = observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port)
-    if cfg.obstacles or (cfg.obstacles is None and (cfg.actors or setup.world.actors)):  # issue 12: actors of the flag or the world file
-        plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", "--map", str(setup.map_file), *zflags)))
-    if cfg.perception:
-        plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags,
-                                                *road_method_flags(cfg), *vision_flags(cfg))))  # issues 13, 41
-    plans += [
-        ProcessPlan("pilot", ("-m", "sidewalk", "up", "pilot", "--vehicle", vehicle,
-                              "--perception", "on" if cfg.perception else "off",
-                              f"--start-pose={sx},{sy},{syaw}", "--seed", str(cfg.seed),
-                              *(() if cfg.max_speed is None else ("--max-speed", str(cfg.max_speed))), *zflags)),
-        ProcessPlan("map_navigator", ("-m", "sidewalk", "up", "map_navigator", "--map", str(setup.map_file),
-                                      "--vehicle", vehicle, "--pilot-grace", str(cfg.pilot_grace_s), *zflags)),
-        ProcessPlan("captain", ("-m", "sidewalk", "up", "captain", *zflags)),
-    ]
-    return plans
-
-
 def lockstep_plans(plans: list[ProcessPlan]) -> list[ProcessPlan]:
     """Return `plans` run in lock-step: the simulator with `--lockstep`, every process with the lock-step environment.
 
@@ -339,27 +219,6 @@ def lockstep_plans(plans: list[ProcessPlan]) -> list[ProcessPlan]:
     bystander = tuple(kv for kv in env if kv[0] != LOCKSTEP_ENV)
     return [replace(p, args=(*p.args, "--lockstep") if p.name == "sim" else p.args,
                     env=(*p.env, *(bystander if p.name in LOCKSTEP_BYSTANDERS else env))) for p in plans]
-
-
-def road_method_flags(cfg: RunConfig, setup: "RunSetup | None" = None) -> tuple[str, ...]:
-    """Return the flags that give a road-finding module the run's road method (issue 13; none for the default).
-
-    With `setup` (EDDIE's road following) also the side of the road the mission keeps to: EDDIE's
-    route is the road's centre line, and road following drives in the lane (every method).
-    """
-    keep = ()
-    first = setup.mission.steps[0].constraints.keep if setup is not None and setup.mission.steps else None
-    if first in ("right", "left"):
-        keep = ("--keep", first)
-    if cfg.road_method == "perception":
-        return keep
-    weights = () if cfg.alvinn_weights is None else ("--alvinn-weights", str(Path(cfg.alvinn_weights).resolve()))
-    return ("--road-method", cfg.road_method, *weights, *keep)
-
-
-def vision_flags(cfg: RunConfig) -> tuple[str, ...]:
-    """Return the flag that gives a vision module the run's worker count (issue 41; none for the default, one process)."""
-    return () if cfg.vision_workers == 1 else ("--vision-workers", str(cfg.vision_workers))
 
 
 def _timed(cfg: RunConfig, plans: list[ProcessPlan]) -> list[ProcessPlan]:
@@ -401,6 +260,7 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
     kept_from, kept_to = submitted_sim - RECORD_LEAD_S, (math.inf if rest is None else max(rest, ended_sim) + RECORD_LEAD_S)
     return RunRecord(
         architecture=cfg.arch, mission=setup.mission, world=setup.world.name, vehicle=setup.vehicle, seed=cfg.seed,
+        world_file=str(Path(cfg.world).resolve()) if Path(cfg.world).suffix in (".geojson", ".json") else None,
         perception=cfg.perception, pose_error=(cfg.pose_error_m, cfg.pose_error_deg), map_error=setup.map_error,
         rtf_requested=cfg.rtf, time_mode=cfg.time_mode, destinations=setup.destinations, lane_offsets=setup.lane_offsets,
         goal_points=setup.goal_points,
@@ -424,20 +284,10 @@ async def run_mission(cfg: RunConfig, on_progress: Callable[[Progress], None] | 
     out = Path(cfg.out)
     ns = cfg.namespace or f"run{os.getpid()}"
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    if cfg.arch == "eddie":
-        from sidewalk.eddie_run import EddieSystemRun, compile_annotated_map, eddie_plans
-
-        amap = compile_annotated_map(setup, out)
-        system: SystemRun = EddieSystemRun(_timed(cfg, eddie_plans(
-            out=out, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
-            watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
-            map_file=setup.map_file, annotated_map=amap, perception=cfg.perception, record=cfg.record, monitor_port=cfg.monitor_port,
-            secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
-            road_method=road_method_flags(cfg, setup) + vision_flags(cfg),  # issues 13, 41
-        )), ns=ns, endpoint=endpoint, log_dir=out / "logs", annotated_map=amap, secure=cfg.secure, lockstep=cfg.lockstep)
-    else:
-        system = SystemRun(_timed(cfg, build_plans(cfg, setup, ns, endpoint)), ns=ns, endpoint=endpoint, log_dir=out / "logs",
-                           secure=cfg.secure, lockstep=cfg.lockstep)
+    arch = architecture(cfg.arch)
+    prepared = arch.prepare(setup, out)
+    system = arch.system(_timed(cfg, arch.plans(cfg, setup, ns, endpoint, prepared)), ns=ns, endpoint=endpoint,
+                         log_dir=out / "logs", prepared=prepared, secure=cfg.secure, lockstep=cfg.lockstep)
     progress = Progress(step_count=len(setup.mission.steps), namespace=ns, endpoint=endpoint)
     stop_reason = ""
     gave_up_at: tuple[float, float] | None = None

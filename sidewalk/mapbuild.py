@@ -40,7 +40,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict
 
 from modules.map_navigator.mapdata import map_object
-from modules.obstacles.detector import ObstacleDetectorConfig
+from codger.obstacles.detector import ObstacleDetectorConfig
 from modules.perception.landmarks import (
     LandmarkConfig, LandmarkObservation, MapLandmark, landmark_fix, landmark_observations, map_landmarks, match_landmarks,
 )
@@ -53,7 +53,7 @@ from modules.perception.results import position_fix
 from modules.pilot.config import pilot_config_for
 from modules.pilot.fix_gate import FixGate
 from modules.pilot.kalman import EstimatorError, FixRefused, PointFix, PoseFilter
-from modules.pilot.position_estimator import filter_fix
+from codger.pilot.position_estimator import filter_fix
 from modules.vocabulary import MapObject
 from wire.drive import DriveCommand, Odometry
 from wire.se2 import wrap_angle

@@ -12,7 +12,7 @@ from typing import Awaitable, Callable, Optional
 import numpy as np
 
 from blackboard import BlackboardClient, BlackboardError
-from modules.runtime import Link
+from runtime import Link
 from sidewalk.run_record import ProcessCost
 from wire.drive import SimClock, SimEvent, TruthPose, WireError, decode
 from wire.health import HeartbeatError, decode_heartbeat

@@ -371,7 +371,7 @@ def build_report(rec: RunRecord) -> RunReport:
         blackboard=_bb_usage(rec.blackboard),
         modules=_module_costs(rec),
         exit_codes=dict(rec.exit_codes),
-        stops=stop_summary(truth, actors=rec.actors, world_name=rec.world, vehicle=rec.vehicle, t0=rec.submitted_sim_s),
+        stops=stop_summary(truth, actors=rec.actors, world_name=rec.world_file or rec.world, vehicle=rec.vehicle, t0=rec.submitted_sim_s),
         triggers=[t.model_copy(update={"sim_s": round(t.sim_s - t0, 3)}) for t in rec.triggers],
         faults=list(rec.faults),
         max_speed=rec.max_speed,

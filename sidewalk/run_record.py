@@ -118,6 +118,8 @@ class RunRecord(BaseModel):
     architecture: Architecture
     mission: Mission
     world: str
+    #: the world file the run loaded, when it was given as a file rather than a name in worlds/ (None: the name)
+    world_file: Optional[str] = None
     vehicle: str
     seed: int
     perception: bool

@@ -13,8 +13,8 @@ from pydantic import ValidationError
 from blackboard import BlackboardClient, BlackboardError, MonitorStream, NetworkConfig, Spec
 from blackboard.codec import decode
 from blackboard.replies import NodeStats
-from modules.captain.client import CaptainUnavailableError, MissionClient
-from modules.runtime import ModuleKeys, Link
+from sidewalk.mission_client import MissionClient, MissionServiceUnavailable
+from runtime import ModuleKeys, Link
 from wire.keys import BlackboardKeys, SimKeys
 from wire.lockstep import LockstepRelease, NotReleasedError, decode as decode_lockstep
 from wire.network import SecureConfig
@@ -75,7 +75,7 @@ class SystemRun:
         self.bb_stats: dict | None = None
 
     async def start(self, *, on_starting: Callable[[str], None] | None = None, ready_timeout: float = 60.0) -> None:
-        """Start every process, then connect the observer side."""
+        """Start every process, then connect the observer side: the recorder (`_recorder`) and the mission follower (`_follow`)."""
         for plan in self.plans.values():
             if on_starting:
                 on_starting(plan.name)
@@ -83,14 +83,22 @@ class SystemRun:
         self.link = Link.open(self.net)
         # heard from the first moment: a module stopped right after `guard()` has beaten into it already
         self._beats = BeatLog(self.link, ModuleKeys(self.ns))
-        self.bb = await BlackboardClient.connect(self.net, source="launcher")
-        self.recorder = Recorder(self.link, self.bb, self.ns, lockstep=self.lockstep)
+        self.recorder = await self._recorder()
         self.recorder.start()
         await self.recorder.wait_clock()
         # every process's first heartbeat heard, so a fault injected at once still counts the first life's cost
         missing = await self.recorder.wait_usage(set(self.plans) - {"recorder", "monitor"}, timeout=5.0)
         if missing:
             log.warning("no heartbeat with usage yet from %s: their costs may miss this life", ", ".join(sorted(missing)))
+        await self._follow()
+
+    async def _recorder(self) -> Recorder:
+        """Return the run's recorder: CODGER's estimate is the PILOT's, read through a blackboard client."""
+        self.bb = await BlackboardClient.connect(self.net, source="launcher")
+        return Recorder(self.link, self.bb, self.ns, lockstep=self.lockstep)
+
+    async def _follow(self) -> None:
+        """Follow the missions' statuses: CODGER's on the blackboard (`mission_status` tokens)."""
         self._status = self.bb.monitor(Spec(type="mission_status"))
         await self._status.start()
 
@@ -110,7 +118,7 @@ class SystemRun:
                 accepted = await MissionClient(link, ModuleKeys(self.ns), timeout=max(left, 0.5)).submit(text)
                 self.submitted[accepted.mission_id] = self.stamps()
                 return accepted.mission_id
-            except CaptainUnavailableError:
+            except MissionServiceUnavailable:
                 if loop.time() + 0.2 >= end:
                     raise
                 await asyncio.sleep(0.2)

@@ -43,6 +43,7 @@ from vehicle_sim.scene import Scene
 from vehicle_sim.sensors.capture import capture
 from vehicle_sim.worldfile import TreeShape, World
 from wire.capture import CaptureRequest, without_truth
+from wire.summary import percentile
 
 __all__ = ["TerrainEvalConfig", "TerrainEvalError", "evaluate", "track_poses"]
 
@@ -121,7 +122,7 @@ class _Scores:
             e = np.concatenate(parts) if parts else np.zeros(0)
             if not len(e):
                 return None, None, 0
-            return round(float(np.sqrt(np.mean(e * e))), 4), round(float(np.percentile(np.abs(e), 95)), 4), int(len(e))
+            return round(float(np.sqrt(np.mean(e * e))), 4), percentile(np.abs(e), 95, digits=4), int(len(e))
         rms, p95, n = stats(self.errors)
         rms_w, p95_w, n_w = stats(self.errors_within)
         out = {"rms_m": rms, "p95_m": p95, "cells": n, "rms_within_m": rms_w, "p95_within_m": p95_w, "cells_within": n_w}

@@ -580,7 +580,7 @@ class Scene:
         ca, sa, tan = d[:, 0] / hn, d[:, 1] / hn, d[:, 2] / hn
         az = np.arctan2(sa, ca)
         az_mid = float(np.arctan2(np.sin(az).mean(), np.cos(az).mean())) if len(az) else 0.0
-        rel = (az - az_mid + np.pi) % (2.0 * np.pi) - np.pi
+        rel = wrap_angle(az - az_mid)
         az_lo = float(rel.min()) - 1e-6 if len(rel) else -np.pi
         n_bins = 256
         inv_bin = n_bins / max(float(rel.max()) + 1e-6 - az_lo, 1e-6) if len(rel) else 1.0

@@ -243,7 +243,7 @@ class Simulator:
         height = self.world.elevation
         last = self._terrain_checked
         if not initial and last is not None and math.hypot(s.x - last[0], s.y - last[1]) < 0.05 \
-                and abs((s.yaw - last[2] + math.pi) % (2.0 * math.pi) - math.pi) < math.radians(0.5):
+                and abs(wrap_angle(s.yaw - last[2])) < math.radians(0.5):
             self.ground = rest_on_ground(height, s.x, s.y, s.yaw, body)
             return "collision" in self._terrain_kinds
         self._terrain_checked = (s.x, s.y, s.yaw)

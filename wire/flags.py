@@ -176,11 +176,11 @@ def network_from_args(parser: argparse.ArgumentParser, args: argparse.Namespace,
                       who: str | None = None) -> NetworkConfig:
     """Return the NetworkConfig of parsed flags; exit through `parser.error` naming the bad flag.
 
-    The --secure identity is --role, else `who`, else the program's module (`python -m modules.helm` → helm,
-    `python -m eddie.modules.obstacle_stop_module` → obstacle_stop).
+    The --secure identity is --role, else `who`, else the program's module (`python -m codger.helm` → helm,
+    `python -m eddie.obstacle_stop.obstacle_stop_module` → obstacle_stop).
     """
     if who is None and parser.prog.startswith("python -m "):
-        # the last dotted part that is not `__main__`, without a `_module` suffix (eddie.modules.obstacle_stop_module → obstacle_stop)
+        # the last dotted part that is not `__main__`, without a `_module` suffix (eddie.obstacle_stop.obstacle_stop_module → obstacle_stop)
         parts = [p for p in parser.prog.rsplit(" ", 1)[-1].split(".") if p != "__main__"]
         who = parts[-1].removesuffix("_module") if parts else None
     try:

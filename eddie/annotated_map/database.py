@@ -87,6 +87,18 @@ class AnnotationDatabase:
         for c in set(self._cells_of(a, g)):
             self._cells.setdefault(c, set()).add(a.id)
 
+    def remove(self, aid: str) -> Annotation:
+        """Remove annotation `aid` and return it (raises UnknownAnnotation)."""
+        a = self.get(aid)
+        del self._by_id[aid]
+        for c in set(self._cells_of(a, self._geom.pop(aid))):
+            ids = self._cells.get(c)
+            if ids is not None:
+                ids.discard(aid)
+                if not ids:
+                    del self._cells[c]
+        return a
+
     def set_used(self, aid: str, used: bool = True) -> None:
         """Set the `used` flag of annotation `aid`."""
         self._by_id[aid] = self.get(aid).with_used(used)

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import Iterable, Literal
 
 import shapely
 import shapely.ops
@@ -75,6 +75,15 @@ class TriggerWalker:
         self._inside = {aid for aid in self.db.candidates([self.db.grid.cell_of(x, y)])
                         if self.db.get(aid).trigger in ("enter", "leave") and self.db.geometry(aid).covers(p)}
         return []
+
+    def changed(self, added: Iterable[str], removed: Iterable[str]) -> None:
+        """Follow annotations added to or removed from the database: added polygons around the vehicle count as entered silently."""
+        self._inside.difference_update(removed)
+        if self.last is None:
+            return
+        p = shapely.Point(self.last)
+        self._inside.update(aid for aid in added
+                            if self.db.get(aid).trigger in ("enter", "leave") and self.db.geometry(aid).covers(p))
 
     def advance(self, x: float, y: float) -> list[TriggerEvent]:
         """Travel to (x, y) [m] `world`: fire every unused trigger the segment from the last position meets."""

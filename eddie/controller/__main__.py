@@ -7,36 +7,30 @@ import math
 import sys
 
 from modules.helm.tracker import tracker_config_for
-from modules.runtime.args import setup_logging
-from wire.flags import add_network_args, network_from_args
+from runtime import add_vehicle, module_parser, parse_module_args, run_module
 
 from eddie.controller.controller_module import ControllerModule
 from eddie.controller.integrated_controller import ARC_OVERSHOOT_RAD, ControllerConfig
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 
 __all__ = ["main", "build_parser"]
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the controller's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m eddie.controller", description=__doc__)
-    p.add_argument("--vehicle", choices=["navlab", "terregator"], default="navlab", help="vehicle model (tracker limits)")
+    p = module_parser("eddie.controller", __doc__)
+    add_vehicle(p, default="navlab", help="vehicle model (tracker limits)")
     p.add_argument("--control-hz", type=float, default=10.0, help="drive commands and state per sim second [Hz] (≥ 10)")
     p.add_argument("--nudge-tau", type=float, default=1.0, help="nudge decay time constant [s] sim")
     p.add_argument("--max-speed", type=float, default=None,
                    help="top speed [m/s] below the vehicle's (sidewalk run --max-speed; default: the vehicle's)")
-    p.add_argument("--name", default="controller", help="module name")
-    add_network_args(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Parse flags and run the controller until SIGINT/SIGTERM; return the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
+    args, net = parse_module_args(parser, argv)
     if args.control_hz < 10.0:
         parser.error("--control-hz: must be ≥ 10 [Hz]")
     if args.nudge_tau <= 0.0:
@@ -51,7 +45,7 @@ def main(argv: list[str] | None = None) -> int:
     async def body(m: Module) -> None:
         await ControllerModule(m, cfg).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -1,4 +1,7 @@
-"""Run the map manager: `python -m eddie.map_manager --annotated-map FILE [--controller N] [--navigator N] [Zenoh flags]`."""
+"""Run the map manager: `python -m eddie.map_manager [--annotated-map FILE] [--state FILE] [--controller N] [--navigator N] [Zenoh flags]`.
+
+Without an annotated map it starts empty; each mission submitted to the mission service brings its own annotations.
+"""
 
 from __future__ import annotations
 
@@ -6,55 +9,52 @@ import argparse
 import sys
 from pathlib import Path
 
-from modules.runtime.args import setup_logging
-from wire.flags import add_network_args, network_from_args
+from runtime import module_parser, parse_module_args, run_module
 
 from eddie.annotated_map import AnnotatedMapError, AnnotationDatabase, load_annotations
 from eddie.map_manager.map_manager import MapManager
-from eddie.map_manager.map_manager_module import MapManagerModule
+from eddie.map_manager.map_manager_module import MapManagerModule, resume_mission
 from eddie.map_manager.state_file import StateFileError, load_state
-from eddie.toolkit.module import Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Module, endpoint
 
 __all__ = ["main", "build_parser"]
 
 
 def build_parser() -> argparse.ArgumentParser:
     """Return the map manager's argument parser (network flags included)."""
-    p = argparse.ArgumentParser(prog="python -m eddie.map_manager", description=__doc__)
-    p.add_argument("--annotated-map", required=True, help="annotated map file (GeoJSON, `sidewalk eddie annotate`)")
+    p = module_parser("eddie.map_manager", __doc__)
+    p.add_argument("--annotated-map", default=None,
+                   help="annotated map file (GeoJSON, `sidewalk eddie annotate`); default: none, only the submitted missions' annotations")
     p.add_argument("--controller", default="controller", help="the controller module's name (its state stream)")
     p.add_argument("--navigator", default="navigator", help="the navigator module's name (its world_from_local stream)")
-    p.add_argument("--name", default="map_manager", help="module name")
     p.add_argument("--state", default=None, metavar="FILE",
                    help="keep the used flags and the vehicle's last position here, and take them up when started again "
                         "(a restart then fires the triggers crossed meanwhile; delete the file to start afresh)")
-    add_network_args(p)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     """Parse flags, load the annotated map and run the manager until SIGINT/SIGTERM; return the exit code."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    setup_logging()
-    net = network_from_args(parser, args)
+    args, net = parse_module_args(parser, argv)
     try:
-        db = AnnotationDatabase(load_annotations(args.annotated_map))
+        db = AnnotationDatabase(() if args.annotated_map is None else load_annotations(args.annotated_map))
     except AnnotatedMapError as exc:
         parser.error(f"--annotated-map: {exc}")
     mgr = MapManager(db)
-    map_name = Path(args.annotated_map).name
+    map_name = "" if args.annotated_map is None else Path(args.annotated_map).name
     try:
+        if args.state is not None:
+            resume_mission(mgr, args.state)
         resume = None if args.state is None else load_state(args.state, annotated_map=map_name, known={a.id for a in db})
-    except StateFileError as exc:
+    except (AnnotatedMapError, StateFileError) as exc:
         parser.error(f"--state: {exc}")
 
     async def body(m: Module) -> None:
         await MapManagerModule(m, mgr, controller=args.controller, navigator=args.navigator, state_path=args.state,
                                map_name=map_name, resume=resume).run()
 
-    return run_module(args.name, body, net)
+    return run_module(args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from eddie.annotated_map.annotation import Annotation
 from eddie.annotated_map.database import AnnotationDatabase
 from eddie.annotated_map.triggers import TriggerEvent, TriggerWalker
 from eddie.messages.map_manager import AnnotationList, AnnotationQuery, AnnotationRecord
@@ -45,12 +46,37 @@ def record_of(a) -> AnnotationRecord:
 
 
 class MapManager:
-    """The annotation database, its trigger walker and the last world←local used."""
+    """The annotation database, its trigger walker, the last world←local used and the running mission's annotations.
+
+    The database holds the annotated map the manager started with and, on top, the annotations of one
+    mission (`install`): a mission submitted at run time is compiled by the mission service and handed
+    over here, replacing the previous mission's.
+    """
 
     def __init__(self, db: AnnotationDatabase) -> None:
         self.db = db
         self.walker = TriggerWalker(db)
         self._w: WorldFromLocal | None = None
+        #: the mission whose annotations are installed ("" before any) and their ids
+        self.mission_id = ""
+        self.mission_ids: tuple[str, ...] = ()
+
+    def install(self, mission_id: str, annotations: list[Annotation]) -> None:
+        """Hold mission `mission_id`'s annotations in place of the last mission's (DuplicateAnnotation on a clash: nothing changes)."""
+        old = [self.db.remove(aid) for aid in self.mission_ids]
+        added: list[str] = []
+        try:
+            for a in annotations:
+                self.db.add(a)
+                added.append(a.id)
+        except Exception:
+            for aid in added:
+                self.db.remove(aid)
+            for a in old:
+                self.db.add(a)
+            raise
+        self.walker.changed(added, [a.id for a in old])
+        self.mission_id, self.mission_ids = mission_id, tuple(added)
 
     def used(self) -> tuple[str, ...]:
         """Return the ids of the annotations whose `used` flag is set, sorted."""

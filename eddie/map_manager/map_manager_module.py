@@ -7,6 +7,11 @@ navigator's `world_from_local` (pushed stream) is known; a fired trigger's `Trig
 its destination's inbox, and every outcome (fired, skipped, rearmed) is published on stream
 `triggers` as a `TriggerFired`. `crossed_wall` is the wall time the crossing state reached the manager.
 
+Service `mission` takes a submitted mission's trigger annotations from the mission service
+(`MissionAnnotations`, compiled there by `eddie.missions`) and holds them in place of the last
+mission's: a mission submitted at run time gets its speeds, dead reckoning and stops as one compiled
+at launch does. With a state file they are kept beside it (`mission_file`) and taken up by a restart.
+
 With a state file (`eddie.map_manager.state_file`) the used flags and the vehicle's last position
 survive a restart: the first cycle after one asks the controller (`recorded_path`) for the path it
 drove since that position and walks it, so triggers crossed while the manager was away fire then.
@@ -23,19 +28,38 @@ import time
 from pydantic import ValidationError
 from wire.aio import QueryAnswer, QueryRequest
 
+from eddie.annotated_map.errors import AnnotatedMapError
+from eddie.annotated_map.geojson_file import annotations_from_geojson, save_annotations
 from eddie.errors import BadMessage, EddieError
 from eddie.map_manager.map_manager import MapManager, TravelledCycle
 from eddie.map_manager.state_file import SAVE_EVERY_S, ManagerState, save_state
 from eddie.messages.controller import ControllerState, RecordedPath, RecordedPathQuery
-from eddie.messages.map_manager import AnnotationQuery, TriggerFired, TriggerMessage
+from eddie.messages.map_manager import AnnotationQuery, MissionAnnotations, MissionInstalled, TriggerFired, TriggerMessage
 from eddie.messages.navigator import WorldFromLocal
 from eddie.toolkit.message import decode_envelope, encode_envelope, error_payload
 from wire.ratelimit import warn_limited
-from eddie.toolkit.module import Module
+from eddie.toolkit.module import Incoming, Module
 
-__all__ = ["MapManagerModule"]
+__all__ = ["MapManagerModule", "mission_file", "resume_mission"]
 
 log = logging.getLogger(__name__)
+
+
+def mission_file(state_path: str) -> str:
+    """Return where the installed mission's annotations are kept beside state file `state_path`."""
+    return f"{state_path}.mission.geojson"
+
+
+def resume_mission(mgr: MapManager, state_path: str) -> None:
+    """Install the mission kept beside `state_path` by the manager's last life, if any (AnnotatedMapError names the file)."""
+    path = mission_file(state_path)
+    try:
+        doc = json.loads(open(path, encoding="utf-8").read())
+    except FileNotFoundError:
+        return
+    except ValueError as exc:
+        raise AnnotatedMapError(f"{path}: not JSON ({exc}); delete it to start afresh") from None
+    mgr.install(str(doc.get("name", "")) if isinstance(doc, dict) else "", annotations_from_geojson(doc, source=path))
 
 
 class MapManagerModule:
@@ -90,6 +114,27 @@ class MapManagerModule:
             warn_limited(log, "bad-query", "%.200s", exc)
             return QueryAnswer(ok=False, payload=error_payload("bad_message", str(exc)), as_json=True)
         return QueryAnswer(ok=True, payload=encode_envelope(self.m.name, self.mgr.query(msg), self.m.now()))
+
+    async def _install(self, inc: Incoming) -> MissionInstalled:
+        """Answer `mission`: hold the mission's annotations in place of the last mission's (kept beside the state file)."""
+        msg = inc.message
+        if not isinstance(msg, MissionAnnotations):
+            raise BadMessage(f"{self.m.name}/mission: expected MissionAnnotations, got {type(msg).__name__}", sender=inc.sender,
+                             field="type")
+        try:
+            doc = json.loads(msg.geojson)
+        except ValueError as exc:
+            raise BadMessage(f"{self.m.name}/mission: mission {msg.mission_id}: annotations not JSON: {exc}", sender=inc.sender,
+                             field="geojson") from None
+        annotations = annotations_from_geojson(doc, source=f"mission {msg.mission_id}")
+        self.mgr.install(msg.mission_id, annotations)
+        if self.state_path is not None:
+            try:
+                save_annotations(mission_file(self.state_path), annotations, name=msg.mission_id)
+            except OSError as exc:
+                warn_limited(log, "mission-file", "map_manager: cannot keep the mission's annotations: %s", exc)
+        log.info("map_manager: mission %s (%s): %d annotations installed", msg.mission_id, msg.name, len(annotations))
+        return MissionInstalled(mission_id=msg.mission_id, count=len(annotations))
 
     async def _recorded_since(self, resume: ManagerState, st: ControllerState) -> list[tuple[float, float]]:
         """Return the path [m `local`] from the position saved before a restart to `st`'s, as the controller recorded it."""
@@ -155,6 +200,7 @@ class MapManagerModule:
         m.subscribe(self.navigator, "world_from_local", WorldFromLocal, self._on_w)
         # declared after the subscriptions: a client that gets an answer knows they are declared too
         m.link.queryable(m.keys.service(m.name, "query"), self._answer)
+        m.serve("mission", self._install)
         m.ready()
         while True:
             await self._wake.wait()

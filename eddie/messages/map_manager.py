@@ -29,7 +29,8 @@ from pydantic import AfterValidator, Field
 from eddie.toolkit.message import Message, decode_envelope, encode_envelope, message_type
 
 __all__ = [
-    "AnnotationQuery", "AnnotationRecord", "AnnotationList", "TriggerMessage", "TriggerFired",
+    "AnnotationQuery", "AnnotationRecord", "AnnotationList", "MissionAnnotations", "MissionInstalled", "TriggerMessage",
+    "TriggerFired",
     "SetSpeed", "DeadReckonThrough", "ResumeVision", "LandmarkMatching", "StopAtObject", "ObstacleDetection",
     "VisionThroughIntersection", "SwitchPerception", "RouteSegment", "TRIGGER_TYPES",
     "encode_trigger_data", "open_trigger_data",
@@ -84,6 +85,25 @@ class AnnotationList(Message):
     """The answer to an `AnnotationQuery`: the matching annotations, by id."""
 
     annotations: tuple[AnnotationRecord, ...] = ()
+
+
+# ---- the mission service: a submitted mission's annotations ------------------------------------
+
+@message_type("map_manager.mission")
+class MissionAnnotations(Message):
+    """Install mission `mission_id`'s trigger annotations (`geojson`: a FeatureCollection in `world` [m]) in place of the last mission's."""
+
+    mission_id: str = Field(min_length=1)
+    name: str = ""
+    geojson: str
+
+
+@message_type("map_manager.mission_installed")
+class MissionInstalled(Message):
+    """The answer to `MissionAnnotations`: the mission whose annotations the manager now holds, and how many."""
+
+    mission_id: str
+    count: int = Field(ge=0)
 
 
 # ---- what the manager sends and publishes -------------------------------------------------------

@@ -2,7 +2,7 @@
 
 A step names a place (`destination: mailbox`). When the map has a landmark of that kind within
 `STOP_LEAD_M` [m] of the place, the step is about that object: the vehicle is to stop beside it, and
-the stop-at-object trigger steers by where the laser sees it (`eddie.modules.stop_at_object`). The
+the stop-at-object trigger steers by where the laser sees it (`eddie.obstacle_stop.stop_at_object`). The
 destination point is then the object's projection on the last part of the step's route, not the
 place. A map whose objects were built by driving the route (`sidewalk mapbuild`) keeps the older
 map's places, and the two disagree by the mapping error (3.1 m at the AMV's mailbox, seed 0): a

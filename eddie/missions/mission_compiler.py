@@ -76,11 +76,12 @@ def _landmarks(m: "MapData", coords: Any) -> tuple[str, ...]:
 
 
 def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = None,
-                    intersections: str = "dead_reckon") -> CompiledMission:
+                    intersections: str = "dead_reckon", start: tuple[float, float] | None = None) -> CompiledMission:
     """Return the annotations of `mission` over map `m`; raise MissionCompileError naming the step.
 
     `intersections`: `dead_reckon` (the seed's AMV: dead-reckon through, resume vision after) or `vision`
-    (vision through intersections).
+    (vision through intersections). The route starts at the mission's start, else `start` (x, y) [m] `world`
+    (where the vehicle is believed to be), else the map's start.
     """
     if intersections not in ("dead_reckon", "vision"):
         raise MissionCompileError(f"intersections: {intersections!r}: expected dead_reckon or vision")
@@ -91,6 +92,8 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
     veh = vehicle or mission.vehicle or "terregator"
     if mission.start is not None:
         here = (mission.start.x, mission.start.y)
+    elif start is not None:
+        here = (float(start[0]), float(start[1]))
     elif m.world.start is not None:
         here = (m.world.start.x, m.world.start.y)
     else:

@@ -1,18 +1,10 @@
-"""EDDIE's perception/behaviour modules: vision road following, landmark matching, obstacle stop.
+"""What EDDIE's perception and behaviour modules share: the believed pose and sensing (`sensing`), switching (`switched`).
 
-Each is a process woken or switched by the annotated map's triggers; the cores here are plain
-functions over PERCEPTION's and the PILOT's libraries, so EDDIE and CODGER run the same algorithms.
+The modules themselves are packages of their own, each run with `python -m eddie.<name>`:
+`road_following`, `landmark_matching`, `obstacle_stop`, `mission_service`. Their cores are plain
+functions over PERCEPTION's and the PILOT's libraries (`modules/`), so EDDIE and CODGER run the same algorithms.
 """
 
 from eddie.modules.errors import EddieModuleError, NoRoadPath
-from eddie.modules.landmark_matching import LandmarkFix, landmark_fix
-from eddie.modules.obstacle_stop import ObstacleReport, ObstacleStopConfig, obstacle_ahead
-from eddie.modules.road_following import (
-    RoadFollowingConfig, RoadPath, plan_road_path, region_in_local, route_goal, route_to_local,
-)
 
-__all__ = [
-    "EddieModuleError", "NoRoadPath", "LandmarkFix", "landmark_fix",
-    "ObstacleReport", "ObstacleStopConfig", "obstacle_ahead",
-    "RoadFollowingConfig", "RoadPath", "plan_road_path", "region_in_local", "route_goal", "route_to_local",
-]
+__all__ = ["EddieModuleError", "NoRoadPath"]

@@ -6,15 +6,13 @@ toolkit's tests and benchmarks run it as a real process.
 
 from __future__ import annotations
 
-import argparse
 import sys
 
-from wire.flags import add_network_args, network_from_args
+from runtime import module_parser, parse_module_args, run_module
 
 from eddie.errors import BadMessage
 from eddie.toolkit.message import Message, message_type
-from eddie.toolkit.module import Incoming, Module
-from eddie.toolkit.process import run_module
+from eddie.toolkit.module import Incoming, Module, endpoint
 
 __all__ = ["Echo", "main"]
 
@@ -29,11 +27,9 @@ class Echo(Message):
 
 def main(argv: list[str] | None = None) -> int:
     """Run an echo module named by the first argument."""
-    ap = argparse.ArgumentParser(prog="python -m eddie.toolkit.echo", description=__doc__.splitlines()[0])
-    ap.add_argument("name", help="module name")
-    add_network_args(ap)
-    args = ap.parse_args(argv)
-    net = network_from_args(ap, args)
+    ap = module_parser("eddie.toolkit.echo", __doc__.splitlines()[0], name="echo")
+    ap.add_argument("module", nargs="?", default=None, help="module name (as --name)")
+    args, net = parse_module_args(ap, argv)
 
     async def body(m: Module) -> None:
         async def echo(inc: Incoming) -> Message:
@@ -48,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
                 continue
             await m.send(inc.sender, inc.message)
 
-    return run_module(args.name, body, net)
+    return run_module(args.module or args.name, endpoint(body), net)
 
 
 if __name__ == "__main__":

@@ -1,8 +1,11 @@
-"""An EDDIE module's endpoint: its inbox, services, streams, sim clock, liveliness and heartbeat.
+"""An EDDIE module's endpoint: its inbox, services and streams, on the one module runtime.
 
-`async with Module(name, net) as m:` opens the process's one Zenoh session (through `wire.aio.Link`),
-listens on the module's inbox, follows the sim clock and beats every `heartbeat_period` wall seconds.
-`m.ready()` declares the liveliness token and prints the READY line a supervisor waits for.
+A module process runs `runtime.run_module(name, endpoint(body), net)`: the runtime (`runtime/`)
+owns the session, the sim clock, liveliness, heartbeat and lock-step participation, and the
+endpoint is plugged into it as a part (`RuntimePart`): it listens on the module's inbox and, in
+lock-step, releases what arrived at each clock tick. `async with Module(name, net) as m:` does the
+same without a process around it (tests, tools): it opens a runtime of its own. `m.ready()` declares
+the liveliness token and prints the READY line a supervisor waits for.
 
 In lock-step (`wire.lockstep`) what a module receives is released once per sim clock tick: the
 streams it follows, then its inbox, each grouped by sender (senders in name order, each sender's
@@ -22,23 +25,16 @@ from __future__ import annotations
 import asyncio
 import itertools
 import logging
-import os
-import socket
 import struct
-import sys
 import time
 from dataclasses import dataclass
 from typing import Any, Awaitable, Callable, TextIO, TypeVar
 
-from modules.runtime.clock import SimClock
-from modules.runtime.heartbeat import ClockPayloadError, decode_clock
-from modules.runtime.lifecycle import READY_PREFIX
+from runtime import ModuleMain, ModuleRuntime, SimClock
 from wire.aio import Link, QueryAnswer, QueryRequest
-from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import EddieKeys, ModuleKeys
+from wire.lockstep import lockstep_enabled
 from wire.network import NetworkConfig, check_chunk
-from wire.lockstep import Participant, lockstep_enabled, participant_name
-from wire.session import session_stats, barrier_traffic, traffic
 
 from eddie.errors import BadMessage, LinkError, LinkTimeout, NoSuchModule, ServiceError
 from eddie.toolkit.message import (
@@ -46,7 +42,7 @@ from eddie.toolkit.message import (
 )
 from wire.ratelimit import warn_limited
 
-__all__ = ["Module", "Incoming", "ServiceHandler"]
+__all__ = ["Module", "Incoming", "ServiceHandler", "ModuleBody", "endpoint"]
 
 log = logging.getLogger(__name__)
 
@@ -69,8 +65,12 @@ class Incoming:
 ServiceHandler = Callable[[Incoming], Awaitable[Message]]
 
 
+#: What an EDDIE module provides: an async function of its endpoint; returning ends the module.
+ModuleBody = Callable[["Module"], Awaitable[None]]
+
+
 class Module:
-    """The endpoint of EDDIE module `name` on network `net` (an async context manager)."""
+    """The endpoint of EDDIE module `name` on network `net`: a part of the module runtime, or (`async with`) standalone."""
 
     def __init__(self, name: str, net: NetworkConfig, *, heartbeat_period: float = 1.0, inbox_size: int = 1000,
                  stdout: TextIO | None = None) -> None:
@@ -78,18 +78,13 @@ class Module:
         self.net = net
         self.keys = EddieKeys(net.namespace)
         self.module_keys = ModuleKeys(net.namespace)
-        self.clock = SimClock()
         self.heartbeat_period = heartbeat_period
-        self.link: Link | None = None
+        self.rt: ModuleRuntime | None = None
+        self._own_link: Link | None = None
         self._inbox: asyncio.Queue[bytes] = asyncio.Queue(inbox_size)
-        self._stdout = stdout if stdout is not None else sys.stdout
-        self._hb_task: asyncio.Task[None] | None = None
-        self._seq = 0
-        self._ready = False
-        self._host = socket.gethostname()
+        self._stdout = stdout
         #: inbox messages dropped because the inbox was full
         self.dropped = 0
-        self._participant: Participant | None = None
         #: lock-step: what arrived and is not yet released, as (0 stream / 1 inbox, sender, arrival, payload,
         #: stream callback or None for the inbox, the sender's sim time at sending [s] or None), released at
         #: the first tick later than its sending, in that order (None: real time)
@@ -99,40 +94,56 @@ class Module:
 
     # ---- lifecycle -----------------------------------------------------------------------
 
+    async def start(self, rt: ModuleRuntime) -> None:
+        """Plug into runtime `rt` (as a `RuntimePart`): listen on the inbox; in lock-step, release at each tick."""
+        self.rt = rt
+        rt.link.subscribe(self.keys.inbox(self.name), self._on_inbox)
+        if self._held is not None:  # lock-step: each tick releases what was sent before it, on the loop
+            rt.on_tick(self._release)
+
+    def health(self) -> dict[str, Any]:
+        """Return nothing: an endpoint adds no heartbeat fields."""
+        return {}
+
     async def __aenter__(self) -> "Module":
-        self.link = Link.open(self.net)
+        link = Link.open(self.net)
         try:
-            self.link.subscribe(self.keys.inbox(self.name), self._on_inbox)
-            if self._held is not None:  # lock-step: each tick releases what was sent before it, on the loop
-                self.link.subscribe(self.module_keys.sim_clock, self._on_clock)
-            else:
-                self.link.subscribe_feed(self.module_keys.sim_clock, self._feed_clock)
-            if lockstep_enabled():  # the simulator's barrier waits for this module's loop (wire.lockstep)
-                self._participant = Participant(self.link.session, participant_name(self.name))
-            self._beat()
-            self._hb_task = asyncio.get_running_loop().create_task(self._heartbeat_loop())
+            rt = ModuleRuntime(self.name, self.net, link, heartbeat_period=self.heartbeat_period, stdout=self._stdout)
+            rt.start()
+            await rt.plug(self)
         except BaseException:
-            self.link.close()
+            link.close()
             raise
+        self._own_link = link
         return self
 
     async def __aexit__(self, *exc: object) -> None:
         await self.close()
 
     async def close(self) -> None:
-        """Say `stopping` and close the link (idempotent)."""
-        if self._hb_task is not None:
-            self._hb_task.cancel()
-            self._hb_task = None
-        if self._participant is not None:
-            self._participant.close()
-            self._participant = None
-        if self.link is not None and not self.link.closed:
-            try:
-                self._beat("stopping")
-            except Exception:  # noqa: BLE001 - closing anyway
-                pass
-            self.link.close()
+        """Standalone: stop the runtime (says `stopping`) and close the link (idempotent); as a part: nothing to close."""
+        if self._own_link is None:
+            return
+        rt, link, self._own_link = self.rt, self._own_link, None
+        if rt is not None:
+            await rt.close()
+        link.close()
+
+    @property
+    def link(self) -> Link | None:
+        """Return the runtime's Zenoh link (None before the endpoint is started)."""
+        return None if self.rt is None else self.rt.link
+
+    @property
+    def clock(self) -> SimClock:
+        """Return the runtime's sim clock."""
+        return self._rt.clock
+
+    @property
+    def _rt(self) -> ModuleRuntime:
+        if self.rt is None or self.rt.link.closed:
+            raise LinkError(f"module {self.name!r}: the link is not open (use `async with Module(...)` or `endpoint`)")
+        return self.rt
 
     async def wait_connected(self, timeout: float | None = None) -> None:
         """Return once the session reaches a router or peer; wire.ConnectError after `timeout` [s]."""
@@ -140,22 +151,15 @@ class Module:
 
     def ready(self) -> None:
         """Declare the module ready: liveliness token, a ready heartbeat, and `SIDEWALK-READY <name>` on stdout."""
-        if self._ready:
-            return
-        self._ready = True
-        self._link.declare_alive(self.module_keys.alive(self.name))
-        self._beat()
-        print(f"{READY_PREFIX} {self.name}", file=self._stdout, flush=True)
+        self._rt.ready()
 
     @property
     def _link(self) -> Link:
-        if self.link is None or self.link.closed:
-            raise LinkError(f"module {self.name!r}: the link is not open (use `async with Module(...)`)")
-        return self.link
+        return self._rt.link
 
     def now(self) -> float | None:
         """Return the sim time [s], or None before the simulator's first clock tick."""
-        return self.clock.now() if self.clock.running else None
+        return self._rt.now()
 
     # ---- point-to-point ------------------------------------------------------------------
 
@@ -284,19 +288,8 @@ class Module:
             self.dropped += 1
             warn_limited(log, "inbox-full", "%s: inbox full, message dropped (%d so far)", self.name, self.dropped)
 
-    def _feed_clock(self, _key: str, payload: bytes, loop: asyncio.AbstractEventLoop) -> None:
-        """Real time: take a clock tick on the Zenoh thread (`SimClock.feed`)."""
-        try:
-            self.clock.feed(decode_clock(payload), loop)
-        except ClockPayloadError as exc:
-            warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
-
-    def _on_clock(self, _key: str, payload: bytes) -> None:
-        try:
-            self.clock.advance(decode_clock(payload))
-        except ClockPayloadError as exc:
-            warn_limited(log, "clock-sample", "%s: bad sim clock sample: %.200s", self.name, exc)
-            return
+    def _release(self) -> None:
+        """Lock-step: hand over what was sent before the tick just taken (runs on the loop, after the clock advanced)."""
         if self._held:
             # only what was sent before this tick: a message sent in this tick may reach this module before or
             # after the tick itself does, so it waits for the next one either way
@@ -313,18 +306,13 @@ class Module:
                 else:
                     on_sample(where, raw)
 
-    def _beat(self, state: str | None = None) -> None:
-        hb = Heartbeat(module=self.name, seq=self._seq, sim_time=self.now(), wall_time=time.time(),
-                       period_s=self.heartbeat_period, pid=os.getpid(), host=self._host,
-                       state=state or ("ready" if self._ready else "starting"), zenoh_sessions=session_stats()["open"],
-                       usage=process_usage(traffic(), barrier_traffic()))
-        self._seq += 1
-        self._link.put(self.module_keys.heartbeat(self.name), encode_heartbeat(hb))
 
-    async def _heartbeat_loop(self) -> None:
-        while True:
-            await asyncio.sleep(self.heartbeat_period)  # wall time: a heartbeat tells a wedged process apart
-            try:
-                self._beat()
-            except LinkError:
-                return
+def endpoint(body: ModuleBody) -> ModuleMain:
+    """Return the runtime main that runs `body` on the module's EDDIE endpoint (`run_module(name, endpoint(body), net)`)."""
+
+    async def main(rt: ModuleRuntime) -> None:
+        m = Module(rt.name, rt.net)
+        await rt.plug(m)
+        await body(m)
+
+    return main

@@ -28,8 +28,9 @@ from pydantic import ValidationError
 
 from modules.vocabulary import DEFAULT_TOLERANCE_M, Destination, Mission, MissionStart, MissionStepSpec, StepConstraints, Trigger
 from modules.captain.errors import CaptainError
+from wire.mission import ProblemWire, Rejection
 
-__all__ = ["MissionProblem", "MissionFileError", "parse_mission", "load_mission", "CONSTRAINT_NAMES",
+__all__ = ["MissionProblem", "MissionFileError", "parse_mission", "load_mission", "rejection_from", "CONSTRAINT_NAMES",
            "MAX_MISSION_BYTES", "MAX_MISSION_STEPS", "MAX_MESSAGE_CHARS"]
 
 #: The largest mission text accepted [bytes] (the campus tour is under 2 KB).
@@ -82,6 +83,14 @@ class MissionFileError(CaptainError, ValueError):
         else:
             super().__init__("\n".join([f"{source}: invalid mission ({len(every)} problem(s))"]
                                        + [f"  {p.located(source)}" for p in self.problems] + more))
+
+
+def rejection_from(exc: MissionFileError) -> Rejection:
+    """Return the mission contract's rejection of an invalid mission (each problem with its line and field)."""
+    return Rejection(
+        error="invalid_mission", message=str(exc),
+        problems=tuple(ProblemWire(line=p.line, column=p.column, field=p.field, message=p.message) for p in exc.problems),
+    )
 
 
 def _cut(text: str) -> str:

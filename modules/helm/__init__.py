@@ -1,7 +1,6 @@
-"""The HELM (seed: Sidewalk §2.3.4): tracks the newest local path plan, drives the vehicle, and
-keeps the moving vehicle position (local←vehicle) on the blackboard.
+"""The HELM's core (seed: Sidewalk §2.3.4): the path tracker (pure pursuit), used by CODGER's HELM and EDDIE's controller.
 
-Pure core: `tracker` (pure pursuit). The process: `modules.helm.helm.Helm`, run with `python -m modules.helm`.
+The process on the blackboard is `codger.helm` (`python -m codger.helm`).
 """
 
 from modules.helm.tracker import PathTracker, TrackCommand, TrackerConfig, TrackerError, tracker_config_for

@@ -2,7 +2,8 @@
 
 Layers (one common data interface between them): PERCEPTION MONITOR (`monitor`), PATCH MAKER
 (the `patch_maker` sub-package: colour, range and overlap segmentation, patches), OBJECT FINDER (`object_finder`),
-POSITION CALIBRATOR (`calibrator`); `pipeline` runs one cycle, `module` is the process.
+POSITION CALIBRATOR (`calibrator`); `pipeline` runs one cycle. The process on the blackboard is
+`codger.perception`; EDDIE's modules run the same pipeline.
 """
 
 from modules.perception.calibrator import CalibrationError, CalibrationResult, EdgeObservation, PointObservation, calibrate

@@ -1,12 +1,9 @@
 """The PILOT (seed: Sidewalk §2.3.3): driving monitor, driving unit finder, position estimator,
 driving unit navigator and local path planner, pipelined as in the paper's Figure 6.
 
-Pure cores (no network, no blackboard; EDDIE reuses them as libraries): `driving_units`, `kalman`,
-`local_path_constraints`, `planner`, `speed_profile`, `segment`, exported here. The PILOT's five parts on the
-blackboard, one file each: `driving_monitor.DrivingMonitor`, `driving_unit_finder.DrivingUnitFinder`,
-`position_estimator.PositionEstimator`, `driving_unit_navigator.DrivingUnitNavigator`,
-`local_path_planner.LocalPathPlanning`; the process that wires them: `modules.pilot.pilot.Pilot`,
-run with `python -m modules.pilot`.
+Pure cores (no network, no blackboard; both architectures use them as libraries): `driving_units`,
+`kalman`, `local_path_constraints`, `planner`, `speed_profile`, `segment`, exported here. The PILOT's five
+parts on the blackboard and the process that wires them are `codger.pilot` (`python -m codger.pilot`).
 """
 
 from modules.pilot.config import PilotConfig, pilot_config_for

@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from wire.se2 import wrap_angle
+
 __all__ = ["VehiclePose"]
 
 
@@ -59,5 +61,5 @@ class VehiclePose:
         c, s = math.cos(dyaw), math.sin(dyaw)
         x = px + c * (self.x - px) - s * (self.y - py) + dx
         y = py + s * (self.x - px) + c * (self.y - py) + dy
-        yaw = (self.yaw + dyaw + math.pi) % (2.0 * math.pi) - math.pi
+        yaw = wrap_angle(self.yaw + dyaw)
         return VehiclePose(x, y, self.z + dz, self.roll, self.pitch, yaw)

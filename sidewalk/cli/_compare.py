@@ -45,19 +45,22 @@ def _fault_list(text: str) -> tuple[str, ...]:
 
 
 def compare(
-    missions: Annotated[str, typer.Option(help="Missions (comma-separated names or files)")] = "campus-tour,amv-delivery",
+    missions: Annotated[Optional[str], typer.Option(help="Missions (comma-separated names or files; default: campus-tour,amv-delivery, none with --generated)")] = None,
     worlds: Annotated[Optional[str], typer.Option(help="Only missions on these worlds (comma-separated; default: each mission's own)")] = None,
     seeds: Annotated[int, typer.Option(help="Seeds 0..N-1: each runs on every architecture")] = 3,
     rtf: Annotated[float, typer.Option(help="Real-time factor of every run (with --realtime)")] = 8.0,
     lockstep: Annotated[bool, typer.Option("--lockstep/--realtime", help="Lock-step (default: the simulator waits for every module; the same command gives the same table) or real time at --rtf (latency under load is measured)")] = True,
     arch: Annotated[str, typer.Option("--arch", help="Architectures to compare (those `sidewalk run` offers are run)")] = "codger,eddie",
-    faults: Annotated[str, typer.Option(help="Faults, each once per mission × architecture (default: all six; `none` to skip): kill-central,kill-service,kill-perception,wedge-driver,wedge-planner,position-jump")] = "all",
+    faults: Annotated[Optional[str], typer.Option(help="Faults, each once per mission × architecture (default: all six; `none` to skip; with --generated none): kill-central,kill-service,kill-perception,wedge-driver,wedge-planner,position-jump")] = None,
     speed_sweep: Annotated[Optional[str], typer.Option("--speed-sweep", help="Speed caps (m/s) to sweep, e.g. 1.0,2.0,3.0")] = None,
     out: Annotated[Path, typer.Option(help="Output directory (compare.json, compare.md, *.png, runs/)")] = Path("runs/compare"),
     jobs: Annotated[int, typer.Option(help="Runs at a time (1 on a 2-core machine: runs measure time)")] = 1,
     max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s); a lock-step EDDIE run takes 5-10 min here")] = 3600.0,
     resume: Annotated[bool, typer.Option("--resume", help="Reuse runs in --out whose report is of the same cell (architecture, mission, seed, fault, speed cap)")] = False,
     cluster: Annotated[Optional[str], typer.Option(help="Run the cells on this Dask scheduler's workers (tcp://HOST:8786), one run per worker, their run directories brought back into --out")] = None,
+    generated: Annotated[Optional[str], typer.Option(help="Generated layouts KIND:N[,KIND:N] (e.g. suburb:20, marked-road:10): seeds 0..N-1 of `sidewalk worldgen KIND`, written into OUT/layouts/, one mission each")] = None,
+    with_actors: Annotated[bool, typer.Option("--with-actors", help="Run each generated layout once more with its actors file (a walker in the lane, a parked car)")] = False,
+    road_method: Annotated[Optional[str], typer.Option(help="`sidewalk run --road-method` of every run: perception, scarf, yarf or alvinn (default: the run's)")] = None,
 ) -> None:
     """Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables and plots."""
     from rich.console import Console
@@ -75,7 +78,7 @@ def compare(
     for a in archs:
         if a not in ARCHITECTURES:
             raise typer.BadParameter(f"unknown architecture {a!r}; known: {', '.join(ARCHITECTURES)}", param_hint="--arch")
-    fault_list = _fault_list(faults)
+    fault_list = _fault_list(faults if faults is not None else ("none" if generated else "all"))
     for f in fault_list:
         if f not in FAULTS:
             raise typer.BadParameter(f"unknown fault {f!r}; known: {', '.join(FAULTS)}", param_hint="--faults")
@@ -83,8 +86,18 @@ def compare(
         raise typer.BadParameter("--seeds and --jobs must be ≥ 1 and --rtf > 0")
     if cluster is not None and jobs != 1:
         raise typer.BadParameter("the cluster's workers set how many runs go at once (one per worker); leave --jobs out", param_hint="--jobs")
-    mission_list = _list(missions, "--missions")
+    if with_actors and not generated:
+        raise typer.BadParameter("--with-actors runs generated layouts with their actors files: give --generated", param_hint="--with-actors")
+    if road_method is not None and road_method not in ("perception", "scarf", "yarf", "alvinn"):
+        raise typer.BadParameter(f"unknown method {road_method!r}; known: perception, scarf, yarf, alvinn", param_hint="--road-method")
+    mission_list = _list(missions, "--missions") if missions is not None else (() if generated else ("campus-tour", "amv-delivery"))
+    layouts = []
     try:
+        if generated:
+            from sidewalk.compare.layouts import parse_generated, write_layouts
+
+            layouts = write_layouts(parse_generated(generated), out)
+            mission_list = (*mission_list, *(lay.mission for lay in layouts))
         if worlds:
             keep = set(_list(worlds, "--worlds"))
             mission_list = tuple(m for m in mission_list if mission_world(m) in keep or mission_world(m) is None)
@@ -98,7 +111,8 @@ def compare(
     available, arch_flag = available_architectures()
     cfg = CompareConfig(missions=mission_list, seeds=tuple(range(seeds)), rtf=rtf, architectures=archs, faults=fault_list,
                         speeds=_speeds(speed_sweep) if speed_sweep else (), out=out, jobs=jobs, arch_flag=arch_flag,
-                        max_wall_time_s=max_wall_time, resume=resume, lockstep=lockstep, cluster=cluster)
+                        max_wall_time_s=max_wall_time, resume=resume, lockstep=lockstep, cluster=cluster, layouts=tuple(layouts),
+                        with_actors=with_actors, road_method=road_method)
     skipped = [a for a in archs if a not in available]
     if skipped:
         console.print(f"[yellow]not available in `sidewalk run`: {', '.join(skipped)} — compared without it[/yellow]")

@@ -366,8 +366,8 @@ def _run_command() -> None:
         """Run the PERCEPTION process: answer driving units from the blackboard with the simulator's sensors."""
         from pydantic import ValidationError
 
-        from modules.perception.module import PerceptionConfig, PerceptionModule
-        from modules.runtime import run_module, setup_logging
+        from codger.perception.module import PerceptionConfig, PerceptionModule
+        from runtime import run_module, setup_logging
 
         try:
             cfg = PerceptionConfig(vehicle=vehicle, speed=speed, max_wait_s=max_wait, vision_workers=vision_workers)

@@ -12,27 +12,10 @@ from typing import Annotated, Callable, Optional
 import typer
 
 from wire.network import NetworkConfig
+from sidewalk.processes import UP_TARGETS
 from wire.flags import with_network
 
 __all__ = ["register", "UP_TARGETS"]
-
-#: `sidewalk up NAME` → (module, function taking argv). The node and the simulator go through their Typer commands.
-UP_TARGETS: dict[str, tuple[str, str]] = {
-    "captain": ("modules.captain.main", "main"),
-    "map_navigator": ("modules.map_navigator.main", "main"),
-    "pilot": ("modules.pilot.__main__", "main"),
-    "helm": ("modules.helm.__main__", "main"),
-    "perception": ("modules.perception.__main__", "main"),
-    "obstacles": ("modules.obstacles.__main__", "main"),
-    # EDDIE (issue 9): the integrated controller, the navigator, the annotated map manager and EDDIE's modules
-    "controller": ("eddie.controller.__main__", "main"),
-    "navigator": ("eddie.navigator.__main__", "main"),
-    "map_manager": ("eddie.map_manager.__main__", "main"),
-    "mission_service": ("eddie.modules.mission_service", "main"),
-    "road_following": ("eddie.modules.road_following_module", "main"),
-    "landmark_matching": ("eddie.modules.landmark_matching_module", "main"),
-    "obstacle_stop": ("eddie.modules.obstacle_stop_module", "main"),
-}
 
 
 #: RunConfig field → the `sidewalk run` flag that sets it (for errors naming the flag).
@@ -231,14 +214,14 @@ def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, b
     if name not in UP_TARGETS:
         known = ", ".join(["router", "blackboard", "sim", *UP_TARGETS])
         raise typer.BadParameter(f"unknown module {module!r}; known: {known}", param_hint="MODULE")
-    modname, fn = UP_TARGETS[name]
+    modname = f"{UP_TARGETS[name]}.__main__"
     try:
         target = importlib.import_module(modname)
     except ModuleNotFoundError as exc:
         if not modname.startswith(exc.name or "\0"):
             raise
         raise typer.BadParameter(f"module {module!r} is not part of this installation ({modname} is missing)", param_hint="MODULE") from None
-    main: Callable[[list[str]], int] = getattr(target, fn)
+    main: Callable[[list[str]], int] = target.main
     raise typer.Exit(main(argv) or 0)
 
 
@@ -268,8 +251,9 @@ def submit(
 async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -> int:
     from rich.console import Console
 
-    from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
-    from modules.runtime import ModuleKeys, Link
+    from sidewalk.mission_client import MissionClient, MissionRejected, MissionServiceUnavailable
+    from wire.aio import Link
+    from wire.keys import ModuleKeys
 
     console = Console()
     link = Link.open(net)
@@ -280,7 +264,7 @@ async def _submit(net: NetworkConfig, text: str, follow: bool, timeout: float) -
         except MissionRejected as exc:
             console.print(f"[red]rejected:[/red] {exc.rejection.message}")
             return 2
-        except CaptainUnavailableError as exc:
+        except MissionServiceUnavailable as exc:
             typer.echo(f"error: {exc}", err=True)
             return 3
         console.print(f"mission accepted: [bold]{acc.mission_id}[/bold]")
@@ -409,15 +393,16 @@ def cancel(
 
 
 async def _cancel(net: NetworkConfig, mission_id: str, timeout: float) -> int:
-    from modules.captain.client import CaptainUnavailableError, MissionClient, MissionRejected
-    from modules.runtime import ModuleKeys, Link
+    from sidewalk.mission_client import MissionClient, MissionRejected, MissionServiceUnavailable
+    from wire.aio import Link
+    from wire.keys import ModuleKeys
 
     link = Link.open(net)
     try:
         st = await MissionClient(link, ModuleKeys(net.namespace), timeout=timeout).cancel(mission_id)
         typer.echo(f"{st.mission_id}: {st.state} {st.reason}")
         return 0
-    except (MissionRejected, CaptainUnavailableError) as exc:
+    except (MissionRejected, MissionServiceUnavailable) as exc:
         typer.echo(f"error: {exc}", err=True)
         return 2
     finally:

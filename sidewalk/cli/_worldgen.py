@@ -12,7 +12,7 @@ __all__ = ["register"]
 
 
 def worldgen(
-    kind: Annotated[str, typer.Argument(help="What to generate (cross-country)")],
+    kind: Annotated[str, typer.Argument(help="What to generate (cross-country, suburb, marked-road)")],
     seed: Annotated[int, typer.Option(help="Seed: the same seed writes identical files")] = 0,
     out: Annotated[Path, typer.Option(help="Directory to write into")] = Path("runs/worldgen"),
     name: Annotated[Optional[str], typer.Option(help="The world's name (files NAME.world.geojson, …; default: KIND_SEED)")] = None,
@@ -27,9 +27,14 @@ def worldgen(
         raise typer.BadParameter(f"{name!r}: letters, digits, '_' and '-' only (at most 64)", param_hint="--name")
     if out.exists() and not out.is_dir():
         raise typer.BadParameter(f"{out} exists and is not a directory", param_hint="--out")
+    from modules.captain.missionfile import MissionFileError, load_mission
+
     try:
         paths = GENERATORS[kind](seed, out, name)
-    except (SimError, OSError) as exc:
+        for p in paths:
+            if p.suffix == ".yaml" and not p.name.endswith(".actors.yaml"):
+                load_mission(p)  # the mission by the CAPTAIN's own reader
+    except (SimError, OSError, MissionFileError) as exc:
         typer.echo(f"error: sidewalk worldgen {kind} --seed {seed}: {exc}", err=True)
         raise typer.Exit(1) from None
     for p in paths:

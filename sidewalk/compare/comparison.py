@@ -1,6 +1,7 @@
 """A whole comparison: the baseline grid, the fault runs, the speed sweep, the glue count — one `compare.json`.
 
-Order: every mission × seed × architecture without a fault; then each fault once per mission ×
+Order: every mission × seed × architecture without a fault; then, with `with_actors`, every generated layout × seed ×
+architecture with its actors file; then each fault once per mission ×
 architecture on the first seed, injected at `FAULT_AT` × that mission's median baseline mission
 time; then the speed sweep, speed by speed, each architecture until a speed where some seed fails.
 """
@@ -20,6 +21,7 @@ from sidewalk.compare.fault_outcome import FaultOutcome, judge_fault
 from sidewalk.compare.faults import ROLES, TARGETS, FaultSpec
 from sidewalk.compare.glue import GlueCount, count_glue
 from sidewalk.compare.grid import GridResult, GridRun, run_grid
+from sidewalk.compare.layouts import Layout, LayoutRow, LayoutTotal, layout_rows, layout_totals
 from sidewalk.compare.measures import RunMeasures, measure_dir
 from sidewalk.compare.summary import ArchSummary, Unreported, summarise
 from sidewalk.run_record import RunRecordError, load_record
@@ -63,6 +65,11 @@ class CompareConfig(BaseModel):
     lockstep: bool = True
     #: the Dask scheduler whose workers run the cells (`tcp://HOST:8786`; None: here, `jobs` at a time)
     cluster: Optional[str] = None
+    #: generated layouts among `missions` (their world files), each run once more with its actors file when `with_actors`
+    layouts: tuple[Layout, ...] = ()
+    with_actors: bool = False
+    #: `sidewalk run --road-method` of every run (None: the run's default)
+    road_method: Optional[str] = None
 
 
 class RunEntry(BaseModel):
@@ -75,6 +82,8 @@ class RunEntry(BaseModel):
     seed: int
     fault: Optional[str] = None
     max_speed: Optional[float] = None
+    #: the actors file the run had (None: none)
+    actors: Optional[str] = None
     out: str
     exit_code: int
     report: Optional[dict] = None
@@ -119,12 +128,15 @@ class Comparison(BaseModel):
     wall_time_s: float = 0.0
     #: how sim time advanced in every run: `lockstep` or `realtime`
     time_mode: str = "realtime"
+    #: generated layouts: a row per layout × architecture (× with/without actors), and the totals per kind
+    layouts: list[LayoutRow] = []
+    layout_totals: list[LayoutTotal] = []
 
 
 def _entry(res: GridResult) -> RunEntry:
     r = res.run
     base = dict(architecture=r.architecture, mission=r.mission, seed=r.seed, fault=r.fault.name if r.fault else None,
-                max_speed=r.max_speed, out=str(r.out), exit_code=res.exit_code)
+                max_speed=r.max_speed, actors=r.actors, out=str(r.out), exit_code=res.exit_code)
     if not res.has_report:
         log = r.out / "compare-run.log"
         tail = log.read_text(errors="replace").strip().splitlines()[-1:] if log.exists() else []
@@ -181,14 +193,18 @@ def _budgets(measured: Sequence[RunMeasures], arch: str, mission: str, cfg: Comp
 
 def _cells(cfg: CompareConfig, archs: Sequence[str], seeds: Sequence[int], *, tag: str = "",
            fault: FaultSpec | None = None, speed: float | None = None, mission: str | None = None,
-           measured: Sequence[RunMeasures] = ()) -> list[GridRun]:
+           measured: Sequence[RunMeasures] = (), missions: Sequence[str] | None = None, with_actors: bool = False) -> list[GridRun]:
     out = []
-    for m in ([mission] if mission else cfg.missions):
+    generated = {lay.mission: lay for lay in cfg.layouts}
+    for m in ([mission] if mission else (missions if missions is not None else cfg.missions)):
+        lay = generated.get(m)
         for s in seeds:
             for a in archs:
                 budget = {"max_wall_time_s": cfg.max_wall_time_s, **_budgets(measured, a, m, cfg)}
-                out.append(GridRun(architecture=a, mission=m, world=mission_world(m), seed=s, rtf=cfg.rtf, fault=fault, lockstep=cfg.lockstep,
-                                   max_speed=speed, out=cfg.out / "runs" / a / mission_name(m) / f"seed{s}{tag}", **budget))
+                out.append(GridRun(architecture=a, mission=m, world=lay.world if lay else mission_world(m), seed=s, rtf=cfg.rtf,
+                                   fault=fault, lockstep=cfg.lockstep, max_speed=speed, road_method=cfg.road_method,
+                                   actors=lay.actors if (lay and with_actors) else None,
+                                   out=cfg.out / "runs" / a / mission_name(m) / f"seed{s}{tag}", **budget))
     return out
 
 
@@ -216,12 +232,15 @@ async def _run_comparison(cfg: CompareConfig, available: list[str], *, total: Ca
     grid = _cells(cfg, archs, cfg.seeds)
     n_fault = sum(TARGETS.get(a, {}).get(f) is not None for f in cfg.faults for a in archs) * len(cfg.missions)
     n_sweep = len(cfg.speeds) * len(cfg.missions) * len(cfg.seeds) * len([a for a in archs if a in SPEED_CAPPED])
+    actor_grid = (_cells(cfg, archs, cfg.seeds, tag="-actors", missions=[lay.mission for lay in cfg.layouts], with_actors=True)
+                  if cfg.with_actors else [])
     if total:
-        total(len(grid) + n_fault + n_sweep)
+        total(len(grid) + len(actor_grid) + n_fault + n_sweep)
     kw = dict(jobs=cfg.jobs, arch_flag=cfg.arch_flag, python=python, on_start=on_start, on_done=on_done, resume=cfg.resume,
               cluster=cluster)
     entries = [_entry(r) for r in await run_grid(grid, **kw)]
     measured = [e.measures for e in entries if e.measures is not None]
+    actor_entries = [_entry(r) for r in await run_grid(actor_grid, **kw)]
 
     fault_cells = []
     outcomes = []
@@ -275,10 +294,13 @@ async def _run_comparison(cfg: CompareConfig, available: list[str], *, total: Ca
                 alive.remove(a)
 
     summary, per_mission = summaries(entries, cfg.missions)
+    rows = layout_rows(cfg.layouts, entries + actor_entries)
     return Comparison(
-        config=cfg, available=available, requested=list(cfg.architectures), runs=entries + fault_entries + sweep_entries,
+        config=cfg, available=available, requested=list(cfg.architectures),
+        runs=entries + actor_entries + fault_entries + sweep_entries,
         summary=summary, per_mission=per_mission,
         faults=outcomes, speed_sweep=sweep, highest_speed=highest,
         glue=[count_glue(SOURCE_ROOT, a) for a in ("codger", "eddie")],
         wall_time_s=round(time.monotonic() - t0, 1), time_mode="lockstep" if cfg.lockstep else "realtime",
+        layouts=rows, layout_totals=layout_totals(rows),
     )

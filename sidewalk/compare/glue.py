@@ -1,8 +1,9 @@
 """Lines of glue: the code an architecture needs to wire its algorithms together, counted by rule.
 
 The rule, applied to the files an architecture's processes reach by static imports from its
-entry points (every `__main__.py` of its packages: `modules/` and `blackboard/` for CODGER,
-`eddie/` for EDDIE), `wire/` excluded (the transport both stand on):
+entry points (the `__main__.py` of each process its plans run, `sidewalk.processes`: `codger.<name>`
+for CODGER, `eddie.<name>` for EDDIE; both reach the shared library `modules/` and the runtime
+`runtime/`, CODGER the blackboard), `wire/` excluded (the transport both stand on):
 - a file is *substrate* if it imports the transport of `wire` itself (`TRANSPORT`: sessions, keys,
   network flags, health — not its geometry or message types): the blackboard node and client, the
   module runtime; EDDIE's toolkit;
@@ -23,10 +24,15 @@ from typing import Sequence
 
 from pydantic import BaseModel, ConfigDict
 
-__all__ = ["GlueCount", "count_glue", "logical_lines", "PACKAGES", "TRANSPORT"]
+from sidewalk.processes import CODGER_PROCESSES, EDDIE_PROCESSES
 
-#: architecture → the packages its processes come from.
-PACKAGES: dict[str, tuple[str, ...]] = {"codger": ("modules", "blackboard"), "eddie": ("eddie",)}
+__all__ = ["GlueCount", "count_glue", "logical_lines", "PACKAGES", "ENTRY_POINTS", "TRANSPORT"]
+
+#: architecture → the packages its processes can reach.
+PACKAGES: dict[str, tuple[str, ...]] = {"codger": ("codger", "modules", "runtime", "blackboard"),
+                                        "eddie": ("eddie", "modules", "runtime")}
+#: architecture → its processes' packages (each entered at its `__main__`)
+ENTRY_POINTS: dict[str, tuple[str, ...]] = {"codger": tuple(CODGER_PROCESSES.values()), "eddie": tuple(EDDIE_PROCESSES.values())}
 
 #: The transport modules of `wire` (importing one makes a file substrate).
 TRANSPORT = ("wire.session", "wire.aio", "wire.keys", "wire.network", "wire.flags", "wire.router", "wire.health", "wire.ports")
@@ -45,6 +51,7 @@ class GlueCount(BaseModel):
     algorithm_lines: int = 0
     algorithm_files: int = 0
     glue_by_file: dict[str, int] = {}
+    algorithm_by_file: dict[str, int] = {}
 
 
 def logical_lines(source: str) -> int:
@@ -93,7 +100,10 @@ def _imports(tree: ast.AST, module: str, is_pkg: bool) -> set[str]:
 
 
 def count_glue(root: Path, architecture: str, packages: Sequence[str] | None = None) -> GlueCount:
-    """Count an architecture's glue and algorithm lines under the source tree `root` (see the module's rule)."""
+    """Count an architecture's glue and algorithm lines under the source tree `root` (see the module's rule).
+
+    Entered at its processes' `__main__` (`ENTRY_POINTS`); an architecture not there at every `__main__.py` of `packages`.
+    """
     pkgs = tuple(packages or PACKAGES[architecture])
     files: dict[str, Path] = {}
     for p in pkgs:
@@ -106,8 +116,13 @@ def count_glue(root: Path, architecture: str, packages: Sequence[str] | None = N
         names = _imports(tree, m, files[m].name == "__init__.py")
         if any(n == t or n.startswith(t + ".") for n in names for t in TRANSPORT):
             wire_users.add(m)
-        deps[m] = {n for n in names if n in files} | {n.rsplit(".", 1)[0] for n in names if n.rsplit(".", 1)[0] in files}
-    entries = [m for m, f in files.items() if f.name == "__main__.py"]
+        # `from a.b import c` names a.b (a module) and a.b.c (a module or a name in a.b); a package's __init__ is a
+        # dependency only when it is imported itself (`from a import x`), not because a sibling was (a file is glue
+        # by what it imports itself: importing a.b runs a/__init__.py, which is reached but not what a.b uses)
+        deps[m] = {n for n in names if n in files} | {n.rsplit(".", 1)[0] for n in names
+                                                      if n not in files and n.rsplit(".", 1)[0] in files}
+    mains = [m for m, f in files.items() if f.name == "__main__.py"]
+    entries = [m for m in mains if m.removesuffix(".__main__") in ENTRY_POINTS[architecture]] if architecture in ENTRY_POINTS else mains
     reached: set[str] = set()
     todo = list(entries)
     while todo:
@@ -131,4 +146,5 @@ def count_glue(root: Path, architecture: str, packages: Sequence[str] | None = N
         substrate_lines=sum(lines[m] for m in substrate),
         algorithm_lines=sum(lines[m] for m in algo), algorithm_files=len(algo),
         glue_by_file={str(files[m].relative_to(root)): lines[m] for m in sorted(glue)},
+        algorithm_by_file={str(files[m].relative_to(root)): lines[m] for m in sorted(algo)},
     )

@@ -46,12 +46,15 @@ class GridRun(BaseModel):
     max_sim_time_s: Optional[float] = None
     #: run in lock-step (`sidewalk run --lockstep`) rather than in real time at `rtf`
     lockstep: bool = False
+    #: an actors file (`sidewalk run --actors`) and how the road is found (`--road-method`; None: the run's default)
+    actors: Optional[str] = None
+    road_method: Optional[str] = None
 
     @property
     def label(self) -> str:
         """Return a short name for the progress bar."""
         extra = f" {self.fault.name}" if self.fault else (f" v≤{self.max_speed:g}" if self.max_speed else "")
-        return f"{self.architecture} {self.mission} s{self.seed}{extra}"
+        return f"{self.architecture} {Path(self.mission).stem} s{self.seed}{extra}{' +actors' if self.actors else ''}"
 
     def argv(self, *, arch_flag: bool) -> list[str]:
         """Return the command line (after the interpreter); `arch_flag`: the run command takes --arch."""
@@ -69,6 +72,10 @@ class GridRun(BaseModel):
             args += ["--max-speed", f"{self.max_speed:g}"]
         if self.lockstep:
             args += ["--lockstep"]
+        if self.actors is not None:
+            args += ["--actors", self.actors]
+        if self.road_method is not None:
+            args += ["--road-method", self.road_method]
         return args
 
 

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Sequence
 
 import numpy as np
 
 from sidewalk.compare.comparison import FAULT_AT, SPEED_CAPPED, Comparison
 from sidewalk.compare.fault_outcome import BEFORE_S, HELD_S, SLOWER, WORSE_M
 from sidewalk.compare.faults import JUMP_M, ROLES, TARGETS, WEDGE_S
-from sidewalk.compare.glue import TRANSPORT
+from sidewalk.compare.glue import TRANSPORT, GlueCount
 from sidewalk.compare.measures import MEASURES, OBSERVERS
 from sidewalk.compare.summary import Spread
 
@@ -40,6 +40,21 @@ def fmt_spread(s: Spread) -> str:
 
 def _table(head: list[str], rows: list[list[str]]) -> list[str]:
     return ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|", *("| " + " | ".join(r) + " |" for r in rows)]
+
+
+def _layouts(c: Comparison) -> list[str]:
+    """Return the generated layouts' section: totals per kind and architecture, then a row per layout."""
+    kinds = ", ".join(dict.fromkeys(f"{t.kind}" for t in c.layout_totals))
+    out = ["## Generated layouts", "",
+           f"Layouts of `sidewalk worldgen` ({kinds}), seeds 0..N-1, one mission each (start to the delivery mailbox); "
+           "success by truth; goal error median and 90th percentile over the layouts that reported one.", ""]
+    rows = [[t.kind, t.architecture, "with" if t.actors else "without", f"{t.successes}/{t.layouts}", _num(t.goal_error_median_m),
+             _num(t.goal_error_p90_m), str(t.collisions)] for t in c.layout_totals]
+    out += _table(["kind", "arch", "actors", "success (truth)", "goal error median [m]", "goal error p90 [m]", "collisions"], rows) + [""]
+    rows = [[r.layout, r.architecture, "with" if r.actors else "without", str(r.seed), "✔" if r.success else "✘", _num(r.goal_error_m),
+             str(r.collisions), r.reason[:100]] for r in c.layouts]
+    out += ["Per layout:", ""] + _table(["layout", "arch", "actors", "seed", "truth", "goal error [m]", "collisions", "why it failed"], rows)
+    return out + [""]
 
 
 def render_markdown(c: Comparison, command: str = "") -> str:
@@ -106,11 +121,13 @@ def render_markdown(c: Comparison, command: str = "") -> str:
                         "counted apart (the last column; the run mode's cost, not the architecture's); the CPU they took cannot "
                         "be told apart and is in the CPU figures. Compare the architectures' cost on a real-time grid "
                         "(`--realtime`).", ""]
+    if c.layouts:
+        out += _layouts(c)
     out += ["## Runs", ""]
     rows = []
     for r in c.runs:
         m = r.measures
-        what = r.fault or (f"v≤{r.max_speed:g}" if r.max_speed else "")
+        what = r.fault or (f"v≤{r.max_speed:g}" if r.max_speed else ("actors" if r.actors else ""))
         if m is None:
             rows.append([r.architecture, Path(r.mission).stem, str(r.seed), what, "✘ no report", "–", "–", "–", "–", "–", r.error[:80]])
             continue
@@ -150,4 +167,18 @@ def render_markdown(c: Comparison, command: str = "") -> str:
     rows = [[g.architecture, str(g.glue_lines) if g.present else "absent", str(g.glue_files), str(g.substrate_lines),
              str(g.algorithm_lines), str(g.algorithm_files)] for g in c.glue]
     out += _table(["arch", "glue lines", "glue files", "of which substrate", "algorithm lines", "algorithm files"], rows) + [""]
+    out += glue_appendix(c.glue)
     return "\n".join(out) + "\n"
+
+
+def glue_appendix(glue: Sequence[GlueCount]) -> list[str]:
+    """Return the appendix of the glue count: every counted file per architecture, its kind and logical lines."""
+    out = ["## Appendix: the files counted", "",
+           "Every file each architecture's processes reach, as the rule above classed it, with its logical lines: the "
+           "sums are the table's.", ""]
+    for g in glue:
+        if not g.present:
+            continue
+        rows = [[f, "glue", str(n)] for f, n in g.glue_by_file.items()] + [[f, "algorithm", str(n)] for f, n in g.algorithm_by_file.items()]
+        out += [f"### {g.architecture}", ""] + _table(["file", "kind", "lines"], sorted(rows)) + [""]
+    return out

@@ -13,7 +13,8 @@ import logging
 from typing import Literal
 
 from blackboard import BlackboardClient, BlackboardError, TypeRegistry
-from modules.runtime import ModuleRuntime, run_module
+from codger.blackboard_part import BlackboardPart
+from runtime import ModuleRuntime, run_module
 from sidewalk.monitor.codger import CodgerLive
 from sidewalk.monitor.eddie import LATEST_STREAMS, STREAMS, EddieLive
 from sidewalk.monitor.errors import PortInUseError
@@ -100,7 +101,7 @@ class LiveMonitor:
         # the live view converts poses several times a second: a frame cache answers them without a round trip
         self.bb = await BlackboardClient.connect(self.rt.net, source="monitor", registry=TypeRegistry(), lenient=True,
                                                  connect_timeout=30.0, frame_cache=True)
-        self.rt.bb = self.bb  # the runtime closes it on the way out
+        await self.rt.plug(BlackboardPart(client=self.bb))  # the runtime closes it on the way out
         codger = CodgerLive(self.model, self.bb)
         self._spawn(codger.run())
 
@@ -144,5 +145,5 @@ def serve_live(net: NetworkConfig, *, host: str = "127.0.0.1", port: int = 8080,
             await live.stop()
             await server.stop()
 
-    rc = run_module("monitor", main, net, use_blackboard=False)
+    rc = run_module("monitor", main, net)
     return code["port"] or rc

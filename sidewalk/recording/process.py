@@ -13,7 +13,8 @@ from pathlib import Path
 from typing import Literal
 
 from blackboard import BlackboardClient, BlackboardError, TypeRegistry
-from modules.runtime import ModuleRuntime, run_module_async
+from codger.blackboard_part import BlackboardPart
+from runtime import ModuleRuntime, run_module_async
 from sidewalk.recording.recorder import RunRecorder
 from wire.network import NetworkConfig
 
@@ -40,7 +41,7 @@ def record(net: NetworkConfig, path: Path, *, arch: Arch = "codger", connect_tim
         watcher: asyncio.Task | None = None
         try:
             if arch == "codger":
-                rt.bb = await _bb_client(net, connect_timeout)  # the runtime closes it on the way out
+                await rt.plug(BlackboardPart(client=await _bb_client(net, connect_timeout)))  # the runtime closes it on the way out
             await rec.start(rt.bb)
             if arch == "auto":
                 appeared = asyncio.Event()
@@ -49,7 +50,7 @@ def record(net: NetworkConfig, path: Path, *, arch: Arch = "codger", connect_tim
                 async def attach() -> None:
                     await appeared.wait()
                     try:
-                        rt.bb = await _bb_client(net, connect_timeout)
+                        await rt.plug(BlackboardPart(client=await _bb_client(net, connect_timeout)))
                         await rec.attach_blackboard(rt.bb)
                     except BlackboardError as exc:
                         log.warning("recorder: blackboard appeared but cannot be monitored: %s", exc)
@@ -63,7 +64,7 @@ def record(net: NetworkConfig, path: Path, *, arch: Arch = "codger", connect_tim
                 watcher.cancel()
             rec.request_stop()  # the writer thread drains what is queued; `finish` below waits for it
 
-    code = asyncio.run(run_module_async("recorder", main, net, use_blackboard=False, connect_timeout=connect_timeout))
+    code = asyncio.run(run_module_async("recorder", main, net))
     for rec in made:
         rec.finish()
         print(f"recorder: wrote {sum(rec.sink.counts.values())} messages on {len(rec.sink.counts)} channels to {path} "

@@ -10,7 +10,8 @@ What is recorded:
   blackboard client with one monitor matching every type; tokens already there when it starts are
   recorded as `present`;
 - the map and world the simulator serves (`/sim/map`, `/sim/world`, answers to queries) and EDDIE's
-  annotations (`/eddie/annotations`, the map manager's answer once its liveliness token appears);
+  annotations (`/eddie/annotations`, the map manager's answer once its liveliness token appears and again at each
+  mission's first event, when it holds that mission's annotations);
 - Foxglove views of all this (`derive`): `/tf`, `/tf/truth`, `/tf_static`, `/scene/*`, `/camera/image`,
   `/colored_range/image`; under EDDIE the route (`/scene/route`) and the current segment (`/scene/segment`,
   `eddie_segment`) from the route annotations; and the map, world and annotations as `foxglove.GeoJSON` (`/geojson/*`, in
@@ -51,6 +52,8 @@ log = logging.getLogger(__name__)
 
 #: The topic EDDIE's annotations (the answer to the map manager's query) are recorded on.
 ANNOTATIONS_TOPIC = "/eddie/annotations"
+#: the mission events stream (relative key): a mission's first event asks the map manager for its annotations again
+MISSION_EVENTS = "mission/events"
 _MODELS = {name: model for model, name in TOKEN_TYPES.items()}
 
 
@@ -79,6 +82,8 @@ class RunRecorder:
         self._skip_key: str | None = None
         self._schemas: dict[str, dict] = {}
         self._eddie_seen = False
+        #: missions whose first event was seen (EDDIE: the map manager holds their annotations by then)
+        self._missions_seen: set[str] = set()
         self._segment = EddieSegment()
         self._sim_seen = False
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -182,7 +187,8 @@ class RunRecorder:
             if ok:
                 v = decode_payload(ok[0].payload, ok[0].is_json)
                 anns = v.get("annotations", v) if isinstance(v, dict) else v
-                self._q.append(("j", ANNOTATIONS_TOPIC[1:], anns if isinstance(anns, list) else []))
+                if isinstance(anns, list) and anns:  # a map manager started empty gets each mission's annotations with it
+                    self._q.append(("j", ANNOTATIONS_TOPIC[1:], anns))
                 return
             await asyncio.sleep(1.0)
 
@@ -245,6 +251,9 @@ class RunRecorder:
         cid = self.sink.channel(topic, fam.schema_name, self._schema(fam), metadata={"key": key})
         log_t = self.sink.write(cid, topic, log_t, value, publish_s=own)
         derived = derive_sample(rel, value, log_t)
+        if rel == MISSION_EVENTS and self._eddie_seen and isinstance(value, dict) and value.get("mission_id") not in self._missions_seen:
+            self._missions_seen.add(str(value.get("mission_id")))
+            self._call_soon(self._fetch_annotations)
         if rel.startswith("eddie/pub/") and isinstance(value, dict):
             derived += self._segment.on_stream(rel[len("eddie/pub/"):], value, log_t)
         for d in derived:

@@ -13,7 +13,7 @@ from wire.keys import SimKeys
 from wire.network import NetworkConfig
 from wire.ports import free_port
 
-from eddie.modules import ObstacleStopConfig, obstacle_ahead
+from eddie.obstacle_stop import ObstacleStopConfig, obstacle_ahead
 from eddie.modules.sensing import capture_frame, capture_scan
 from eddie.toolkit import Module
 from modules.perception.obstacles import LaserScan

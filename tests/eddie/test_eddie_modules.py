@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from shapely.geometry import Point, Polygon
 
-from eddie.modules import (
-    NoRoadPath, ObstacleStopConfig, RoadFollowingConfig, landmark_fix, obstacle_ahead, plan_road_path, route_goal,
-    route_to_local,
-)
+from eddie.landmark_matching import landmark_fix
+from eddie.modules import NoRoadPath
+from eddie.obstacle_stop import ObstacleStopConfig, obstacle_ahead
+from eddie.road_following import RoadFollowingConfig, plan_road_path, route_goal, route_to_local
 from modules.perception import PerceptionPipeline
 from modules.perception.obstacles import LaserScan
 from modules.pilot import LocalPathPlanner, PlannerConfig
@@ -143,7 +143,7 @@ def test_landmark_matching_fixes_the_position_across_the_walk(src: FrameSource) 
 
 
 def test_route_ahead_is_the_route_from_the_vehicle_on() -> None:
-    from eddie.modules.road_following import route_ahead
+    from eddie.road_following.road_following import route_ahead
 
     route = np.array([[0.0, 0.0], [10.0, 0.0], [10.0, 10.0]])
     ahead = route_ahead(route, np.array([4.0, 0.3]), 8.0)

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from eddie.modules.mission_progress import MissionProgress, MissionRouteError, step_goals
+from eddie.mission_service.mission_progress import MissionProgress, MissionRouteError, step_goals
 from modules.captain.arrival import REST_HOLD_S
 from modules.captain.missionfile import load_mission, parse_mission
 from modules.map_navigator import load_map
@@ -74,7 +74,7 @@ def test_a_vehicle_that_stands_still_fails_the_step_after_the_stall_time(campus)
 
 
 def test_progress_is_judged_along_the_route_even_where_it_leads_away_from_the_goal() -> None:
-    from eddie.modules.mission_progress import StepGoal
+    from eddie.mission_service.mission_progress import StepGoal
 
     mission = load_mission(WORLDS_DIR / "amv-delivery.yaml").model_copy(update={"mission_id": "u-turn"})
     # a U: 60 m north, 10 m east, 60 m south to a goal 10 m east of the start — the first minute leads away from it
@@ -102,7 +102,7 @@ def test_progress_is_judged_along_the_route_even_where_it_leads_away_from_the_go
 
 
 def test_a_belief_off_across_the_route_arrives_at_the_routes_end_and_one_far_off_does_not() -> None:
-    from eddie.modules.mission_progress import StepGoal
+    from eddie.mission_service.mission_progress import StepGoal
 
     mission = load_mission(WORLDS_DIR / "amv-delivery.yaml").model_copy(update={"mission_id": "offset"})
     route = ((0.0, 0.0), (0.0, 20.0))
@@ -148,7 +148,7 @@ def _where_it_ends(prog: MissionProgress, drive) -> tuple[float, float] | None:
 
 
 def test_a_step_ends_at_the_closest_approach_not_at_the_reachs_edge() -> None:
-    from eddie.modules.mission_progress import SETTLE_S, StepGoal
+    from eddie.mission_service.mission_progress import SETTLE_S, StepGoal
 
     mission = load_mission(WORLDS_DIR / "amv-delivery.yaml").model_copy(update={"mission_id": "closest"})
     goals = [StepGoal(step_index=0, route=((0.0, 0.0), (0.0, 20.0)), goal=(0.0, 20.0), reach_m=1.5)]
@@ -190,7 +190,7 @@ def test_the_dead_reckoned_route_keeps_to_the_steps_side_in_its_lane(campus) -> 
 
 def test_a_step_kept_right_ends_in_its_goals_lane_where_the_road_leaves_room(campus) -> None:
     from eddie.missions.lane import KERB_MARGIN_M
-    from eddie.modules.mission_progress import mission_route
+    from eddie.mission_service.mission_progress import mission_route
     from modules.pilot import pilot_config_for
 
     mission = load_mission(WORLDS_DIR / "campus-tour.yaml").model_copy(update={"mission_id": "tour-lanes"})
@@ -235,7 +235,7 @@ def _heading_drive(points, step_m: float = 0.2):
 
 
 def _two_steps(route1, route2, goal1, goal2, *, lane_offset_m: float | None):
-    from eddie.modules.mission_progress import StepGoal
+    from eddie.mission_service.mission_progress import StepGoal
 
     text = "mission: corner\nsteps:\n  - name: first\n    destination: a\n  - name: second\n    destination: b\n"
     mission = parse_mission(text.encode(), source="t").model_copy(update={"mission_id": "corner"})

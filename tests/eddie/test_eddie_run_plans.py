@@ -38,7 +38,9 @@ def test_the_eddie_plan_has_no_blackboard_and_the_perception_modules_only_with_p
     assert "--perception" in ms.args and ms.args[ms.args.index("--perception") + 1] == "off"
     nav = next(p for p in _plans(False) if p.name == "navigator")
     assert "--start-pose=1.0,-2.0,0.5" in nav.args  # the start belief is the navigator's first world←local
-    assert "map_manager" not in [p.name for p in _plans(False, annotated=None)]
+    # the map manager starts empty, its state in the run's out dir: the mission service hands it the mission's annotations
+    mm = next(p for p in _plans(False, annotated=None) if p.name == "map_manager")
+    assert "--annotated-map" not in mm.args and mm.args[mm.args.index("--state") + 1] == "/tmp/x/map_manager.state.json"
 
 
 def test_a_speed_cap_reaches_the_route_speed_and_the_controllers_top_speed() -> None:

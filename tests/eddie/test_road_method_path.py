@@ -13,7 +13,7 @@ import pytest
 from shapely.geometry import Point, Polygon
 
 from eddie.modules.errors import NoRoadPath
-from eddie.modules.road_following import RoadFollowingConfig, follower_path, map_road_at, road_line_fix, route_lane_offset
+from eddie.road_following.road_following import RoadFollowingConfig, follower_path, map_road_at, road_line_fix, route_lane_offset
 from modules.road_following import (CameraRoadFollower, NoRoadSeen, RoadObservation, cross_section, drive_line, motion_between,
                                     road_region, steering_arc)
 from wire.mapfile import PathEdge
@@ -145,7 +145,7 @@ def test_an_alvinn_follower_needs_weights() -> None:
 
 
 def test_a_keep_right_step_also_counts_its_goal_in_the_lane_reached() -> None:
-    from eddie.modules.mission_progress import MissionProgress, step_goals
+    from eddie.mission_service.mission_progress import MissionProgress, step_goals
     from modules.captain.missionfile import load_mission
     from modules.map_navigator import load_map
     from vehicle_sim.worldfile import WORLDS_DIR

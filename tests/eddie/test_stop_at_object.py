@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from eddie.modules.stop_at_object import ObjectCorrection, ObjectSightingConfig, sight_object
+from eddie.obstacle_stop.stop_at_object import ObjectCorrection, ObjectSightingConfig, sight_object
 from modules.perception.obstacles import Obstacle
 
 MAILBOX = (-236.64, 128.60)  # north_hills' delivery mailbox, `world`
@@ -86,7 +86,7 @@ def test_the_amv_stops_in_its_lane_beside_the_mailbox_the_map_has() -> None:
 
 
 def test_the_stop_at_an_object_comes_as_the_goal_is_reached_across_the_lane() -> None:
-    from eddie.modules.obstacle_stop_module import stop_now
+    from eddie.obstacle_stop.obstacle_stop_module import stop_now
 
     south = -math.pi / 2
     # 2 m/s, 0.3 s from the pose to the brakes: 0.6 m ahead
@@ -105,7 +105,7 @@ def test_the_stop_and_the_step_goal_are_beside_the_object_when_the_map_moved_it_
     from eddie.messages.map_manager import StopAtObject, open_trigger_data
     from eddie.missions import compile_mission_files
     from eddie.missions.destination import destination_object, destination_point
-    from eddie.modules.mission_progress import step_goals
+    from eddie.mission_service.mission_progress import step_goals
     from modules.captain.missionfile import load_mission
     from modules.map_navigator.mapdata import load_map
 

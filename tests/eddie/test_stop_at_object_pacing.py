@@ -12,9 +12,9 @@ import asyncio
 
 import pytest
 
-from eddie.modules import obstacle_stop_module as osm
-from eddie.modules.stop_at_object import ObjectCorrection
-from modules.runtime.clock import SimClock
+from eddie.obstacle_stop import obstacle_stop_module as osm
+from eddie.obstacle_stop.stop_at_object import ObjectCorrection
+from runtime.clock import SimClock
 
 
 class _Endpoint:

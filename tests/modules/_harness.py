@@ -14,9 +14,14 @@ import msgpack
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import NodeProcess, start_node
-from modules.captain import CaptainOptions, MissionClient, captain_main
-from modules.map_navigator import NavigatorOptions, ServiceOptions, load_map, navigator_main, start_position
-from modules.runtime import ModuleKeys, Link, run_module_async
+from codger.captain import CaptainOptions
+from codger.captain.__main__ import captain_main
+from codger.map_navigator import ServiceOptions
+from codger.map_navigator.__main__ import navigator_main, start_position
+from sidewalk.mission_client import MissionClient
+from modules.map_navigator import NavigatorOptions, load_map
+from codger.blackboard_part import BlackboardPart
+from runtime import ModuleKeys, Link, run_module_async
 from modules.vocabulary import MissionStatus, RouteSegmentDescription, SegmentResult
 
 __all__ = ["System", "system", "ScriptedPilot", "Answer"]
@@ -104,7 +109,7 @@ class System:
         m = load_map("campus")
         main = navigator_main(m, start_position(m, None), NavigatorOptions(vehicle=vehicle), ServiceOptions(pilot_grace_s=pilot_grace))
         self.tasks["map_navigator"] = asyncio.create_task(run_module_async(
-            "map_navigator", main, self.net, install_signals=False, stdout=io.StringIO(), heartbeat_period=0.2))
+            "map_navigator", main, self.net, parts=(BlackboardPart(),), install_signals=False, stdout=io.StringIO(), heartbeat_period=0.2))
 
     async def stop_module(self, name: str) -> None:
         task = self.tasks.pop(name)
@@ -148,7 +153,7 @@ async def system(ns: str, *, answer: Answer = _always_ok, navigator: bool = True
     try:
         sysm.tasks["pilot"] = asyncio.create_task(pilot.run())
         sysm.tasks["captain"] = asyncio.create_task(run_module_async(
-            "captain", captain_main([], captain), net, install_signals=False, stdout=io.StringIO(), heartbeat_period=0.2))
+            "captain", captain_main([], captain), net, parts=(BlackboardPart(),), install_signals=False, stdout=io.StringIO(), heartbeat_period=0.2))
         want = {"captain"}
         if navigator:
             await sysm.start_navigator(pilot_grace=pilot_grace)

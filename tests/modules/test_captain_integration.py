@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from blackboard import AttrPredicate, Spec
-from modules.captain import MissionRejected
+from sidewalk.mission_client import MissionRejected
 from tests.modules._harness import system
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -143,7 +143,7 @@ async def test_a_failed_segment_is_replanned_around() -> None:
 
 
 async def test_navigator_gone_fails_the_mission_with_the_reason() -> None:
-    from modules.captain import CaptainOptions
+    from codger.captain import CaptainOptions
 
     async with system("cap-lost", answer=lambda seg: None, captain=CaptainOptions(navigator_grace_s=1.0)) as s:
         acc = await s.missions.submit("mission: l\nsteps:\n  - destination: gym\n")
@@ -157,7 +157,7 @@ async def test_navigator_killed_and_restarted_resumes_the_mission() -> None:
     """SIGKILL the MAP NAVIGATOR process mid-segment; a new one takes the step up where it was."""
     async with system("cap-resume", answer=lambda seg: None, navigator=False) as s:
         def spawn() -> subprocess.Popen:
-            return subprocess.Popen([sys.executable, "-m", "modules.map_navigator", "--map", "campus", "--ns", "cap-resume",
+            return subprocess.Popen([sys.executable, "-m", "codger.map_navigator", "--map", "campus", "--ns", "cap-resume",
                                      "--connect", s.node.endpoint, "--heartbeat", "0.2"], cwd=str(ROOT),
                                     stdout=subprocess.PIPE, text=True)
 
@@ -200,20 +200,20 @@ async def test_navigator_killed_and_restarted_resumes_the_mission() -> None:
 def test_captain_refuses_a_bad_mission_file_at_start(tmp_path: Path) -> None:
     bad = tmp_path / "bad.yaml"
     bad.write_text("mission: b\nsteps:\n  - destination: quad\n    trigger: fly\n")
-    p = subprocess.run([sys.executable, "-m", "modules.captain", "--mission", str(bad), "--connect", "tcp/127.0.0.1:9"],
+    p = subprocess.run([sys.executable, "-m", "codger.captain", "--mission", str(bad), "--connect", "tcp/127.0.0.1:9"],
                        cwd=str(ROOT), capture_output=True, text=True, timeout=60)
     assert p.returncode == 2
     assert f"{bad}:4:14: steps[0].trigger:" in p.stderr
 
 
 def test_navigator_refuses_a_missing_map() -> None:
-    p = subprocess.run([sys.executable, "-m", "modules.map_navigator", "--map", "atlantis", "--connect", "tcp/127.0.0.1:9"],
+    p = subprocess.run([sys.executable, "-m", "codger.map_navigator", "--map", "atlantis", "--connect", "tcp/127.0.0.1:9"],
                        cwd=str(ROOT), capture_output=True, text=True, timeout=60)
     assert p.returncode == 2 and "atlantis" in p.stderr
 
 
 async def test_pilot_gone_fails_the_step_with_the_reason() -> None:
-    from modules.runtime import Link
+    from runtime import Link
 
     async with system("cap-pilot", answer=lambda seg: None, pilot_grace=1.0) as s:
         pilot_link = Link.open(s.net)  # the PILOT's liveliness, as the real module declares it

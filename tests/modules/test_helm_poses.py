@@ -20,7 +20,7 @@ import pytest
 
 from blackboard import BlackboardClient, NetworkConfig
 from blackboard.testing import start_node
-from modules.runtime import Link
+from runtime import Link
 from tests._odometry import CircleDrive, circle_odometry
 from tests.modules._procs import spawn, stop
 
@@ -36,7 +36,7 @@ async def test_odometry_that_queued_while_the_helm_was_held_up_is_all_posted():
     drive = CircleDrive(link.put, f"sidewalk/{ns}/sim/odom", f"sidewalk/{ns}/sim/clock")
     try:
         drive.start()
-        helm = await asyncio.to_thread(spawn, [sys.executable, "-m", "modules.helm", "--vehicle", "terregator",
+        helm = await asyncio.to_thread(spawn, [sys.executable, "-m", "codger.helm", "--vehicle", "terregator",
                                                "--ns", ns, "--connect", node.endpoint], "SIDEWALK-READY helm")
         async with BlackboardClient(node.client_net(), source="test-pilot") as bb:
 

@@ -34,10 +34,10 @@ async def test_a_laser_landmark_fix_moves_an_off_pilot_toward_the_truth():
         conn = ["--ns", ns, "--connect", node.endpoint]
         procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "north_hills", "--vehicle", "navlab",
                             f"--start={TRUTH[0]},{TRUTH[1]},90", "--rtf", "2", "--seed", "4", *conn], "ready sim"))
-        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "navlab", *conn], "SIDEWALK-READY helm"))
-        procs.append(spawn([sys.executable, "-m", "modules.obstacles", "--map", str(ROOT / "worlds" / "north_hills.map.geojson"),
+        procs.append(spawn([sys.executable, "-m", "codger.helm", "--vehicle", "navlab", *conn], "SIDEWALK-READY helm"))
+        procs.append(spawn([sys.executable, "-m", "codger.obstacles", "--map", str(ROOT / "worlds" / "north_hills.map.geojson"),
                             *conn], "SIDEWALK-READY obstacles"))
-        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "navlab", "--perception", "off",
+        procs.append(spawn([sys.executable, "-m", "codger.pilot", "--vehicle", "navlab", "--perception", "off",
                             "--start-pose", ",".join(str(v) for v in TOLD), *conn], "SIDEWALK-READY pilot"))
         async with BlackboardClient(node.client_net(), source="test") as bb:
             fix = await bb.wait(Spec(type="landmark_fix"), timeout=90.0)

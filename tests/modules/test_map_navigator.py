@@ -12,8 +12,8 @@ from modules.map_navigator import (
     TURN_SPEED_M_S, vehicle_describe_radius,
     MapData, NavigatorOptions, NoRouteError, Planned, RouteOptions, SegmentOptions, StepJob, UnknownPlaceError,
     describe_segment, exit_condition, fillet_corner, fillet_radius, heading_change, lateral_offset, load_map, segment_route, select_route,
-    start_position,
 )
+from codger.map_navigator.__main__ import start_position
 from modules.vocabulary import Destination, MissionStep, SegmentResult, StepConstraints, StepResult
 
 DORM = (0.3, -28.25)

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 
 from modules.captain import load_mission
-from modules.map_navigator import NavigatorOptions, Planned, StepJob, load_map, start_position
+from codger.map_navigator.__main__ import start_position
+from modules.map_navigator import NavigatorOptions, Planned, StepJob, load_map
 from modules.vocabulary import Mission, RouteSegmentDescription
 
 WORLDS = Path(__file__).resolve().parents[2] / "worlds"

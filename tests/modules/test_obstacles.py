@@ -105,7 +105,7 @@ def test_the_corridor_drops_no_point_the_full_test_keeps() -> None:
 
 
 def test_plan_goes_into_the_vehicle_frame_ahead_of_the_vehicle() -> None:
-    from modules.obstacles.detector import plan_in_vehicle
+    from codger.obstacles.detector import plan_in_vehicle
     from modules.vocabulary import LocalPathPlan, PlanPose
 
     poses = tuple(PlanPose(x=10.0, y=float(y), yaw=math.pi / 2, speed=2.0) for y in range(0, 40, 2))

@@ -13,7 +13,7 @@ import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import start_node
-from modules.runtime import Link
+from runtime import Link
 from modules.vocabulary import DrivingConstraints, ExitCondition, RouteSegmentDescription
 from modules.map_navigator.mapdata import map_object
 from wire.drive import TruthPose, decode
@@ -45,9 +45,9 @@ async def test_real_perception_corrects_a_wrong_start_pose() -> None:
         conn = ["--ns", ns, "--connect", node.endpoint]
         procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
                              "--rtf", "2", "--seed", "5", *conn], "ready sim"))
-        procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
-        procs.append(spawn([sys.executable, "-m", "modules.perception", "--vehicle", "terregator", *conn], "SIDEWALK-READY perception"))
-        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
+        procs.append(spawn([sys.executable, "-m", "codger.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+        procs.append(spawn([sys.executable, "-m", "codger.perception", "--vehicle", "terregator", *conn], "SIDEWALK-READY perception"))
+        procs.append(spawn([sys.executable, "-m", "codger.pilot", "--vehicle", "terregator", "--perception", "on",
                              "--start-pose", f"0.6,-28.3,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
         link = Link.open(NetworkConfig(namespace=ns, connect=(node.endpoint,)))

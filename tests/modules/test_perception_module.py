@@ -21,9 +21,10 @@ from blackboard import AttrPredicate, BlackboardClient, Polygon as BbPolygon, Po
 from blackboard.testing import start_node
 from wire.network import NetworkConfig
 from wire.ports import free_port
-from modules.perception.module import PerceptionConfig, PerceptionModule
+from codger.perception.module import PerceptionConfig, PerceptionModule
 from modules.perception.predicted import world_to_vehicle
-from modules.runtime import run_module_async
+from codger.blackboard_part import BlackboardPart
+from runtime import run_module_async
 from modules.vocabulary import DrivingUnitDescription, LineFix, PerceptionResult, PointFix
 from modules.map_navigator.mapdata import map_object
 from vehicle_sim.node import NodeConfig, SimNode
@@ -115,7 +116,7 @@ async def test_perception_answers_driving_units_over_the_blackboard(world) -> No
         await bb.post_pose(parent="local", child="vehicle", pose=Pose2D(x=prior[0], y=prior[1], yaw=prior[2]), stamp=0.0, hold=None)
         task = asyncio.create_task(run_module_async(
             "perception", lambda rt: PerceptionModule(rt, PerceptionConfig(vehicle="terregator", max_wait_s=1.0)).run(),
-            net, install_signals=False, stdout=io.StringIO(), heartbeat_period=0.2))
+            net, parts=(BlackboardPart(),), install_signals=False, stdout=io.StringIO(), heartbeat_period=0.2))
         objects = _objects_near(world, prior)
         good = _unit("seg0.u0", prior, objects)
         await bb.post(good, frame="world", geometry=BbPolygon(points=good.region), stamp=0.0)

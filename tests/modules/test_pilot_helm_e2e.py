@@ -19,7 +19,7 @@ import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, NetworkConfig, Spec
 from blackboard.testing import start_node
-from modules.runtime import Link
+from runtime import Link
 from modules.vocabulary import (
     DrivingConstraints, ExitCondition, MapObject, PerceptionResult, PointFix, Pose, RouteSegmentDescription,
 )
@@ -34,7 +34,7 @@ def _spawn_sim_and_helm(procs: list[subprocess.Popen], conn: list[str], seed: in
     """Start the simulator (campus, Terregator, RTF 4), then the HELM, each appended to `procs` once up."""
     procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "campus", "--vehicle", "terregator",
                         "--rtf", "4", "--seed", str(seed), *conn], "ready sim"))
-    procs.append(spawn([sys.executable, "-m", "modules.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
+    procs.append(spawn([sys.executable, "-m", "codger.helm", "--vehicle", "terregator", *conn], "SIDEWALK-READY helm"))
 
 
 def _dorm_segment() -> RouteSegmentDescription:
@@ -62,7 +62,7 @@ async def test_pilot_and_helm_drive_a_segment_by_dead_reckoning():
     try:
         conn = ["--ns", ns, "--connect", node.endpoint]
         _spawn_sim_and_helm(procs, conn, 3)
-        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
+        procs.append(spawn([sys.executable, "-m", "codger.pilot", "--vehicle", "terregator", "--perception", "off",
                              "--start-pose", f"0,-28,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
         at_rest = asyncio.Event()
@@ -129,7 +129,7 @@ async def test_perception_fixes_correct_a_wrong_start_pose():
         conn = ["--ns", ns, "--connect", node.endpoint]
         _spawn_sim_and_helm(procs, conn, 5)
         # The PILOT is told a start pose 0.6 m off the truth (0, -28): only perception can correct it.
-        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "on",
+        procs.append(spawn([sys.executable, "-m", "codger.pilot", "--vehicle", "terregator", "--perception", "on",
                              "--start-pose", f"0.6,-28.3,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         truth: list[TruthPose] = []
         loop = asyncio.get_running_loop()
@@ -211,7 +211,7 @@ async def test_pilot_killed_mid_segment_resumes_when_restarted():
     procs: list[subprocess.Popen] = []
     try:
         conn = ["--ns", ns, "--connect", node.endpoint]
-        pilot_args = [sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
+        pilot_args = [sys.executable, "-m", "codger.pilot", "--vehicle", "terregator", "--perception", "off",
                       "--start-pose", f"0,-28,{math.pi / 2}", *conn]
         _spawn_sim_and_helm(procs, conn, 7)
         pilot = spawn(pilot_args, "SIDEWALK-READY pilot")
@@ -246,7 +246,7 @@ async def test_a_segment_whose_exit_the_vehicle_already_stands_in_ends_without_a
     try:
         conn = ["--ns", ns, "--connect", node.endpoint]
         _spawn_sim_and_helm(procs, conn, 11)
-        procs.append(spawn([sys.executable, "-m", "modules.pilot", "--vehicle", "terregator", "--perception", "off",
+        procs.append(spawn([sys.executable, "-m", "codger.pilot", "--vehicle", "terregator", "--perception", "off",
                              "--start-pose", f"0,-28,{math.pi / 2}", *conn], "SIDEWALK-READY pilot"))
         seg = _dorm_segment()
         a, b = (0.3, -28.25), (0.25, -22.0)  # 6.3 m long; its exit (radius 6.5 m) takes in the start

@@ -13,11 +13,11 @@ from pathlib import Path
 import msgpack
 import pytest
 
-from modules.runtime import (
+from runtime import (
     READY_PREFIX, ClockNotRunningError, ClockPayloadError, HeartbeatError, HeartbeatTracker, ModuleKeys, QueryAnswer,
     SimClock, Link, decode_clock, decode_heartbeat, encode_heartbeat, run_module_async,
 )
-from modules.vocabulary import Heartbeat
+from wire.health import Heartbeat
 from tests.modules._net import net_pair
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -273,7 +273,7 @@ async def test_module_lifecycle_over_zenoh() -> None:
             slept.set()
             await rt.stop_event.wait()
 
-        task = asyncio.create_task(run_module_async("tester", main, connect, use_blackboard=False,
+        task = asyncio.create_task(run_module_async("tester", main, connect,
                                                     heartbeat_period=0.05, install_signals=False, stdout=out))
         assert await asyncio.wait_for(alive.get(), 10.0) == (keys.alive("tester"), True)
         assert f"{READY_PREFIX} tester" in out.getvalue()
@@ -307,13 +307,13 @@ async def test_module_lifecycle_over_zenoh() -> None:
 _CHILD = """
 import asyncio, sys
 from wire.network import NetworkConfig
-from modules.runtime import run_module
+from runtime import run_module
 
 async def main(rt):
     rt.ready()
     await asyncio.Event().wait()
 
-sys.exit(run_module("child", main, NetworkConfig(namespace="rt2", connect=(sys.argv[1],)), use_blackboard=False,
+sys.exit(run_module("child", main, NetworkConfig(namespace="rt2", connect=(sys.argv[1],)),
                     heartbeat_period=0.1))
 """
 

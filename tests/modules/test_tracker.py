@@ -192,7 +192,7 @@ def test_command_horizon_reaches_the_lookahead_point_but_never_past_the_plan_end
 
 
 def test_helm_commands_are_timed_so_a_late_one_does_not_trip_the_watchdog():
-    from modules.helm.helm import Helm, HelmConfig
+    from codger.helm.helm import Helm, HelmConfig
     from wire.drive import MAX_COMMAND_DURATION
 
     helm = Helm.__new__(Helm)

@@ -136,10 +136,27 @@ def test_glue_is_what_touches_the_transport(tmp_path):
     assert not count_glue(tmp_path, "none", ["nothing"]).present
 
 
+def test_a_file_is_glue_by_what_it_imports_itself_not_by_its_package(tmp_path):
+    # a package whose __init__ touches the transport (as blackboard/__init__ does) and a pure data file beside it:
+    # importing the data file by its dotted name runs the __init__, but does not make the data file glue
+    pkg = tmp_path / "arch"
+    (pkg / "bb").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("")
+    (pkg / "bb" / "__init__.py").write_text("from wire.session import open_session\n")
+    (pkg / "bb" / "geometry.py").write_text("def area(w, h):\n    return w * h\n")
+    (pkg / "bb" / "codec.py").write_text("from arch.bb.geometry import area\n\nA = area\n")
+    (pkg / "bb" / "client.py").write_text("from arch.bb import open_session\n\nS = open_session\n")
+    (pkg / "__main__.py").write_text("from arch.bb import open_session\nfrom arch.bb.codec import A\nfrom arch.bb.client import S\n\nS(A(1, 2))\n")
+    g = count_glue(tmp_path, "test", ["arch"])
+    assert set(g.glue_by_file) == {"arch/bb/__init__.py", "arch/bb/client.py", "arch/__main__.py"}
+    assert set(g.algorithm_by_file) == {"arch/__init__.py", "arch/bb/geometry.py", "arch/bb/codec.py"}
+    assert g.glue_lines == sum(g.glue_by_file.values()) and g.algorithm_lines == sum(g.algorithm_by_file.values())
+
+
 def test_the_codger_glue_count_covers_the_blackboard_and_module_mains():
     root = Path(__file__).resolve().parents[2]
     g = count_glue(root, "codger")
-    assert "blackboard/client.py" in g.glue_by_file and "modules/pilot/pilot.py" in g.glue_by_file
+    assert "blackboard/client.py" in g.glue_by_file and "codger/pilot/pilot.py" in g.glue_by_file
     assert "modules/pilot/kalman.py" not in g.glue_by_file  # an algorithm
     assert g.glue_lines > 0 and g.algorithm_lines > 0 and not math.isnan(g.glue_lines)
 
@@ -167,6 +184,7 @@ def test_compare_md_holds_every_table_and_names_what_did_not_run(record, tmp_pat
     assert "Not run: eddie" in md and "no report" in md
     assert "| wedge-planner | codger |" in md and "degraded" in md
     assert "| wedge-planner | the module that plans the local path | pilot |" in md  # what the fault hits, said
+    assert "## Appendix: the files counted" in md and "| codger/pilot/pilot.py | glue |" in md  # every counted file listed
     assert "| success rate (truth) | 0% |" in md
     files = plot_comparison(c, tmp_path)
     assert [f.name for f in files] == ["measures.png"] and files[0].stat().st_size > 10_000

@@ -6,7 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from sidewalk.launcher import RunConfig, RunSetup, build_plans, mission_path, prepare_run, record_run
+from sidewalk.codger_run import build_plans
+from sidewalk.launcher import RunConfig, RunSetup, mission_path, prepare_run, record_run
 from sidewalk.report import build_report
 from sidewalk.run_record import save_record
 from sidewalk.system import SystemRun
@@ -77,7 +78,7 @@ async def test_a_killed_pilot_is_restarted_resumes_and_the_mission_truly_arrives
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 async def test_unknown_place_is_refused_at_submit_with_its_reason_and_the_next_mission_runs(tmp_path):
-    from modules.captain.client import MissionRejected
+    from sidewalk.mission_client import MissionRejected
 
     bad = tmp_path / "nowhere.yaml"
     bad.write_text("mission: nowhere\nworld: campus\nsteps:\n  - name: to atlantis\n    destination: atlantis\n")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from modules.captain.client import MissionClient
+from sidewalk.mission_client import MissionClient
 from sidewalk.eddie_run import EddieSystemRun, compile_annotated_map, eddie_plans
 from sidewalk.launcher import RunConfig, prepare_run
 from tests.sidewalk._mission import drive_to

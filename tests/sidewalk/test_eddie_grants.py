@@ -1,7 +1,7 @@
 """Every key an EDDIE module's code uses is granted to its role by the default rules (no network).
 
 `test_security_rules.py` checks the router against the rules file; this checks the rules file against
-the code: each EDDIE module's source (and the `eddie/modules` helpers it imports) is read for what it
+the code: each EDDIE module's source (and the helpers it imports from the modules' packages) is read for what it
 sends (`send` → write the destination's inbox), asks (`request` → ask a service), subscribes to
 (`subscribe` → read a stream), publishes and serves, and which simulator keys it puts, subscribes to
 or queries; every one of those keys must be granted to the module's role for that operation. A new
@@ -31,22 +31,23 @@ MODULES = {
     "controller": "controller/controller_module.py",
     "navigator": "navigator/navigator_module.py",
     "map_manager": "map_manager/map_manager_module.py",
-    "mission_service": "modules/mission_service.py",
-    "road_following": "modules/road_following_module.py",
-    "landmark_matching": "modules/landmark_matching_module.py",
-    "obstacle_stop": "modules/obstacle_stop_module.py",
+    "mission_service": "mission_service/mission_service.py",
+    "road_following": "road_following/road_following_module.py",
+    "landmark_matching": "landmark_matching/landmark_matching_module.py",
+    "obstacle_stop": "obstacle_stop/obstacle_stop_module.py",
 }
 
 _ARG = r"""(?:"(\w+)"|([\w.]+))"""  # a literal module name, or an expression naming it (self.controller)
 
 
 def _sources(rel: str) -> str:
-    """Return the module file's text and the source of each `eddie.modules` helper (function, class) it imports."""
+    """Return the module file's text and the source of each helper (function, class) it imports from the EDDIE modules' packages."""
     text = (EDDIE / rel).read_text()
     parts = [text]
-    for helper, names in re.findall(r"^from eddie\.modules\.(\w+) import ([\w, ]+)$", text, re.M):
+    for pkg, helper, names in re.findall(
+            r"^from eddie\.(modules|road_following|landmark_matching|obstacle_stop|mission_service)\.(\w+) import ([\w, ]+)$", text, re.M):
         wanted = {n.strip() for n in names.split(",")}
-        src = (EDDIE / "modules" / f"{helper}.py").read_text()
+        src = (EDDIE / pkg / f"{helper}.py").read_text()
         parts += [ast.get_source_segment(src, node) or "" for node in ast.parse(src).body
                   if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)) and node.name in wanted]
     return "\n".join(parts)

@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from sidewalk.launcher import RunConfig, build_plans, prepare_run
+from sidewalk.codger_run import build_plans
+from sidewalk.launcher import RunConfig, prepare_run
 from vehicle_sim.node import NodeConfig, SimNode
 from vehicle_sim.worldfile import load_world
 from wire.network import NetworkConfig

@@ -188,7 +188,7 @@ async def test_page_server_sends_every_section_first_then_coalesced_changes():
 
 async def test_eddie_adapter_over_zenoh(tmp_path):
     """EDDIE's streams and its annotation service, served by a plain peer, reach the model and the page."""
-    from modules.runtime import ModuleRuntime
+    from runtime import ModuleRuntime
     from sidewalk.monitor.live import LiveMonitor
     from wire.aio import Link, QueryAnswer
     from wire.keys import Keys

@@ -22,7 +22,8 @@ from pathlib import Path
 import pytest
 
 from blackboard.spec import AttrPredicate, Spec
-from sidewalk.launcher import RunConfig, build_plans, prepare_run, record_run
+from sidewalk.codger_run import build_plans
+from sidewalk.launcher import RunConfig, prepare_run, record_run
 from sidewalk.report import build_report
 from sidewalk.security import init_secure_dir
 from sidewalk.supervisor import ProcessPlan

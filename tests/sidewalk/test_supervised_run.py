@@ -12,7 +12,8 @@ import time
 
 import pytest
 
-from sidewalk.launcher import RunConfig, build_plans, mission_path, prepare_run, record_run
+from sidewalk.codger_run import build_plans
+from sidewalk.launcher import RunConfig, mission_path, prepare_run, record_run
 from sidewalk.report import build_report, write_report
 from sidewalk.supervisor import RestartPolicy
 from sidewalk.system import SystemRun

@@ -19,7 +19,21 @@ def _cross_country(seed: int, out: Path, name: str | None = None) -> list[Path]:
     return write(generate(seed, name=name), out)
 
 
+def _suburb(seed: int, out: Path, name: str | None = None) -> list[Path]:
+    from vehicle_sim.generated.suburb import generate, write
+
+    return write(generate(seed, name=name), out)
+
+
+def _marked_road(seed: int, out: Path, name: str | None = None) -> list[Path]:
+    from vehicle_sim.generated.marked_road import generate, write
+
+    return write(generate(seed, name=name), out)
+
+
 #: kind → (seed, output directory, name or None) → the files written
 GENERATORS: dict[str, Callable[[int, Path, str | None], list[Path]]] = {
     "cross-country": _cross_country,
+    "suburb": _suburb,
+    "marked-road": _marked_road,
 }

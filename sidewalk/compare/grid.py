@@ -13,17 +13,14 @@ import json
 import subprocess
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Optional, Sequence
+from typing import Callable, Optional, Protocol, Sequence
 
 from pydantic import BaseModel, ConfigDict
 
 from sidewalk.compare.faults import FaultSpec
 from wire.lifeline import die_with_parent
 
-if TYPE_CHECKING:
-    from sidewalk.compare.cluster import ClusterSession
-
-__all__ = ["GridRun", "GridResult", "available_architectures", "run_grid", "ARCHITECTURES"]
+__all__ = ["GridRun", "GridResult", "CellRunner", "available_architectures", "run_grid", "ARCHITECTURES"]
 
 #: Every architecture the comparison knows, in table order.
 ARCHITECTURES = ("codger", "eddie")
@@ -89,6 +86,14 @@ class GridResult(BaseModel):
     has_report: bool
 
 
+class CellRunner(Protocol):
+    """What runs a cell elsewhere (`sidewalk.compare.cluster.ClusterSession`): its run directory lands in `run.out`."""
+
+    async def run(self, run: GridRun, *, arch_flag: bool) -> int:
+        """Run the cell; return its exit code."""
+        ...
+
+
 def available_architectures(python: str = sys.executable) -> tuple[list[str], bool]:
     """Ask `sidewalk run --help` which architectures it runs; return them and whether it takes --arch."""
     text = subprocess.run([python, "-m", "sidewalk", "run", "--help"], capture_output=True, text=True,
@@ -111,7 +116,7 @@ def _finished(run: GridRun) -> Optional[int]:
     return (0 if rep.get("success") else 1) if same else None
 
 
-async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool, cluster: Optional[ClusterSession]) -> GridResult:
+async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool, cluster: Optional["CellRunner"]) -> GridResult:
     run.out.mkdir(parents=True, exist_ok=True)
     if resume and (code := _finished(run)) is not None:
         return GridResult(run=run, exit_code=code, has_report=True)
@@ -127,7 +132,7 @@ async def _one(run: GridRun, python: str, arch_flag: bool, resume: bool, cluster
 
 
 async def run_grid(runs: Sequence[GridRun], *, jobs: int = 1, arch_flag: bool = False, python: str = sys.executable,
-                   resume: bool = False, cluster: Optional[ClusterSession] = None,
+                   resume: bool = False, cluster: Optional["CellRunner"] = None,
                    on_start: Callable[[GridRun], None] | None = None,
                    on_done: Callable[[GridResult], None] | None = None) -> list[GridResult]:
     """Run the cells, at most `jobs` at a time (`resume`: reuse a finished run of the same command); return their results in order.

@@ -13,14 +13,13 @@ import functools
 import math
 from functools import cached_property
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterable, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
 if TYPE_CHECKING:
     from vehicle_sim.actors import ActorSet
 
-from wire.terrainfile import TerrainRaster, TerrainRef
 from wire.mapfile import (
     COLOUR_TYPES, EDGE_END_TOLERANCE, EDGE_MODES, KIND_PRIORITY, KINDS, MARKING_COLOURS, NODE_KINDS, OBJECT_KINDS, ROLES,
     SHAPES_BY_KIND, WORLDS_DIR, Appearance, ColourStats, ColourType, FlatShape, MapColour, MapFile, Marking, PathEdge, PathNode, PostShape,
@@ -40,24 +39,9 @@ __all__ = [
 class World(MapFile):
     """A validated world (or map) with vectorised ground queries for the simulator."""
 
-    def __init__(
-        self,
-        *,
-        name: str,
-        objects: Iterable[WorldObject],
-        nodes: Iterable[PathNode] = (),
-        edges: Iterable[PathEdge] = (),
-        sun: Sun | None = None,
-        start: StartPose | None = None,
-        source: str = "<memory>",
-        weather: Weather | None = None,
-        raster_res: float = 0.1,
-        actors: Iterable[dict] = (),
-        terrain: TerrainRef | None = None,
-        terrain_raster: TerrainRaster | None = None,
-    ) -> None:
-        super().__init__(name=name, objects=objects, nodes=nodes, edges=edges, sun=sun, start=start, source=source,
-                         weather=weather, actors=actors, terrain=terrain, terrain_raster=terrain_raster)
+    def __init__(self, *, raster_res: float = 0.1, **fields: Any) -> None:
+        """Take `MapFile`'s fields as they are, and `raster_res` [m], the cell of the ground raster."""
+        super().__init__(**fields)
         self.actor_set()  # a bad `actors` entry fails the load, naming the file and the entry
         self.raster_res = float(raster_res)
         self._raster: np.ndarray | None = None

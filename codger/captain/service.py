@@ -21,8 +21,10 @@ from blackboard import AttrPredicate, BlackboardError, Spec, VersionConflictErro
 from modules.captain.missionfile import MissionFileError, MissionProblem, parse_mission, rejection_from
 from modules.captain.progress import RouteProgress
 from modules.captain.sequencer import MissionRun
-from wire.mission import MissionRequestError, Rejection, SubmitAccepted, new_mission_id, parse_cancel
-from runtime import ModuleRuntime, ModuleWatch, QueryAnswer, QueryRequest
+from wire.keys import MissionKeys
+from wire.mission import SubmitAccepted
+from runtime import ModuleRuntime, ModuleWatch
+from runtime.mission_desk import MissionDesk, MissionRejected
 from modules.vocabulary import (
     LocalPathPlan, MapPlaces, Mission, MissionStatus, ObstacleReport, PositionEstimate, RoutePlan, StepResult, Waiting,
 )
@@ -52,7 +54,7 @@ class CaptainOptions:
 class _Entry:
     run: MissionRun
     status_token: Any = None
-    cancel: asyncio.Event = field(default_factory=asyncio.Event)
+    cancelled: asyncio.Event = field(default_factory=asyncio.Event)
     cancel_reason: str = ""
     #: the running step's progress along its route, the newest believed pose (x, y [m], yaw [rad] in `world`),
     #: its plan's revision, and why the vehicle waits
@@ -61,17 +63,27 @@ class _Entry:
     pose: tuple[float, float, float] | None = None
     waiting: Waiting = ""
 
+    @property
+    def status(self) -> MissionStatus:
+        """Return the mission's status."""
+        return self.run.status
+
+    def cancel(self, now: float, reason: str) -> None:
+        """Cancel the mission while it waits in the queue, at sim time `now` [s]."""
+        self.run.cancel(now, reason)
+
 
 class Captain:
-    """The CAPTAIN service bound to a module runtime (blackboard client, Zenoh link, sim clock)."""
+    """The CAPTAIN service bound to a module runtime (blackboard client, Zenoh link, sim clock): the mission desk's room."""
+
+    #: how the desk's rejections name this service
+    noun = "CAPTAIN"
 
     def __init__(self, rt: ModuleRuntime, options: CaptainOptions = CaptainOptions()) -> None:
         self.rt = rt
         self.bb = rt.bb
         self.options = options
-        self._entries: dict[str, _Entry] = {}
-        self._queue: deque[str] = deque()
-        self._wake = asyncio.Event()
+        self.desk: MissionDesk[_Entry] = MissionDesk(rt.link, MissionKeys(rt.keys.ns), self, self._now, keep_finished=options.keep_finished)
         self.navigator: ModuleWatch | None = None
 
     # ---- accepting missions -------------------------------------------------------------
@@ -81,58 +93,52 @@ class Captain:
 
     async def accept(self, mission: Mission) -> SubmitAccepted:
         """Queue a validated mission (assigning an id if it has none); post its mission and status tokens."""
-        if not mission.mission_id or mission.mission_id in self._entries:
-            mission = mission.model_copy(update={"mission_id": new_mission_id(mission.name)})
-        run = MissionRun(mission, submitted_at=self._now())
-        entry = _Entry(run)
-        self._entries[mission.mission_id] = entry
-        ahead = len(self._queue) + sum(1 for e in self._entries.values() if e.run.status.state == "running")
-        await self.bb.post(mission, stamp=self._now())
-        entry.status_token = await self.bb.post(run.status, stamp=self._now())
-        self.rt.link.put(self.rt.keys.mission_events, run.status.model_dump_json().encode(), as_json=True)
-        # queue only once the status token exists: a busy run loop picks queued missions up at once
-        self._queue.append(mission.mission_id)
-        self._wake.set()
-        self._prune()
-        log.info("accepted mission %s (%s, %d steps)", mission.mission_id, mission.name, len(mission.steps))
-        return SubmitAccepted(mission_id=mission.mission_id, name=mission.name, steps=len(mission.steps), queued_behind=ahead)
-
-    def _prune(self) -> None:
-        done = [k for k, e in self._entries.items() if e.run.finished]
-        for k in done[: max(0, len(done) - self.options.keep_finished)]:
-            del self._entries[k]
+        mission = mission.model_copy(update={"mission_id": self.desk.unique_id(mission.mission_id, mission.name)})
+        return await self.desk.accept(_Entry(MissionRun(mission, submitted_at=self._now())))
 
     def status(self, mission_id: str) -> MissionStatus | None:
         """Return the status of a mission this CAPTAIN knows, or None."""
-        e = self._entries.get(mission_id)
+        e = self.desk.entries.get(mission_id)
         return None if e is None else e.run.status
 
     def statuses(self) -> list[MissionStatus]:
         """Return the status of every mission known, oldest first."""
-        return [e.run.status for e in self._entries.values()]
+        return [e.run.status for e in self.desk.entries.values()]
 
     async def cancel(self, mission_id: str, reason: str = "cancelled by request") -> MissionStatus:
         """Cancel a queued or running mission; raise KeyError (unknown) or ValueError (already finished)."""
-        e = self._entries.get(mission_id)
-        if e is None:
-            raise KeyError(mission_id)
-        if e.run.finished:
-            raise ValueError(f"mission {mission_id} already {e.run.status.state}")
-        if mission_id in self._queue:
-            self._queue.remove(mission_id)
-            e.run.cancel(self._now(), reason)
-            await self._publish(e)
-        else:
-            e.cancel_reason = reason
-            e.cancel.set()
-        return e.run.status
+        await self.desk.cancel(mission_id, reason)
+        return self.desk.entries[mission_id].run.status
+
+    # ---- the desk's room ------------------------------------------------------------------
+
+    async def admit(self, payload: bytes) -> _Entry:
+        """Return the entry of a submitted mission whose destinations the map knows; raise MissionRejected."""
+        try:
+            mission = parse_mission(payload, source="submitted mission")
+            await self.check_places(mission, source="submitted mission")
+        except MissionFileError as exc:
+            raise MissionRejected(rejection_from(exc)) from None
+        mission = mission.model_copy(update={"mission_id": self.desk.unique_id(mission.mission_id, mission.name)})
+        return _Entry(MissionRun(mission, submitted_at=self._now()))
+
+    async def accepted(self, entry: _Entry, ahead: int) -> None:
+        """Post the mission and its status token before it is queued."""
+        await self.bb.post(entry.run.mission, stamp=self._now())
+        entry.status_token = await self.bb.post(entry.run.status, stamp=self._now())
+        m = entry.run.mission
+        log.info("accepted mission %s (%s, %d steps)", m.mission_id, m.name, len(m.steps))
+
+    async def cancel_running(self, entry: _Entry, reason: str) -> None:
+        """Tell the running mission's loop to cancel it (its step is withdrawn there)."""
+        entry.cancel_reason = reason
+        entry.cancelled.set()
 
     # ---- blackboard writes ----------------------------------------------------------------
 
-    async def _publish(self, e: _Entry) -> None:
+    async def stored(self, e: _Entry) -> None:
+        """Keep the mission's status token on the blackboard up to date with its status."""
         st = e.run.status
-        # the JSON stream any tool can follow (`z_sub -k sidewalk/<ns>/mission/events`)
-        self.rt.link.put(self.rt.keys.mission_events, st.model_dump_json().encode(), as_json=True)
         tok = e.status_token
         for _ in range(3 if tok is not None else 0):
             try:
@@ -177,7 +183,7 @@ class Captain:
         out = []
         for tok in await self.bb.retrieve(Spec(type="mission_status", where=(AttrPredicate(path="state", op="in", value=["queued", "running"]),))):
             st = tok.attrs
-            if not isinstance(st, MissionStatus) or st.mission_id in self._entries:
+            if not isinstance(st, MissionStatus) or st.mission_id in self.desk.entries:
                 continue
             reason = ("the CAPTAIN restarted while this mission was " + st.state
                       + ": its progress was lost; submit it again")
@@ -200,13 +206,8 @@ class Captain:
     async def run(self) -> None:
         """Run queued missions one after the other, forever."""
         while True:
-            while not self._queue:
-                self._wake.clear()
-                await self._wake.wait()
-            mid = self._queue.popleft()
-            e = self._entries.get(mid)
-            if e is None or e.run.finished:
-                continue
+            e = await self.desk.next()
+            mid = e.run.mission.mission_id
             try:
                 await self._execute(e)
             except asyncio.CancelledError:
@@ -215,14 +216,14 @@ class Captain:
                 log.exception("mission %s failed inside the CAPTAIN", mid)
                 e.run.fail(self._now(), f"captain error: {type(exc).__name__}: {exc}")
                 try:
-                    await self._publish(e)
+                    await self.desk.publish(e)
                 except Exception:
                     log.exception("could not publish the status of %s", mid)
 
     async def _execute(self, e: _Entry) -> None:
         run = e.run
         step = run.start(self._now())
-        await self._publish(e)
+        await self.desk.publish(e)
         while True:
             step_tok = await self.bb.post(step, stamp=self._now())
             follow = asyncio.ensure_future(self._follow(e, step.step_index))
@@ -234,11 +235,11 @@ class Captain:
             if isinstance(outcome, StepResult):
                 nxt = run.step_finished(outcome, self._now())
                 if nxt.kind == "wait":
-                    await self._publish(e)
+                    await self.desk.publish(e)
                     if await self._wait_or_cancel(e, nxt.until):  # cancelled while waiting
                         await self._withdraw(step_tok, step)
                         run.cancel(self._now(), e.cancel_reason)
-                        await self._publish(e)
+                        await self.desk.publish(e)
                         return
                     nxt = run.wait_over(self._now())
             else:  # cancelled, navigator lost, or timed out
@@ -248,9 +249,9 @@ class Captain:
                     run.cancel(self._now(), reason)
                 else:
                     run.fail(self._now(), reason)
-                await self._publish(e)
+                await self.desk.publish(e)
                 return
-            await self._publish(e)
+            await self.desk.publish(e)
             if nxt.kind == "done":
                 log.info("mission %s %s %s", run.mission.mission_id, run.status.state, run.status.reason)
                 return
@@ -308,10 +309,10 @@ class Captain:
                 return "planning"  # the PILOT has given the HELM nothing since the last progress
         return "dead reckoning" if pe is not None and pe.source == "dead-reckoning" else ""
 
-    def answered(self, st: MissionStatus) -> MissionStatus:
-        """Return `st` as a status query is answered: a running mission's with where it is (`StepProgress`)."""
-        e = self._entries.get(st.mission_id)
-        if st.state != "running" or e is None or e.track is None:
+    def answered(self, e: _Entry) -> MissionStatus:
+        """Return `e`'s status as a status query is answered: a running mission's with where it is (`StepProgress`)."""
+        st = e.run.status
+        if st.state != "running" or e.track is None:
             return st
         return st.model_copy(update={"progress": e.track.report(self._now(), e.pose, e.waiting)})
 
@@ -333,7 +334,7 @@ class Captain:
 
     async def _wait_or_cancel(self, e: _Entry, until: float) -> bool:
         wait = asyncio.ensure_future(self.rt.clock.wait_until(until))
-        cancel = asyncio.ensure_future(e.cancel.wait())
+        cancel = asyncio.ensure_future(e.cancelled.wait())
         try:
             done, _ = await asyncio.wait({wait, cancel}, return_when=asyncio.FIRST_COMPLETED)
             return cancel in done
@@ -346,7 +347,7 @@ class Captain:
         spec = Spec(type="step_result", where=(AttrPredicate(path="mission_id", op="==", value=mid),
                                                AttrPredicate(path="step_index", op="==", value=index)))
         result = asyncio.ensure_future(self.bb.wait(spec))
-        cancel = asyncio.ensure_future(e.cancel.wait())
+        cancel = asyncio.ensure_future(e.cancelled.wait())
         lost = asyncio.ensure_future(self.navigator.lost(self.options.navigator_grace_s) if self.navigator else asyncio.Event().wait())
         tasks = {result, cancel, lost}
         timer = unacked = None
@@ -397,45 +398,7 @@ class Captain:
 
     # ---- Zenoh services -------------------------------------------------------------------
 
-    async def on_submit(self, req: QueryRequest) -> QueryAnswer:
-        """Answer a mission submission: YAML or JSON text → mission id, or a rejection naming lines and fields."""
-        try:
-            mission = parse_mission(req.payload, source="submitted mission")
-            await self.check_places(mission, source="submitted mission")
-        except MissionFileError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=rejection_from(exc).to_bytes())
-        acc = await self.accept(mission)
-        return QueryAnswer(as_json=True, ok=True, payload=acc.model_dump_json().encode())
-
-    async def on_status(self, req: QueryRequest) -> QueryAnswer:
-        """Answer a status query for `…/mission/status/<id>` with the MissionStatus JSON."""
-        mid = req.key.rsplit("/", 1)[-1]
-        if mid in ("*", "**"):
-            return QueryAnswer(as_json=True, ok=True, replies=tuple(
-                (self.rt.keys.mission_status(s.mission_id), self.answered(s).model_dump_json().encode()) for s in self.statuses()))
-        st = self.status(mid)
-        if st is None:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {mid[:80]!r} known to this CAPTAIN").to_bytes())
-        return QueryAnswer(as_json=True, ok=True, payload=self.answered(st).model_dump_json().encode(), key=self.rt.keys.mission_status(mid))
-
-    async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
-        """Answer a cancel request (mission id text or JSON) with the mission's status, or a rejection."""
-        try:
-            creq = parse_cancel(req.payload)
-            st = await self.cancel(creq.mission_id, creq.reason)
-        except MissionRequestError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
-        except KeyError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="unknown_mission", message=f"no mission {str(exc.args[0])[:80]!r} known to this CAPTAIN").to_bytes())
-        except ValueError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="finished", message=str(exc)).to_bytes())
-        return QueryAnswer(as_json=True, ok=True, payload=st.model_dump_json().encode())
-
     def declare(self) -> None:
-        """Declare the submit, status and cancel queryables and the navigator watch on the runtime's link."""
-        link, keys = self.rt.link, self.rt.keys
-        link.queryable(keys.mission_submit, self.on_submit)
-        link.queryable(keys.mission_status("*"), self.on_status)
-        link.queryable(keys.mission_cancel, self.on_cancel)
-        self.navigator = ModuleWatch(link, keys, self.options.navigator)
-
+        """Declare the mission desk's queryables and the navigator watch on the runtime's link."""
+        self.desk.declare()
+        self.navigator = ModuleWatch(self.rt.link, self.rt.keys, self.options.navigator)

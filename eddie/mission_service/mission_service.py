@@ -19,10 +19,8 @@ ends, stopping the vehicle unless the mission succeeded (a failed or cancelled m
 
 from __future__ import annotations
 
-import asyncio
 import json
 import logging
-from collections import deque
 
 import numpy as np
 
@@ -41,10 +39,10 @@ from eddie.toolkit.module import Module
 from modules.captain.missionfile import MissionFileError, parse_mission, rejection_from
 from modules.pilot import pilot_config_for
 from modules.map_navigator import MapData
-from modules.vocabulary import Waiting
-from wire.aio import QueryAnswer, QueryRequest
+from modules.vocabulary import MissionStatus, Waiting
+from runtime.mission_desk import MissionDesk, MissionRejected
 from wire.keys import MissionKeys
-from wire.mission import MissionRequestError, Rejection, SubmitAccepted, new_mission_id, parse_cancel
+from wire.mission import Rejection
 from wire.se2 import inverse, transform_points
 
 __all__ = ["MissionService"]
@@ -56,7 +54,10 @@ CLIENT, PRIORITY = "mission_service", 1
 
 
 class MissionService:
-    """Missions in, statuses out, on the CAPTAIN's keys; one mission at a time, the others queued."""
+    """Missions in, statuses out, on the CAPTAIN's keys (the mission desk's room); one mission at a time, the others queued."""
+
+    #: how the desk's rejections name this service
+    noun = "mission service"
 
     def __init__(self, m: Module, map_data: MapData, *, vehicle: str, perception: bool,
                  world_from_local: tuple[float, float, float], tick_s: float = 0.2, speed_mps: float = 1.0,
@@ -77,10 +78,7 @@ class MissionService:
         nav = pilot_config_for(vehicle).navigator
         #: a kept side is driven at most this far off the centre [m], leaving this inside the road's edge [m]
         self.keep_offset_m, self.edge_keep_m = nav.keep_offset, nav.obstacle_clearance + KERB_MARGIN_M
-        self.keys = MissionKeys(m.net.namespace)
-        self.missions: dict[str, MissionProgress] = {}
-        self.queue: deque[str] = deque()
-        self._wake = asyncio.Event()
+        self.desk: MissionDesk[MissionProgress] = MissionDesk(m.link, MissionKeys(m.net.namespace), self, self._now)
 
     # ---- what the modules believe --------------------------------------------------------
 
@@ -109,40 +107,39 @@ class MissionService:
     def _now(self) -> float:
         return self.m.now() or 0.0
 
-    def _publish(self, prog: MissionProgress) -> None:
-        self.m.link.put(self.keys.events, prog.status.model_dump_json().encode(), as_json=True)
-
-    async def on_submit(self, req: QueryRequest) -> QueryAnswer:
-        """Answer a submission: YAML or JSON text → the accepted mission's id, or a rejection naming lines and fields."""
+    async def admit(self, payload: bytes) -> MissionProgress:
+        """Return a submitted mission (YAML or JSON text) with its step goals and trigger annotations; raise MissionRejected."""
         try:
-            mission = parse_mission(req.payload, source="submitted mission")
+            mission = parse_mission(payload, source="submitted mission")
         except MissionFileError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=rejection_from(exc).to_bytes())
-        if not mission.mission_id or mission.mission_id in self.missions:
-            mission = mission.model_copy(update={"mission_id": new_mission_id(mission.name)})
+            raise MissionRejected(rejection_from(exc)) from None
+        mission = mission.model_copy(update={"mission_id": self.desk.unique_id(mission.mission_id, mission.name)})
         start = self.believed() or (float(self.belief.world_from_local[0]), float(self.belief.world_from_local[1]))
         try:
             goals = step_goals(self.map, start, mission, vehicle=self.vehicle)
-        except MissionRouteError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="no_route", message=str(exc)).to_bytes())
-        try:
             compiled = compile_mission(mission, self.map, vehicle=self.vehicle, start=start if self._moved else None)
-        except MissionCompileError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="no_route", message=str(exc)).to_bytes())
+        except (MissionRouteError, MissionCompileError) as exc:
+            raise MissionRejected(Rejection(error="no_route", message=str(exc))) from None
         self._annotations[mission.mission_id] = MissionAnnotations(
             mission_id=mission.mission_id, name=mission.name,
             geojson=json.dumps(annotations_to_geojson(compiled.annotations, name=mission.mission_id)))
-        prog = MissionProgress(mission, goals, submitted_at=self._now(), stops_at_steps=self.perception)
-        ahead = len(self.queue) + sum(1 for p in self.missions.values() if p.status.state == "running")
-        if not ahead:  # the triggers are in place before the mission is accepted (a lock-step run is held until then)
-            await self._install(mission.mission_id)
-        self.missions[mission.mission_id] = prog
-        self.queue.append(mission.mission_id)
-        self._publish(prog)
-        self._wake.set()
-        log.info("accepted mission %s (%s, %d steps)", mission.mission_id, mission.name, len(mission.steps))
-        acc = SubmitAccepted(mission_id=mission.mission_id, name=mission.name, steps=len(mission.steps), queued_behind=ahead)
-        return QueryAnswer(as_json=True, ok=True, payload=acc.model_dump_json().encode())
+        return MissionProgress(mission, goals, submitted_at=self._now(), stops_at_steps=self.perception)
+
+    async def accepted(self, prog: MissionProgress, ahead: int) -> None:
+        """Install the mission's triggers at once when nothing runs before it (a lock-step run is held until then)."""
+        if not ahead:
+            await self._install(prog.status.mission_id)
+        m = prog.run.mission
+        log.info("accepted mission %s (%s, %d steps)", m.mission_id, m.name, len(m.steps))
+
+    async def stored(self, prog: MissionProgress) -> None:
+        """Nothing to keep besides the events stream: EDDIE has no blackboard."""
+
+    async def cancel_running(self, prog: MissionProgress, reason: str) -> None:
+        """Cancel the running mission at once and stop the vehicle."""
+        prog.cancel(self._now(), reason)
+        await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=reason))
+        await self.desk.publish(prog)
 
     def waiting(self) -> Waiting:
         """Return why the vehicle is not driving on what vision sees, from the controller's newest state ("": it is).
@@ -160,49 +157,14 @@ class MissionService:
             return "planning"
         return ""
 
-    def answered(self, prog: MissionProgress) -> bytes:
+    def answered(self, prog: MissionProgress) -> MissionStatus:
         """Return `prog`'s status as a status query is answered: with where it is when it runs (`StepProgress`)."""
         st = prog.status
         if st.state == "running":
             pose = self.belief.world()
-            now = self._now()
             st = st.model_copy(update={"progress": prog.progress(
-                now, None if pose is None else (float(pose[0]), float(pose[1]), float(pose[2])), self.waiting())})
-        return st.model_dump_json().encode()
-
-    async def on_status(self, req: QueryRequest) -> QueryAnswer:
-        """Answer `…/mission/status/<id>` (or `*`) with MissionStatus JSON (a running mission's with its progress)."""
-        mid = req.key.rsplit("/", 1)[-1]
-        if mid in ("*", "**"):
-            return QueryAnswer(as_json=True, ok=True, replies=tuple(
-                (self.keys.status(k), self.answered(p)) for k, p in self.missions.items()))
-        prog = self.missions.get(mid)
-        if prog is None:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(
-                error="unknown_mission", message=f"no mission {mid!r} known to this mission service").to_bytes())
-        return QueryAnswer(as_json=True, ok=True, payload=self.answered(prog), key=self.keys.status(mid))
-
-    async def on_cancel(self, req: QueryRequest) -> QueryAnswer:
-        """Answer a cancel request: stop the vehicle if the mission runs, and return its status."""
-        try:
-            creq = parse_cancel(req.payload)
-        except MissionRequestError as exc:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(error="bad_request", message=str(exc)).to_bytes())
-        prog = self.missions.get(creq.mission_id)
-        if prog is None:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(
-                error="unknown_mission", message=f"no mission {creq.mission_id!r} known to this mission service").to_bytes())
-        if prog.status.terminal:
-            return QueryAnswer(as_json=True, ok=False, payload=Rejection(
-                error="finished", message=f"mission {creq.mission_id} already {prog.status.state}").to_bytes())
-        was_running = prog.status.state == "running"
-        prog.cancel(self._now(), creq.reason)
-        if creq.mission_id in self.queue:
-            self.queue.remove(creq.mission_id)
-        if was_running:
-            await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=creq.reason))
-        self._publish(prog)
-        return QueryAnswer(as_json=True, ok=True, payload=prog.status.model_dump_json().encode())
+                self._now(), None if pose is None else (float(pose[0]), float(pose[1]), float(pose[2])), self.waiting())})
+        return st
 
     # ---- running -------------------------------------------------------------------------
 
@@ -227,25 +189,17 @@ class MissionService:
 
     async def run(self) -> None:
         """Declare the keys, then sequence missions one at a time until cancelled."""
-        link = self.m.link
-        link.queryable(self.keys.submit, self.on_submit)
-        link.queryable(self.keys.status("*"), self.on_status)
-        link.queryable(self.keys.cancel, self.on_cancel)
+        self.desk.declare()
         self.m.serve("route", self.on_route)
         self.m.ready()
         await self.m.clock.wait_running()
         while True:
-            while not self.queue:
-                self._wake.clear()
-                await self._wake.wait()
-            prog = self.missions[self.queue.popleft()]
-            if prog.status.terminal:
-                continue
+            prog = await self.desk.next()
             self.running = prog
             self._moved = True
             await self._install(prog.status.mission_id)
             prog.start(self._now())
-            self._publish(prog)
+            await self.desk.publish(prog)
             mid = prog.status.mission_id
             if self.perception:
                 await self.m.send("road_following", ModuleSwitch(on=True, mission_id=mid, reason=f"mission {mid} started"))
@@ -259,7 +213,7 @@ class MissionService:
                     float(b.local_stamp), float(b.local[0]), float(b.local[1]), float(b.local[2]))
                 if prog.update(self._now(), None if pose is None else (float(pose[0]), float(pose[1])),
                                None if pose is None else float(pose[2]), odom):
-                    self._publish(prog)
+                    await self.desk.publish(prog)
             await self._end(prog)
 
     async def _end(self, prog: MissionProgress) -> None:

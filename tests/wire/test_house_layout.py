@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[2]
@@ -79,6 +80,16 @@ def test_one_supervisor_one_mission_contract_one_seam() -> None:
     assert "arch ==" not in launcher and "eddie_run" not in launcher and "codger_run" not in launcher
     for arch in ("codger_run", "eddie_run"):  # an architecture knows the run's setup, never the launcher
         assert "sidewalk.launcher" not in _imports(REPO / "sidewalk" / f"{arch}.py"), arch
+
+
+def test_one_mission_desk_for_both_mission_services() -> None:
+    """The CAPTAIN and EDDIE's mission service take missions at the one desk: neither declares the contract's keys itself."""
+    services = {"codger/captain/service.py", "eddie/mission_service/mission_service.py"}
+    for where in services:
+        assert "runtime.mission_desk.MissionDesk" in _imports(REPO / where), where
+    declaring = sorted(p.relative_to(REPO).as_posix() for p in _sources("codger", "eddie", "modules", "runtime", "sidewalk")
+                       if re.search(r"queryable\([^)]*(submit|cancel|status)", p.read_text()))
+    assert declaring == ["runtime/mission_desk.py"]
 
 
 def test_no_circle_between_our_modules() -> None:

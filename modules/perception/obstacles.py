@@ -23,6 +23,7 @@ from scipy.ndimage import maximum_filter, minimum_filter
 from modules.perception.patch_maker.range_seg import jump_edges, unwrap_range
 
 __all__ = [
+    "anchored_returns",
     "ObstacleConfig",
     "LaserScan",
     "Obstacle",
@@ -145,6 +146,7 @@ def scan_points(scan: LaserScan, max_horizontal: float = 20.0) -> np.ndarray:
     dv = _ray_directions(scan.az, scan.el, scan.T_vehicle_laser[:3, :3])
     r = unwrap_over_ground(unwrap_range(scan.range_m, valid, scan.ambiguity).astype(np.float64), valid, dv[..., 2], float(t[2]),
                            scan.ambiguity)
+    anchored = anchored_returns(r, valid, dv[..., 2], float(t[2]), scan.ambiguity)
     xyz = dv * r[..., None] + t
     if scan.reflectance is not None:
         atten = 1.0 / (1.0 + np.square(r / 25.0))
@@ -155,7 +157,7 @@ def scan_points(scan: LaserScan, max_horizontal: float = 20.0) -> np.ndarray:
     horiz = np.hypot(xyz[..., 0] - t[0], xyz[..., 1] - t[1])
     # pixels at depth discontinuities may be mixed points (the sum of two returns) floating between
     # the surfaces: they are dropped
-    keep = valid & (horiz <= max_horizontal) & ~jump_edges(r.astype(np.float32), valid)
+    keep = anchored & (horiz <= max_horizontal) & ~jump_edges(r.astype(np.float32), valid)
     return np.concatenate([xyz[keep], sig[keep][:, None]], axis=1).astype(np.float32)
 
 
@@ -184,6 +186,30 @@ def unwrap_over_ground(r: np.ndarray, valid: np.ndarray, dz: np.ndarray, z0: flo
         r[row] = cur
         below = np.where(v, cur, below)
     return r
+
+
+def anchored_returns(r: np.ndarray, valid: np.ndarray, dz: np.ndarray, z0: float, ambiguity: float,
+                     jump: float = 1.0) -> np.ndarray:
+    """Return (H, W) bool: the returns whose range [m] is not in doubt by a whole ambiguity interval.
+
+    A ray that meets the vehicle's ground plane within one interval (`dz` (H, W), each ray's vertical
+    direction component, below -`z0`/`ambiguity`; `z0` [m] the scanner's height, `vehicle` frame)
+    cannot return from farther than that ground, so its unwrapped range stands. A flatter ray can:
+    an object one interval beyond the one it shows (a tree 29 m away shows at 8.5 m) folds into the
+    near field and floats there at about the scanner's height, where it stopped the vehicle for good
+    for something behind the next crossing. Such a return is kept only where it continues, range-
+    continuous within `jump` [m], a kept return below it in its column: the upper part of a walker or
+    a wall whose foot the lower rays saw, or ground unwrapped by its continuity. What only the flat
+    rays see (an overhang at the scanner's height with open ground under it) is the sensor's blind spot.
+    """
+    sure = valid & (dz < -z0 / ambiguity)
+    out = np.zeros(r.shape, dtype=bool)
+    below = np.full(r.shape[1], np.nan)
+    for row in range(r.shape[0] - 1, -1, -1):
+        keep = sure[row] | (valid[row] & (np.abs(r[row] - below) <= jump))
+        out[row] = keep
+        below = np.where(valid[row], np.where(keep, r[row], np.nan), below)
+    return out
 
 
 def height_map(points: np.ndarray, cfg: ObstacleConfig = ObstacleConfig()) -> HeightMap:

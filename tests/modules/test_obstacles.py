@@ -49,6 +49,21 @@ def test_fast_mode_sees_only_the_corridor() -> None:
     assert 10.0 < d < 12.5
 
 
+def test_a_tree_one_ambiguity_interval_away_is_no_obstacle_in_the_near_field() -> None:
+    # a tree 28.5 m ahead, 3-4.5 m to the right, behind a mailbox 16.5 m ahead that hides its foot (so the ground
+    # gives no continuity to unwrap by): the tree's returns come back 20.48 m short, about 8 m ahead and 1 m to the
+    # right, floating at the scanner's height in the corridor of a straight path (a generated suburb's stopped EDDIE
+    # for good)
+    far, mailbox = (28.5, 30.0, -4.5, -3.0, 6.0), (16.5, 16.9, -3.0, -1.7, 1.3)
+    straight = np.array([[0.0, 0.0], [20.0, 0.0]])
+    pts = scan_points(synthetic_scan([far, mailbox]))
+    assert len(pts[(pts[:, 0] < 12.0) & (pts[:, 2] > 1.0)]) == 0
+    assert path_clear_distance(synthetic_scan([far, mailbox]), straight, 1.5) == math.inf
+    # a walker 8 m ahead on the path is still found, with the mailbox and the tree behind it
+    d = path_clear_distance(synthetic_scan([far, mailbox, (8.0, 8.5, -0.3, 0.3, 1.8)]), straight, 1.5)
+    assert 7.5 < d < 8.6
+
+
 def _clear_distance_over_every_point(scan, path: np.ndarray, half_width: float, cfg: ObstacleConfig = ObstacleConfig(),  # noqa: ANN001
                                      min_points: int = 3) -> float:
     """The corridor test written plainly: every scan point against every segment, by norms (the reference)."""

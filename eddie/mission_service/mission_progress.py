@@ -215,9 +215,10 @@ class MissionProgress:
         return self._track.report(now, pose, waiting)
 
     def update(self, now: float, world_xy: tuple[float, float] | None, yaw: float | None = None,
-               odometry: tuple[float, float, float, float] | None = None) -> bool:
+               odometry: tuple[float, float, float, float] | None = None, waiting: str = "") -> bool:
         """Take the believed position (`world` [m], None: not known) and heading (`yaw` [rad], None: not known) at sim
-        time `now` [s]; return whether the status changed.
+        time `now` [s]; return whether the status changed. `waiting` says why the vehicle waits, if it does (a stalled
+        step's failure names it).
 
         `odometry` (stamp [s sim], x, y [m], yaw [rad] in `local`) tells whether the vehicle is at rest; without it the
         believed position does (a position fix moving it counts as motion).
@@ -277,6 +278,8 @@ class MissionProgress:
             best = self._track.best_left
             left = "" if math.isinf(best) else f"; {best:.1f} m of its route left"
             why = f"no progress along the route for {self.stall_s:.0f} s (the believed position, navigator ∘ controller{left})"
+            if waiting:
+                why += f", waiting: {waiting}"
             return self._apply(self.run.step_finished(StepResult(mission_id=mid, step_index=i, success=False, reason=why), now), now)
         return False
 

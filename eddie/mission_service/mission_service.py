@@ -30,7 +30,7 @@ from eddie.messages.controller import PathCommand, Stop
 from eddie.messages.map_manager import MissionAnnotations, MissionInstalled
 from eddie.missions import MissionCompileError, compile_mission
 from eddie.missions.lane import KERB_MARGIN_M
-from eddie.messages.modules import MissionRoute, ModuleSwitch
+from eddie.messages.modules import MissionRoute, ModuleSwitch, ObstacleSeen
 from eddie.obstacle_stop.obstacle_stop_module import CLIENT as OBSTACLE_CLIENT
 from eddie.mission_service.mission_progress import MissionProgress, MissionRouteError, mission_route, step_goals
 from eddie.modules.sensing import Belief
@@ -79,6 +79,9 @@ class MissionService:
         #: a kept side is driven at most this far off the centre [m], leaving this inside the road's edge [m]
         self.keep_offset_m, self.edge_keep_m = nav.keep_offset, nav.obstacle_clearance + KERB_MARGIN_M
         self.desk: MissionDesk[MissionProgress] = MissionDesk(m.link, MissionKeys(m.net.namespace), self, self._now)
+        #: obstacle stop's newest verdict (its `seen` stream), to say what a hold is for
+        self._seen: ObstacleSeen | None = None
+        m.subscribe(OBSTACLE_CLIENT, "seen", ObstacleSeen, self._on_seen)
 
     # ---- what the modules believe --------------------------------------------------------
 
@@ -157,6 +160,17 @@ class MissionService:
             return "planning"
         return ""
 
+    def _on_seen(self, seen: ObstacleSeen) -> None:
+        self._seen = seen
+
+    def why_waiting(self) -> str:
+        """Return `waiting()` with obstacle stop's newest verdict when it holds the vehicle ("": not waiting)."""
+        w = self.waiting()
+        seen = self._seen
+        if w == "obstacle hold" and seen is not None and seen.blocked and seen.distance_m is not None:
+            return f"obstacle hold (obstacle stop sees something {seen.distance_m:.1f} m ahead on the path at {seen.stamp:.1f} s)"
+        return w
+
     def answered(self, prog: MissionProgress) -> MissionStatus:
         """Return `prog`'s status as a status query is answered: with where it is when it runs (`StepProgress`)."""
         st = prog.status
@@ -212,7 +226,7 @@ class MissionService:
                 odom = None if b.local is None or b.local_stamp is None else (
                     float(b.local_stamp), float(b.local[0]), float(b.local[1]), float(b.local[2]))
                 if prog.update(self._now(), None if pose is None else (float(pose[0]), float(pose[1])),
-                               None if pose is None else float(pose[2]), odom):
+                               None if pose is None else float(pose[2]), odom, self.why_waiting()):
                     await self.desk.publish(prog)
             await self._end(prog)
 

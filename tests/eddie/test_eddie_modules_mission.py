@@ -11,6 +11,7 @@ from eddie.mission_service.mission_progress import MissionProgress, MissionRoute
 from modules.captain.arrival import REST_HOLD_S
 from modules.captain.missionfile import load_mission, parse_mission
 from modules.map_navigator import load_map
+from modules.vocabulary import MissionStatus
 from vehicle_sim.worldfile import WORLDS_DIR
 
 
@@ -59,18 +60,28 @@ def test_a_drive_along_each_route_succeeds_step_by_step_with_the_trigger_wait(ca
     assert st.steps[0].finished_at < st.steps[1].finished_at < st.steps[3].finished_at
 
 
-def test_a_vehicle_that_stands_still_fails_the_step_after_the_stall_time(campus) -> None:
-    mission = load_mission(WORLDS_DIR / "campus-tour.yaml").model_copy(update={"mission_id": "tour-2"})
+def _stand_still(campus, mission_id: str, waiting: str = "") -> MissionStatus:  # noqa: ANN001
+    """Return the status of a campus tour whose vehicle stands at the start (stall time 20 s), `waiting` after 10 s."""
+    mission = load_mission(WORLDS_DIR / "campus-tour.yaml").model_copy(update={"mission_id": mission_id})
     start = (campus.world.start.x, campus.world.start.y)
     prog = MissionProgress(mission, step_goals(campus, start, mission), stall_s=20.0)
     prog.start(0.0)
     t = 0.0
     while not prog.status.terminal and t < 100.0:
         t += 1.0
-        prog.update(t, start)
-    st = prog.status
+        prog.update(t, start, waiting=waiting if t > 10 else "")
+    return prog.status
+
+
+def test_a_vehicle_that_stands_still_fails_the_step_after_the_stall_time(campus) -> None:
+    st = _stand_still(campus, "tour-2")
     assert st.state == "failed" and 20.0 < st.finished_at <= 22.0
     assert "no progress" in st.steps[0].reason and st.steps[1].state == "cancelled"
+
+
+def test_a_stalled_step_says_what_the_vehicle_waited_for(campus) -> None:
+    why = "obstacle hold (obstacle stop sees something 8.8 m ahead on the path at 3.0 s)"
+    assert _stand_still(campus, "tour-3", why).steps[0].reason.endswith(f"waiting: {why}")
 
 
 def test_progress_is_judged_along_the_route_even_where_it_leads_away_from_the_goal() -> None:

@@ -37,8 +37,12 @@ from sidewalk.errors import SidewalkError
 from sidewalk.health import WEDGED_AFTER_S
 from wire.lifeline import die_with_parent
 
-__all__ = ["ProcessPlan", "ManagedProcess", "Supervisor", "ProcessStartError", "READY_RE",
+__all__ = ["ProcessPlan", "ManagedProcess", "Supervisor", "ProcessStartError", "READY_RE", "READY_TIMEOUT_S",
            "RestartPolicy", "Restart", "WedgeReport", "GiveUp", "BeatSource"]
+
+#: how long [s wall] a starting process may take to say it is ready: a process that dies is noticed at once, so
+#: this bounds only a slow start (the simulator took 121 s on this 2-core machine at a load of 30, numba and all)
+READY_TIMEOUT_S = 300.0
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +82,7 @@ class RestartPolicy(BaseModel):
     stable_s: float = Field(default=30.0, gt=0.0)
     #: failed lives in a row after which the supervisor gives up on the process (None: never)
     give_up_after: Optional[int] = Field(default=8, ge=1)
-    ready_timeout_s: float = Field(default=60.0, gt=0.0)
+    ready_timeout_s: float = Field(default=READY_TIMEOUT_S, gt=0.0)
 
     def delay(self, failures: int) -> float:
         """Return the back-off [s] before the restart that follows `failures` (≥ 1) failed lives in a row."""
@@ -195,7 +199,7 @@ class Supervisor:
         #: called with a one-line notice whenever the guard reports or restarts something
         self.on_notice: Callable[[str], None] | None = None
 
-    async def start(self, plan: ProcessPlan, *, ready_timeout: float = 60.0) -> ManagedProcess:
+    async def start(self, plan: ProcessPlan, *, ready_timeout: float = READY_TIMEOUT_S) -> ManagedProcess:
         """Start one process and return once it printed its ready line [timeout in wall s]."""
         self._arm_sigterm()
         log_path = self.log_dir / f"{plan.name}.log"
@@ -234,7 +238,7 @@ class Supervisor:
         if mp.exited.is_set():
             raise ProcessStartError(f"{plan.name} exited with code {proc.returncode} before it was ready:\n{tail}")
         await self.stop(plan.name)
-        raise ProcessStartError(f"{plan.name} printed no ready line within {ready_timeout:.0f} s:\n{tail}")
+        raise ProcessStartError(f"{plan.name} printed no ready line within {ready_timeout:.0f} s (load average {os.getloadavg()[0]:.1f}):\n{tail}")
 
     def _arm_sigterm(self) -> None:
         """Once, on the main thread's loop: on SIGTERM end every child's process group, then take SIGTERM as before."""

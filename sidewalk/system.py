@@ -22,7 +22,7 @@ from modules.vocabulary import MissionStatus, RoutePlan
 from sidewalk.recorder import Recorder
 from sidewalk.run_record import RecordedPlan, StampedStatus
 from sidewalk.health import BeatLog
-from sidewalk.supervisor import ProcessPlan, RestartPolicy, Supervisor
+from sidewalk.supervisor import READY_TIMEOUT_S, ProcessPlan, RestartPolicy, Supervisor
 
 log = logging.getLogger(__name__)
 
@@ -74,7 +74,7 @@ class SystemRun:
         self.rest: dict[str, float | None] = {}
         self.bb_stats: dict | None = None
 
-    async def start(self, *, on_starting: Callable[[str], None] | None = None, ready_timeout: float = 60.0) -> None:
+    async def start(self, *, on_starting: Callable[[str], None] | None = None, ready_timeout: float = READY_TIMEOUT_S) -> None:
         """Start every process, then connect the observer side: the recorder (`_recorder`) and the mission follower (`_follow`)."""
         for plan in self.plans.values():
             if on_starting:
@@ -195,7 +195,7 @@ class SystemRun:
         """SIGKILL one process (fault injection) and wait until it is gone."""
         await self.sup.kill(name)
 
-    async def restart(self, name: str, *, ready_timeout: float = 60.0) -> None:
+    async def restart(self, name: str, *, ready_timeout: float = READY_TIMEOUT_S) -> None:
         """Start a process again with its original plan and wait for its ready line."""
         await self.sup.start(self.plans[name], ready_timeout=ready_timeout)
 

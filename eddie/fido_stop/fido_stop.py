@@ -16,6 +16,8 @@ frame (through the same request helper).
 from __future__ import annotations
 
 import asyncio
+import logging
+import math
 
 from eddie.modules.errors import EddieModuleError
 from eddie.modules.sensing import CaptureError, _capture
@@ -27,6 +29,8 @@ from wire.keys import SimKeys
 from modules.fido import FidoError, FidoObstacleWatch, FidoWatchConfig, StereoPair, StereoRig
 
 __all__ = ["FidoStop", "FidoStopError", "capture_stereo"]
+
+log = logging.getLogger("eddie.fido_stop")
 
 
 class FidoStopError(EddieModuleError):
@@ -62,5 +66,8 @@ class FidoStop(ObstacleStop):
         except FidoError as exc:
             raise FidoStopError(f"fido: {exc}") from None
         d = self.watch.corridor_distance(seen, corridor_path(self.cfg, self.path, pose), self.cfg.half_width_m)
+        if math.isfinite(d):
+            log.info("fido: t=%.2f an obstacle feature %.1f m along the path (%d obstacle features, %d new; %d features, %d tracked; %.0f ms)",
+                     seen.stamp, d, len(seen.xyz), seen.new, seen.features, seen.tracked, seen.step_ms)
         return stop_verdict(d, seen.stamp, self.cfg, path_local=self.path, pose_local=pose, speed=self.belief.speed)
 

@@ -36,14 +36,19 @@ class FidoWatchConfig(BaseModel):
     min_features: int = Field(1, ge=1)
     #: a step this long after the last [s] sim starts over (the tracks are too old to find again)
     max_gap_s: float = Field(5.0, gt=0.0)
+    #: obstacle features are kept this long [s] sim in `local`, placed by dead reckoning (FIDO's world model of obstacles):
+    #: the interest operator does not pick the same corner in every pair, and an obstacle seen once stays in the way
+    remember_s: float = Field(4.0, ge=0.0)
 
 
 @dataclass(frozen=True)
 class FidoSighting:
-    """One step's obstacle features: `xyz` (M, 3) float64 `vehicle` [m] at the pair's `stamp` [s] sim, and the
-    step's feature count, tracked count and wall time [ms]."""
+    """The obstacle features at a step: `xyz` (M, 3) float64 `vehicle` [m] at the pair's `stamp` [s] sim (this step's and
+    the remembered ones), how many of them this step found (`new`), and the step's feature count, tracked count and
+    wall time [ms]."""
 
     xyz: np.ndarray
+    new: int
     stamp: float
     features: int
     tracked: int
@@ -64,6 +69,7 @@ class FidoObstacleWatch:
         self.cfg = cfg
         self.memory: FidoMemory | None = None
         self._last: tuple[float, tuple[float, float, float]] | None = None
+        self._kept: list[tuple[float, np.ndarray]] = []  # (stamp [s], (M, 3) float64 obstacle features in `local` [m])
         self.steps = 0
 
     def step(self, pair: StereoPair, rig: StereoRig, pose_local: tuple[float, float, float]) -> FidoSighting:
@@ -77,7 +83,15 @@ class FidoObstacleWatch:
         self.memory, self._last = res.memory, (pair.stamp, tuple(pose_local))
         self.steps += 1
         f = res.features
-        return FidoSighting(xyz=f.xyz[res.obstacle].copy(), stamp=pair.stamp, features=len(f),
+        found = f.xyz[res.obstacle]
+        x, y, yaw = pose_local
+        c, s = math.cos(yaw), math.sin(yaw)
+        in_local = np.column_stack([x + c * found[:, 0] - s * found[:, 1], y + s * found[:, 0] + c * found[:, 1], found[:, 2]])
+        self._kept = [(t, p) for t, p in self._kept if 0.0 <= pair.stamp - t <= self.cfg.remember_s] + [(pair.stamp, in_local)]
+        kept = np.concatenate([p for _, p in self._kept]).reshape(-1, 3)
+        dx, dy = kept[:, 0] - x, kept[:, 1] - y
+        xyz = np.column_stack([c * dx + s * dy, -s * dx + c * dy, kept[:, 2]])
+        return FidoSighting(xyz=xyz, new=len(found), stamp=pair.stamp, features=len(f),
                             tracked=int(f.tracked.sum()), step_ms=res.timing.total_ms)
 
     def corridor_distance(self, sighting: FidoSighting, path: np.ndarray, half_width: float) -> float:

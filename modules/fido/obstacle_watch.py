@@ -36,9 +36,10 @@ class FidoWatchConfig(BaseModel):
     min_features: int = Field(1, ge=1)
     #: a step this long after the last [s] sim starts over (the tracks are too old to find again)
     max_gap_s: float = Field(5.0, gt=0.0)
-    #: obstacle features are kept this long [s] sim in `local`, placed by dead reckoning (FIDO's world model of obstacles):
-    #: the interest operator does not pick the same corner in every pair, and an obstacle seen once stays in the way
-    remember_s: float = Field(4.0, ge=0.0)
+    #: obstacle features are kept for this many steps (this one included) in `local`, placed by dead reckoning (FIDO's
+    #: world model of obstacles): the interest operator does not pick the same corner in every pair. Counted in steps,
+    #: not seconds: on a loaded machine a step takes longer and the memory must still span the same number of looks
+    remember_steps: int = Field(8, ge=1)
 
 
 @dataclass(frozen=True)
@@ -69,7 +70,7 @@ class FidoObstacleWatch:
         self.cfg = cfg
         self.memory: FidoMemory | None = None
         self._last: tuple[float, tuple[float, float, float]] | None = None
-        self._kept: list[tuple[float, np.ndarray]] = []  # (stamp [s], (M, 3) float64 obstacle features in `local` [m])
+        self._kept: list[np.ndarray] = []  # per step, newest last: (M, 3) float64 obstacle features in `local` [m]
         self.steps = 0
 
     def step(self, pair: StereoPair, rig: StereoRig, pose_local: tuple[float, float, float]) -> FidoSighting:
@@ -87,8 +88,8 @@ class FidoObstacleWatch:
         x, y, yaw = pose_local
         c, s = math.cos(yaw), math.sin(yaw)
         in_local = np.column_stack([x + c * found[:, 0] - s * found[:, 1], y + s * found[:, 0] + c * found[:, 1], found[:, 2]])
-        self._kept = [(t, p) for t, p in self._kept if 0.0 <= pair.stamp - t <= self.cfg.remember_s] + [(pair.stamp, in_local)]
-        kept = np.concatenate([p for _, p in self._kept]).reshape(-1, 3)
+        self._kept = [*self._kept, in_local][-self.cfg.remember_steps:]
+        kept = np.concatenate(self._kept).reshape(-1, 3)
         dx, dy = kept[:, 0] - x, kept[:, 1] - y
         xyz = np.column_stack([c * dx + s * dy, -s * dx + c * dy, kept[:, 2]])
         return FidoSighting(xyz=xyz, new=len(found), stamp=pair.stamp, features=len(f),

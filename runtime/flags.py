@@ -19,7 +19,7 @@ from wire.flags import add_network_args, network_from_args
 from wire.network import NetworkConfig
 
 __all__ = ["VEHICLES", "module_parser", "add_vehicle", "add_start_pose", "add_seed", "add_heartbeat", "parse_pose",
-           "parse_module_args", "setup_logging"]
+           "parse_module_args", "setup_logging", "config_flag_errors"]
 
 #: The vehicles a module can be configured for.
 VEHICLES = ("navlab", "terregator")
@@ -88,3 +88,12 @@ def parse_module_args(parser: argparse.ArgumentParser, argv: Sequence[str] | Non
     args = parser.parse_args(argv)
     setup_logging()
     return args, network_from_args(parser, args)
+
+
+def config_flag_errors(exc, flags: dict[str, str] | None = None) -> str:
+    """Return a pydantic ValidationError of a config built from flags as one line naming each flag (`--half-width: …`);
+    `flags` maps a field to its flag where the two names differ (default: the field's name with dashes)."""
+    def flag(field: str) -> str:
+        return (flags or {}).get(field, "--" + field.replace("_", "-"))
+
+    return "; ".join(f"{flag(str(e['loc'][0]))}: {e['msg']}" for e in exc.errors())

@@ -40,7 +40,8 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
     # ---- monitor and recording (issue 11): recorder and monitor start before the simulator ----
     plans[2:2] = observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port)
     if cfg.obstacles or (cfg.obstacles is None and (cfg.actors or setup.world.actors)):  # issue 12: actors of the flag or the world file
-        plans.append(ProcessPlan("obstacles", ("-m", "sidewalk", "up", "obstacles", "--map", str(setup.map_file), *zflags)))
+        sensor = "fido_obstacles" if cfg.obstacle_sensor == "fido" else "obstacles"  # issue 41
+        plans.append(ProcessPlan(sensor, ("-m", "sidewalk", "up", sensor, "--map", str(setup.map_file), *zflags)))
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags,
                                                 *road_method_flags(cfg), *vision_flags(cfg))))  # issues 13, 41

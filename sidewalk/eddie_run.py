@@ -61,7 +61,8 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
                 start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
                 map_file: Path, annotated_map: Optional[Path], perception: bool, record: bool = True,
                 monitor_port: Optional[int] = None, secure: Optional[Path] = None, actors: Optional[str] = None,
-                max_speed: Optional[float] = None, road_method: tuple[str, ...] = ()) -> list[ProcessPlan]:
+                max_speed: Optional[float] = None, road_method: tuple[str, ...] = (),
+                obstacle_sensor: str = "laser") -> list[ProcessPlan]:
     """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard.
 
     `secure`: the `sidewalk security init` directory every process gets as --secure (each its own role);
@@ -69,6 +70,7 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
     `max_speed` [m/s]: `sidewalk run --max-speed`, EDDIE's counterpart of the PILOT's cap — the mission
     service's route speed and the controller's top speed (so no trigger or client drives faster).
     `road_method`: flags for vision road following (`--road-method M [--alvinn-weights F]`, issue 13; `--vision-workers N`, issue 41).
+    `obstacle_sensor`: `laser` (obstacle stop) or `fido` (`eddie.fido_stop`, run under obstacle stop's name, issue 41).
     """
     cap = () if max_speed is None else ("--max-speed", str(max_speed))
     sec = () if secure is None else ("--secure", str(secure))  # issue 14
@@ -91,7 +93,8 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
                                              *zflags)))
     if perception:
         # obstacle stop sleeps until the route's `start_obstacles` triggers switch it on (issue 12)
-        plans += [ProcessPlan(name, ("-m", "sidewalk", "up", name, "--vehicle", vehicle, "--map", str(map_file),
+        up = {"obstacle_stop": "fido_stop"} if obstacle_sensor == "fido" else {}
+        plans += [ProcessPlan(name, ("-m", "sidewalk", "up", up.get(name, name), "--vehicle", vehicle, "--map", str(map_file),
                                      f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags,
                                      *(("--asleep",) if name == "obstacle_stop" else ()),
                                      *(road_method if name == "road_following" else ())))
@@ -274,7 +277,7 @@ class EddieArchitecture:
             watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
             map_file=setup.map_file, annotated_map=prepared, perception=cfg.perception, record=cfg.record,
             monitor_port=cfg.monitor_port, secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
-            road_method=road_method_flags(cfg, setup) + vision_flags(cfg))  # issues 13, 41
+            road_method=road_method_flags(cfg, setup) + vision_flags(cfg), obstacle_sensor=cfg.obstacle_sensor)  # issues 13, 41
 
     def system(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path, prepared: Path, secure: Path | None,
                lockstep: bool) -> EddieSystemRun:

@@ -18,6 +18,7 @@ CODGER_PROCESSES: dict[str, str] = {
     "helm": "codger.helm",
     "perception": "codger.perception",
     "obstacles": "codger.obstacles",
+    "fido_obstacles": "codger.fido_obstacles",  # issue 41: FIDO's stereo in the laser's place (--obstacle-sensor fido)
 }
 
 #: EDDIE's processes (issue 9: the integrated controller, the navigator, the annotated map manager, EDDIE's modules)
@@ -29,6 +30,7 @@ EDDIE_PROCESSES: dict[str, str] = {
     "road_following": "eddie.road_following",
     "landmark_matching": "eddie.landmark_matching",
     "obstacle_stop": "eddie.obstacle_stop",
+    "fido_stop": "eddie.fido_stop",  # issue 41: runs as obstacle stop (its name) with FIDO's stereo
 }
 
 #: `sidewalk up NAME` → the package whose `__main__.main(argv)` runs it

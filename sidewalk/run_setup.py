@@ -66,6 +66,8 @@ class RunConfig(BaseModel):
     road_method: Literal["perception", "scarf", "yarf", "alvinn"] = "perception"
     alvinn_weights: Optional[Path] = None  # ALVINN's weights (.npz), needed with road_method alvinn
     # ---- end issue 13 ----
+    #: issue 41: the obstacle sensor: the ERIM laser, or FIDO's stereo (CODGER's detector, EDDIE's obstacle stop)
+    obstacle_sensor: Literal["laser", "fido"] = "laser"
     #: issue 41: processes the vision of PERCEPTION (CODGER) or vision road following (EDDIE) runs on (1: its own)
     vision_workers: int = Field(default=1, ge=1, le=64)
     #: issue 14: how the supervisor keeps the modules running (crashed: restarted with back-off; wedged: reported, restarted)

@@ -65,6 +65,9 @@ def plan_in_vehicle(plan: LocalPathPlan, pose: tuple[float, float, float], looka
 class ObstacleDetector:
     """Run the OBSTACLE DETECTOR on a module runtime `rt` (blackboard `rt.bb`, Zenoh link `rt.link`, clock `rt.clock`)."""
 
+    #: the failures of a cycle that are logged and left behind (the next cycle tries again)
+    cycle_errors: tuple[type[BaseException], ...] = (TimeoutError, CaptureDecodeError, BlackboardError, RuntimeError)
+
     def __init__(self, rt, cfg: ObstacleDetectorConfig = ObstacleDetectorConfig(),
                  landmarks: tuple[MapLandmark, ...] | list[MapLandmark] = ()) -> None:
         self.rt = rt
@@ -81,8 +84,12 @@ class ObstacleDetector:
             if ev.kind == "new" and (self.plan is None or ev.token.attrs.seq >= self.plan.seq):
                 self.plan = ev.token.attrs
 
+    def capture_request(self) -> dict:
+        """Return what a cycle asks the simulator's capture service for (the laser alone)."""
+        return {"laser": True, "camera": False}
+
     async def _capture(self):
-        req = json.dumps({"laser": True, "camera": False}).encode()
+        req = json.dumps(self.capture_request()).encode()
         key = SimKeys(self.rt.net.namespace).capture
         replies = await self.rt.link.get(key, payload=req, timeout=self.cfg.capture_timeout_s)
         for r in replies:
@@ -176,7 +183,7 @@ class ObstacleDetector:
             while not self.rt.stopping:
                 try:
                     await self.cycle()
-                except (TimeoutError, CaptureDecodeError, BlackboardError, RuntimeError) as exc:
+                except self.cycle_errors as exc:
                     log.warning("obstacles: cycle failed: %s", exc)
                 await self.rt.clock.sleep(self.cfg.period_s)
         finally:

@@ -17,7 +17,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from modules.perception.obstacles import LaserScan, ObstacleConfig, path_clear_distance, path_in_vehicle
 
-__all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead", "remaining_m", "braking_m"]
+__all__ = ["ObstacleStopConfig", "ObstacleReport", "obstacle_ahead", "corridor_path", "stop_verdict", "remaining_m", "braking_m"]
 
 
 class ObstacleStopConfig(BaseModel):
@@ -84,10 +84,24 @@ def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig
     Stopping such a vehicle early instead would hold it short of its goal for good, the driving
     module's next path being refused while the stop holds.
     """
-    path = path_in_vehicle(np.empty((0, 2)) if path_local is None else path_local, pose_local, cfg.stop_distance_m)
+    path = corridor_path(cfg, path_local, pose_local)
     d = path_clear_distance(scan, path, cfg.half_width_m, cfg.detection, min_points=cfg.min_points)
+    return stop_verdict(d, float(scan.stamp), cfg, path_local=path_local, pose_local=pose_local, speed=speed)
+
+
+def corridor_path(cfg: ObstacleStopConfig, path_local: np.ndarray | None, pose_local: tuple[float, float, float]) -> np.ndarray:
+    """Return the path (K, 2) [m] `vehicle` whose corridor is checked: `path_local` ahead of the vehicle, else straight ahead."""
+    return path_in_vehicle(np.empty((0, 2)) if path_local is None else path_local, pose_local, cfg.stop_distance_m)
+
+
+def stop_verdict(d: float, stamp: float, cfg: ObstacleStopConfig, *, path_local: np.ndarray | None = None,
+                 pose_local: tuple[float, float, float] = (0.0, 0.0, 0.0), speed: float = 0.0) -> ObstacleReport:
+    """Return the verdict for the first obstacle `d` [m] along the corridor's path (`inf`: clear), sensed at `stamp` [s] sim.
+
+    Any sensor's: the laser's obstacle points (`obstacle_ahead`) or FIDO's obstacle features.
+    """
     if not math.isfinite(d):
-        return ObstacleReport(blocked=False, distance_m=None, stamp=float(scan.stamp))
+        return ObstacleReport(blocked=False, distance_m=None, stamp=stamp)
     braking = braking_m(cfg, speed)
     # without a path the vehicle still rolls its braking distance straight ahead: that is its path's end
     left = braking if path_local is None or len(path_local) < 2 else remaining_m(path_local, pose_local)
@@ -95,4 +109,4 @@ def obstacle_ahead(scan: LaserScan, cfg: ObstacleStopConfig = ObstacleStopConfig
         blocked = d <= cfg.stop_distance_m
     else:
         blocked = d <= min(cfg.stop_distance_m, cfg.front_m + cfg.clearance_m + min(left, braking))
-    return ObstacleReport(blocked=blocked, distance_m=float(d), stamp=float(scan.stamp))
+    return ObstacleReport(blocked=blocked, distance_m=float(d), stamp=stamp)

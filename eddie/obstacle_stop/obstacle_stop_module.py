@@ -23,13 +23,13 @@ import numpy as np
 from eddie.messages.controller import ControllerPath, Release, SpeedLimit, Stop
 from eddie.messages.map_manager import StopAtObject
 from eddie.messages.modules import ObjectStopped, ObstacleSeen
-from eddie.obstacle_stop.obstacle_stop import ObstacleStopConfig, obstacle_ahead
+from eddie.obstacle_stop.obstacle_stop import ObstacleReport, ObstacleStopConfig, obstacle_ahead
 from eddie.modules.sensing import Belief, CaptureError, capture_scan
 from eddie.obstacle_stop.stop_at_object import ObjectCorrection, sight_object
 from eddie.modules.switched import Switch, run_switched
 from eddie.toolkit.message import Message
 from eddie.toolkit.module import Module
-from modules.perception.obstacles import detect_obstacles
+from modules.perception.obstacles import LaserScan, detect_obstacles
 from modules.pilot import pilot_config_for
 
 __all__ = ["ObstacleStop", "corridor_half_width", "stop_now"]
@@ -74,15 +74,13 @@ class ObstacleStop:
     async def cycle(self) -> str:
         """Check one range image along the controller's path; stop or release the controller when the verdict changes."""
         taken = self.switch.taken
-        scan = await capture_scan(self.m)
-        poses = await self.belief.at_capture(scan.stamp)
+        frame = await self.capture()
+        poses = await self.belief.at_capture(frame.stamp)
         if self.switch.taken != taken or not self.switch.awake:
             return "a trigger came while the frame did"  # it may have switched detection off
         if poses is None:
             return "no controller pose at the capture"
-        pose = poses[0]
-        seen = obstacle_ahead(scan, self.cfg, path_local=self.path, pose_local=tuple(pose),
-                              speed=self.belief.speed)
+        seen = await self.look(frame, tuple(float(v) for v in poses[0]))
         self.m.publish("seen", ObstacleSeen(stamp=seen.stamp, blocked=seen.blocked, distance_m=seen.distance_m))
         if seen.blocked and not self.stopped:
             self.stopped = True
@@ -92,6 +90,14 @@ class ObstacleStop:
             await self._release()
             return "released"
         return "blocked" if seen.blocked else "clear"
+
+    async def capture(self) -> LaserScan:
+        """Ask the simulator for the frame a check looks at (the laser's range image); raise CaptureError."""
+        return await capture_scan(self.m)
+
+    async def look(self, frame: LaserScan, pose: tuple[float, float, float]) -> ObstacleReport:
+        """Return the verdict on `frame`, seen at the controller's `pose` (`local`), along the controller's path."""
+        return obstacle_ahead(frame, self.cfg, path_local=self.path, pose_local=pose, speed=self.belief.speed)
 
     async def _hold(self, reason: str) -> None:
         await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=reason))

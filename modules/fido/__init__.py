@@ -14,6 +14,7 @@ from modules.fido.fido import FeatureTable, FidoConfig, FidoMemory, FidoStep, St
 from modules.fido.interest import INTEREST_HALO, InterestPoints, interest_map, select_features
 from modules.fido.motion import CHI2_3DOF_99, Motion, PlanarMotion, estimate_motion
 from modules.fido.obstacle_features import obstacle_mask
+from modules.fido.obstacle_watch import FidoObstacleWatch, FidoSighting, FidoWatchConfig, corridor_distance, motion_between
 from modules.fido.pyramid import PYRAMID_LEVELS, build_pyramid, from_level, reduce, stripe_alignment, to_level
 from modules.fido.stereo_pair import StereoPair, StereoRig, grey
 from modules.fido.triangulation import StereoPoints, triangulate
@@ -25,6 +26,7 @@ __all__ = [
     "INTEREST_HALO", "InterestPoints", "interest_map", "select_features",
     "CHI2_3DOF_99", "Motion", "PlanarMotion", "estimate_motion",
     "obstacle_mask",
+    "FidoObstacleWatch", "FidoSighting", "FidoWatchConfig", "corridor_distance", "motion_between",
     "PYRAMID_LEVELS", "build_pyramid", "from_level", "reduce", "stripe_alignment", "to_level",
     "StereoPair", "StereoRig", "grey",
     "StereoPoints", "triangulate",

@@ -78,6 +78,7 @@ def run(
     secure: Annotated[Optional[Path], typer.Option("--secure", help="Secure directory (`sidewalk security init`): every process on mutual TLS with a password, the router enforcing its rules.yaml")] = None,
     actors: Annotated[Optional[str], typer.Option("--actors", help="Objects not on the map: an actors file (JSON/YAML) or a preset (e.g. amv-delivery)")] = None,
     obstacles: Annotated[Optional[bool], typer.Option("--obstacles/--no-obstacles", help="Run the OBSTACLE DETECTOR (default: with --actors or actors in the world file)")] = None,
+    obstacle_sensor: Annotated[str, typer.Option("--obstacle-sensor", help="What sees obstacles: laser (the ERIM) or fido (FIDO's stereo) — CODGER's OBSTACLE DETECTOR, EDDIE's obstacle stop (issue 41)")] = "laser",
     map_file: Annotated[Optional[Path], typer.Option("--map", help="Map file the robot gets (e.g. from `sidewalk mapbuild`)")] = None,
     # ---- issue 10: faults and the speed cap ----
     fault: Annotated[Optional[list[str]], typer.Option("--fault", help="Inject a fault NAME@T (T: sim seconds after submission): kill-central, kill-service, kill-perception, wedge-driver, wedge-planner, position-jump; repeatable")] = None,
@@ -112,6 +113,8 @@ def run(
         fault_specs = tuple(parse_fault(f) for f in fault or ())
     except CompareError as exc:
         raise typer.BadParameter(str(exc), param_hint="--fault") from None
+    if obstacle_sensor not in ("laser", "fido"):  # issue 41
+        raise typer.BadParameter(f"{obstacle_sensor!r} is not laser or fido", param_hint="--obstacle-sensor")
     if road_method not in ("perception", "scarf", "yarf", "alvinn"):  # issue 13
         raise typer.BadParameter(f"{road_method!r} is not perception, scarf, yarf or alvinn", param_hint="--road-method")
     if max_speed is not None and not (math.isfinite(max_speed) and max_speed > 0):
@@ -124,6 +127,7 @@ def run(
                         max_sim_time_s=max_sim_time, max_wall_time_s=max_wall_time, namespace=ns, arch=arch,
                         record=not no_record, monitor_port=monitor_port if monitor else None,  # issue 11
                         secure=secure, actors=actors, obstacles=obstacles, map_file=map_file,  # issue 12
+                        obstacle_sensor=obstacle_sensor,  # issue 41
                         faults=fault_specs, max_speed=max_speed,  # issue 10
                         road_method=road_method, alvinn_weights=alvinn_weights,  # issue 13
                         vision_workers=vision_workers,  # issue 41
@@ -197,7 +201,7 @@ def run(
     raise typer.Exit(0 if report.success else 1)
 
 
-def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, blackboard, sim, captain, map_navigator, pilot, helm, perception; EDDIE: controller, navigator, map_manager, mission_service, road_following, landmark_matching, obstacle_stop")]) -> None:
+def up(ctx: typer.Context, module: Annotated[str, typer.Argument(help="router, blackboard, sim, captain, map_navigator, pilot, helm, perception; EDDIE: controller, navigator, map_manager, mission_service, road_following, landmark_matching, obstacle_stop; FIDO: fido_obstacles (CODGER), fido_stop (EDDIE)")]) -> None:
     """Run one part of the system on this host; the rest of the arguments go to it (try `up pilot --help`)."""
     name = module.replace("-", "_")
     argv = list(ctx.args)

@@ -1,0 +1,122 @@
+"""FIDO as an obstacle sensor (Navlab 1990 §4.3.1): a step per stereo pair, the obstacle features along a path.
+
+FIDO drove the Terregator by planning around the features it marked as obstacles; here its
+obstacle features stand where the laser's obstacle points stand for the fast obstacle check
+(OBSTACLE DETECTOR, obstacle stop): the distance along the vehicle's path to the first feature
+inside its corridor. Between steps the vehicle's dead-reckoned motion (two `local` poses) guides
+the tracking search, as FIDO used its dead reckoning; it is never the answer. The features are
+FIDO's own: in clutter (leaves, shadows) its corner detector finds fewer of them on an obstacle,
+and what it misses the check does not see, as the paper found outdoors.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from modules.fido.fido import FidoConfig, FidoMemory, FidoStep, fido_step
+from modules.fido.motion import PlanarMotion
+from modules.fido.stereo_pair import StereoPair, StereoRig
+
+__all__ = ["FidoWatchConfig", "FidoSighting", "FidoObstacleWatch", "corridor_distance", "motion_between"]
+
+
+class FidoWatchConfig(BaseModel):
+    """The watch's settings: FIDO's own, the stereo pair's image side [px], and the features an obstacle needs."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+    fido: FidoConfig = FidoConfig()
+    stereo_size: int = Field(512, ge=64, le=2048, multiple_of=64)  # the paper's 512×512 pair
+    # one, as the paper defines an obstacle ("a feature that the vehicle could not drive over"): the interest operator
+    # keeps one feature in each of its 10×10 subimages, so a pedestrian 8–12 m ahead gives one or two at most
+    min_features: int = Field(1, ge=1)
+    #: a step this long after the last [s] sim starts over (the tracks are too old to find again)
+    max_gap_s: float = Field(5.0, gt=0.0)
+    #: obstacle features are kept for this many steps (this one included) in `local`, placed by dead reckoning (FIDO's
+    #: world model of obstacles): the interest operator does not pick the same corner in every pair. Counted in steps,
+    #: not seconds: on a loaded machine a step takes longer and the memory must still span the same number of looks
+    remember_steps: int = Field(8, ge=1)
+
+
+@dataclass(frozen=True)
+class FidoSighting:
+    """The obstacle features at a step: `xyz` (M, 3) float64 `vehicle` [m] at the pair's `stamp` [s] sim (this step's and
+    the remembered ones), how many of them this step found (`new`), and the step's feature count, tracked count and
+    wall time [ms]."""
+
+    xyz: np.ndarray
+    new: int
+    stamp: float
+    features: int
+    tracked: int
+    step_ms: float
+
+
+def motion_between(p0: tuple[float, float, float], p1: tuple[float, float, float]) -> PlanarMotion:
+    """Return the motion `previous ← current` between two poses (x, y [m], yaw [rad]) of one frame (`local`)."""
+    c, s = math.cos(p0[2]), math.sin(p0[2])
+    dx, dy = p1[0] - p0[0], p1[1] - p0[1]
+    return PlanarMotion(c * dx + s * dy, -s * dx + c * dy, math.remainder(p1[2] - p0[2], math.tau))
+
+
+class FidoObstacleWatch:
+    """FIDO stepped over a stream of stereo pairs: keeps its memory and the pose of the last step."""
+
+    def __init__(self, cfg: FidoWatchConfig = FidoWatchConfig()) -> None:
+        self.cfg = cfg
+        self.memory: FidoMemory | None = None
+        self._last: tuple[float, tuple[float, float, float]] | None = None
+        self._kept: list[np.ndarray] = []  # per step, newest last: (M, 3) float64 obstacle features in `local` [m]
+        self.steps = 0
+
+    def step(self, pair: StereoPair, rig: StereoRig, pose_local: tuple[float, float, float]) -> FidoSighting:
+        """Run a FIDO step on `pair` seen at `pose_local` (dead reckoning, `local`); return its obstacle features."""
+        previous, odometry = self.memory, None
+        if self._last is not None and 0.0 <= pair.stamp - self._last[0] <= self.cfg.max_gap_s:
+            odometry = motion_between(self._last[1], pose_local)
+        else:
+            previous = None
+        res: FidoStep = fido_step(pair, rig, previous, self.cfg.fido, odometry)
+        self.memory, self._last = res.memory, (pair.stamp, tuple(pose_local))
+        self.steps += 1
+        f = res.features
+        found = f.xyz[res.obstacle]
+        x, y, yaw = pose_local
+        c, s = math.cos(yaw), math.sin(yaw)
+        in_local = np.column_stack([x + c * found[:, 0] - s * found[:, 1], y + s * found[:, 0] + c * found[:, 1], found[:, 2]])
+        self._kept = [*self._kept, in_local][-self.cfg.remember_steps:]
+        kept = np.concatenate(self._kept).reshape(-1, 3)
+        dx, dy = kept[:, 0] - x, kept[:, 1] - y
+        xyz = np.column_stack([c * dx + s * dy, -s * dx + c * dy, kept[:, 2]])
+        return FidoSighting(xyz=xyz, new=len(found), stamp=pair.stamp, features=len(f),
+                            tracked=int(f.tracked.sum()), step_ms=res.timing.total_ms)
+
+    def corridor_distance(self, sighting: FidoSighting, path: np.ndarray, half_width: float) -> float:
+        """Return the distance along `path` (K, 2) [m] `vehicle` to the obstacle the sighting shows in the corridor [m]."""
+        return corridor_distance(sighting.xyz[:, :2], path, half_width, self.cfg.min_features)
+
+
+def corridor_distance(points: np.ndarray, path: np.ndarray, half_width: float, min_points: int = 1) -> float:
+    """Return the arc length [m] along `path` (K, 2) float64 at which the `min_points`-th of `points` (M, 2) float64
+    lying within `half_width` [m] of it stands (both in one frame); `inf` when fewer lie in the corridor."""
+    pts = np.asarray(points, np.float64).reshape(-1, 2)
+    path = np.asarray(path, np.float64).reshape(-1, 2)
+    if len(path) < 2 or len(pts) < min_points:
+        return math.inf
+    a, e = path[:-1], np.diff(path, axis=0)
+    L = np.linalg.norm(e, axis=1)
+    cum = np.concatenate([[0.0], np.cumsum(L)])
+    r = pts[:, None, :] - a[None]  # (M, K-1, 2)
+    t = np.clip((r * e[None]).sum(-1) / np.maximum(L * L, 1e-12)[None], 0.0, 1.0)
+    d = np.linalg.norm(r - t[..., None] * e[None], axis=-1)
+    seg = np.argmin(d, axis=1)
+    rows = np.arange(len(pts))
+    inside = d[rows, seg] <= half_width
+    if int(inside.sum()) < min_points:
+        return math.inf
+    s = np.sort((cum[seg] + t[rows, seg] * L[seg])[inside])
+    return float(s[min_points - 1])

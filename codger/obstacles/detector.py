@@ -20,7 +20,6 @@ inside a Mahalanobis gate, and the vehicle position they agree on is posted as a
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import math
 
@@ -29,12 +28,12 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from blackboard import Spec
 from blackboard.errors import BlackboardError
+from codger.laser_capture import laser_capture
 from modules.perception.landmarks import LandmarkConfig, MapLandmark, landmark_fix, landmark_observations, match_landmarks
 from modules.perception.obstacles import LaserScan, ObstacleConfig, detect_obstacles, path_clear_distance, path_in_vehicle
 from modules.vocabulary import LandmarkFix, LocalPathPlan, ObstaclePolygon, ObstacleReport
 from wire.se2 import compose
-from wire.capture import CaptureDecodeError, decode_capture
-from wire.keys import SimKeys
+from wire.capture import CaptureDecodeError
 
 __all__ = ["ObstacleDetectorConfig", "ObstacleDetector"]
 
@@ -80,15 +79,6 @@ class ObstacleDetector:
         async for ev in self.rt.bb.monitor(Spec(type="local_path_plan")):
             if ev.kind == "new" and (self.plan is None or ev.token.attrs.seq >= self.plan.seq):
                 self.plan = ev.token.attrs
-
-    async def _capture(self):
-        req = json.dumps({"laser": True, "camera": False}).encode()
-        key = SimKeys(self.rt.net.namespace).capture
-        replies = await self.rt.link.get(key, payload=req, timeout=self.cfg.capture_timeout_s)
-        for r in replies:
-            if r.ok:
-                return decode_capture(r.payload)
-        raise TimeoutError(f"no simulator answered {key}")
 
     async def _pose_at(self, stamp: float) -> tuple[float, float, float]:
         deadline = self.rt.clock.now() + self.cfg.pose_wait_s
@@ -137,7 +127,7 @@ class ObstacleDetector:
         plan = self.plan
         if plan is None and not self.landmarks:
             return None
-        cap = await self._capture()
+        cap = await laser_capture(self.rt, self.cfg.capture_timeout_s)
         pose = await self._pose_at(cap.stamp)
         scan = LaserScan.from_capture(cap)
         found = detect_obstacles(scan, self.cfg.detection)

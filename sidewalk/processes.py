@@ -18,6 +18,7 @@ CODGER_PROCESSES: dict[str, str] = {
     "helm": "codger.helm",
     "perception": "codger.perception",
     "obstacles": "codger.obstacles",
+    "terrain": "codger.terrain",
 }
 
 #: EDDIE's processes (issue 9: the integrated controller, the navigator, the annotated map manager, EDDIE's modules)

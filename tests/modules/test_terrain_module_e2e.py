@@ -16,7 +16,7 @@ import sys
 import numpy as np
 import pytest
 
-from blackboard import BlackboardClient, Spec
+from blackboard import AttrPredicate, BlackboardClient, Spec
 from blackboard.testing import start_node
 from modules.vocabulary import TerrainTile
 from tests.modules._procs import spawn, stop
@@ -44,6 +44,9 @@ async def test_the_terrain_tiles_hold_the_ground_ahead_as_the_truth_has_it() -> 
         async with BlackboardClient(node.client_net(), source="test") as bb:
             first = await bb.wait(Spec(type="terrain_tile"), timeout=600.0)
             assert isinstance(first.attrs, TerrainTile)
+            # a tile of the next image: every tile of the first has been posted before it
+            await bb.wait(Spec(type="terrain_tile", where=(AttrPredicate(path="sensed_at", op=">", value=first.attrs.sensed_at),)),
+                          timeout=600.0)
             tiles = [t.attrs for t in await bb.retrieve(Spec(type="terrain_tile"))]
         world = load_world("cross_country")
         diffs, bad_near = [], 0

@@ -14,10 +14,25 @@ from sidewalk.run_setup import RunConfig, RunSetup, road_method_flags, vision_fl
 from sidewalk.supervisor import ProcessPlan
 from sidewalk.system import SystemRun
 
-__all__ = ["CODGER_MODULES", "CodgerArchitecture", "build_plans"]
+__all__ = ["CODGER_MODULES", "CodgerArchitecture", "build_plans", "terrain_bounds"]
+
+#: How far the terrain map reaches beyond the start and the off-road destinations [m].
+TERRAIN_MARGIN_M = 30.0
 
 #: Every module of the CODGER system in start order (the consumers before the producers).
 CODGER_MODULES = ("helm", "perception", "pilot", "map_navigator", "captain")
+
+
+def terrain_bounds(setup: RunSetup) -> tuple[float, float, float, float] | None:
+    """Return the terrain map's extent (x0, y0, x1, y1) [m] `world` around the believed start and the mission's
+    off-road destinations (what the robot is told, not the truth), or None for a mission with no off-road step."""
+    points = [s.destination.xy for s in setup.mission.steps if s.destination.off_road and s.destination.xy is not None]
+    if not points:
+        return None
+    xs = [setup.start_belief[0], *(p[0] for p in points)]
+    ys = [setup.start_belief[1], *(p[1] for p in points)]
+    m = TERRAIN_MARGIN_M
+    return min(xs) - m, min(ys) - m, max(xs) + m, max(ys) + m
 
 
 def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list[ProcessPlan]:
@@ -42,6 +57,10 @@ def build_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str) -> list
     if cfg.obstacles or (cfg.obstacles is None and (cfg.actors or setup.world.actors)):  # issue 12: actors of the flag or the world file
         sensor = "fido_obstacles" if cfg.obstacle_sensor == "fido" else "obstacles"  # issue 41
         plans.append(ProcessPlan(sensor, ("-m", "sidewalk", "up", sensor, "--map", str(setup.map_file), *zflags)))
+    bounds = terrain_bounds(setup)
+    if bounds is not None:  # issue 40: a mission across country maps the terrain from the laser
+        plans.append(ProcessPlan("terrain", ("-m", "sidewalk", "up", "terrain", "--vehicle", vehicle,
+                                             "--bounds=" + ",".join(f"{v:.1f}" for v in bounds), *zflags)))
     if cfg.perception:
         plans.append(ProcessPlan("perception", ("-m", "sidewalk", "up", "perception", "--vehicle", vehicle, *zflags,
                                                 *road_method_flags(cfg), *vision_flags(cfg))))  # issues 13, 41

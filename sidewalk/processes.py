@@ -19,6 +19,7 @@ CODGER_PROCESSES: dict[str, str] = {
     "perception": "codger.perception",
     "obstacles": "codger.obstacles",
     "fido_obstacles": "codger.fido_obstacles",  # issue 41: FIDO's stereo in the laser's place (--obstacle-sensor fido)
+    "terrain": "codger.terrain",  # issue 40: the elevation map from the laser, posted as terrain tiles
 }
 
 #: EDDIE's processes (issue 9: the integrated controller, the navigator, the annotated map manager, EDDIE's modules)

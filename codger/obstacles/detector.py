@@ -20,7 +20,6 @@ inside a Mahalanobis gate, and the vehicle position they agree on is posted as a
 from __future__ import annotations
 
 import asyncio
-import json
 import logging
 import math
 
@@ -29,12 +28,12 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from blackboard import Spec
 from blackboard.errors import BlackboardError
+from codger.laser_capture import LASER_ALONE, capture
 from modules.perception.landmarks import LandmarkConfig, MapLandmark, landmark_fix, landmark_observations, match_landmarks
 from modules.perception.obstacles import LaserScan, ObstacleConfig, detect_obstacles, path_clear_distance, path_in_vehicle
 from modules.vocabulary import LandmarkFix, LocalPathPlan, ObstaclePolygon, ObstacleReport
 from wire.se2 import compose
-from wire.capture import CaptureDecodeError, decode_capture
-from wire.keys import SimKeys
+from wire.capture import CaptureDecodeError, CaptureResult
 
 __all__ = ["ObstacleDetectorConfig", "ObstacleDetector"]
 
@@ -86,16 +85,10 @@ class ObstacleDetector:
 
     def capture_request(self) -> dict:
         """Return what a cycle asks the simulator's capture service for (the laser alone)."""
-        return {"laser": True, "camera": False}
+        return dict(LASER_ALONE)
 
-    async def _capture(self):
-        req = json.dumps(self.capture_request()).encode()
-        key = SimKeys(self.rt.net.namespace).capture
-        replies = await self.rt.link.get(key, payload=req, timeout=self.cfg.capture_timeout_s)
-        for r in replies:
-            if r.ok:
-                return decode_capture(r.payload)
-        raise TimeoutError(f"no simulator answered {key}")
+    async def _capture(self) -> CaptureResult:
+        return await capture(self.rt, self.capture_request(), self.cfg.capture_timeout_s)
 
     async def _pose_at(self, stamp: float) -> tuple[float, float, float]:
         deadline = self.rt.clock.now() + self.cfg.pose_wait_s

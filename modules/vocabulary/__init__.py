@@ -23,6 +23,7 @@ Who writes what (type name: writer → readers; all coordinates in attrs are wor
 - map_object: MAP NAVIGATOR (copies of the map; also embedded in segments and driving units)
 - obstacle_report: OBSTACLE DETECTOR → HELM (newest wins; frame local)
 - landmark_fix: OBSTACLE DETECTOR → PILOT (a vehicle position from laser landmarks matched to the map; world)
+- terrain_tile: terrain module → PILOT, monitors (a block of the elevation map from the laser; newest per block wins; world)
 - heartbeat: every module, on `sidewalk/<ns>/heartbeat/<module>` (not a blackboard token)
 """
 
@@ -44,6 +45,7 @@ from modules.vocabulary.mission import (
 from modules.vocabulary.perception import (
     DetectedObject, LineFix, PerceptionResult, PointFix, PositionFix, ResultFrame, SensorMode, SurfaceType,
 )
+from modules.vocabulary.terrain import TerrainTile
 from modules.vocabulary.route import (
     NAVIGATION_MODES, DrivingConstraints, ExitCondition, NavigationMode, RoutePlan, RouteSegmentDescription,
     SegmentResult,
@@ -68,6 +70,7 @@ TOKEN_TYPES: dict[type, str] = {
     Heartbeat: "heartbeat",
     ObstacleReport: "obstacle_report",
     LandmarkFix: "landmark_fix",
+    TerrainTile: "terrain_tile",
 }
 
 __all__ = [
@@ -84,5 +87,6 @@ __all__ = [
     "SurfaceType",
     "NAVIGATION_MODES", "DrivingConstraints", "ExitCondition", "NavigationMode", "RoutePlan",
     "RouteSegmentDescription", "SegmentResult",
+    "TerrainTile",
     "TOKEN_TYPES", "register_token_types",
 ]

@@ -81,7 +81,7 @@ class MissionService:
         self.desk: MissionDesk[MissionProgress] = MissionDesk(m.link, MissionKeys(m.net.namespace), self, self._now)
         #: obstacle stop's newest verdict (its `seen` stream), to say what a hold is for
         self._seen: ObstacleSeen | None = None
-        m.subscribe(OBSTACLE_CLIENT, "seen", ObstacleSeen, self._on_seen)
+        m.subscribe("obstacle_stop", "seen", ObstacleSeen, self._on_seen)
 
     # ---- what the modules believe --------------------------------------------------------
 

@@ -68,23 +68,18 @@ class MissionRoom(Protocol[E]):
 
     async def admit(self, payload: bytes) -> E:
         """Return the entry of a submitted mission (YAML or JSON text); raise `MissionRejected`."""
-        ...
 
     async def accepted(self, entry: E, ahead: int) -> None:
         """Prepare an accepted mission before it is queued, with `ahead` missions before it."""
-        ...
 
     async def stored(self, entry: E) -> None:
         """Keep the entry's changed status wherever the architecture keeps it besides the stream."""
-        ...
 
     def answered(self, entry: E) -> BaseModel:
         """Return the entry's status as a status query is answered (a running mission's with its progress)."""
-        ...
 
     async def cancel_running(self, entry: E, reason: str) -> None:
         """Cancel the running mission `entry` (its status may turn `cancelled` later, when the run loop sees it)."""
-        ...
 
 
 class MissionDesk(Generic[E]):

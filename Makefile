@@ -43,7 +43,7 @@ chromium:
 	  else echo "chromium is missing and we are not root: the monitor's browser test will FAIL; install it with: sudo apt-get install chromium"; fi; \
 	fi
 
-## Benchmarks: each prints one JSON object; the last two are the campus tour at RTF 50 under each architecture (report.json's figures).
+## Benchmarks: each prints one JSON object (`bench lockstep`: the comparison's missions in lock-step, lockstep_rtf per architecture); the last two are the campus tour at RTF 50 under each architecture (report.json's figures).
 ## Each round's two runs are kept in runs/bench-rtf50-<arch>-<UTC time> (runs/bench-rtf50-<arch> links the newest).
 bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench blackboard --json
@@ -56,6 +56,7 @@ bench: $(STAMP)
 	$(VENV)/bin/sidewalk bench cli --json
 	$(VENV)/bin/sidewalk bench terrain-planner --json
 	$(VENV)/bin/sidewalk bench terrain --json
+	$(VENV)/bin/sidewalk bench lockstep --json
 	@mkdir -p runs; for arch in codger eddie; do \
 	  out=runs/bench-rtf50-$$arch-$$(date -u +%Y%m%dT%H%M%SZ); \
 	  $(VENV)/bin/sidewalk run --mission campus-tour --rtf 50 --arch $$arch --out $$out > $$out.log 2>&1; \

@@ -156,17 +156,22 @@ class LockstepKeys:
     """The lock-step barrier's keys for one namespace (see `wire.lockstep`)."""
 
     def __init__(self, ns: str) -> None:
-        self.base = f"{root(ns)}/lockstep"
-        #: liveliness tokens of the participants, one per process: `lockstep/alive/<participant>`
+        # a verbatim chunk (`@`): no wildcard matches it, so the recorder's and the monitor's `**` never hear the barrier
+        self.base = f"{root(ns)}/@lockstep"
+        #: liveliness tokens of the participants, one per process: `@lockstep/alive/<participant>`
         self.alive_all = f"{self.base}/alive/*"
+        #: the barrier's ask, one put per wave that every participant receives
+        self.ask = f"{self.base}/ask"
+        #: every participant's answer (the barrier subscribes to them all)
+        self.report_all = f"{self.base}/report/*"
 
     def alive(self, participant: str) -> str:
         """Return the liveliness key of `participant` (a process taking part in the barrier)."""
         return f"{self.base}/alive/{check_chunk(participant, 'participant name')}"
 
-    def ask(self, participant: str) -> str:
-        """Return the queryable key on which the barrier asks `participant` whether it handled its inputs."""
-        return f"{self.base}/ask/{check_chunk(participant, 'participant name')}"
+    def report(self, participant: str) -> str:
+        """Return the key on which `participant` answers the barrier's asks."""
+        return f"{self.base}/report/{check_chunk(participant, 'participant name')}"
 
 
 class ModuleKeys:

@@ -3,42 +3,52 @@
 Two sides, over the process's one Zenoh session:
 
 - a **participant** (`Participant`) in every process whose behaviour depends on sim time (each
-  CODGER module through `ModuleRuntime`, the blackboard node, each EDDIE module) serves
-  `sidewalk/<ns>/lockstep/ask/<name>` and declares the liveliness token `lockstep/alive/<name>`
-  (`<name>` = module name and pid, so a restarted module is a new participant). Asked, it answers
-  on its asyncio loop only once that loop is quiescent: no callback ready to run, no job of the
-  loop's default executor in flight (`asyncio.to_thread`, e.g. EDDIE's planning worker), no get
-  of the process still waiting for its replies (`wire.session.gets_in_flight`, e.g. a capture the
-  simulator still renders), and every busy probe the process added false (the blackboard node's
-  inline dispatch, a blackboard client's unacknowledged writes). Its answer (`ParticipantReport`)
-  carries the process's Zenoh message counters, received and sent, without the barrier's own
-  traffic. A participant still busy after `busy_reply_s` [s wall] answers `busy=True` instead, so
-  the barrier can tell a long job (it waits) from a silent process (it skips it).
+  CODGER module through `ModuleRuntime`, the blackboard node, each EDDIE module) subscribes to the
+  barrier's ask (`sidewalk/<ns>/@lockstep/ask`, one put per wave for every participant), answers on
+  `@lockstep/report/<name>` and declares the liveliness token `@lockstep/alive/<name>` (`<name>` =
+  module name and pid, so a restarted module is a new participant). Asked, it answers on its asyncio
+  loop only once that loop is quiescent: no callback ready to run, no job of the loop's default
+  executor in flight (`asyncio.to_thread`, e.g. EDDIE's planning worker), no get of the process
+  still waiting for its replies (`wire.session.gets_in_flight`, e.g. a capture the simulator still
+  renders), and every busy probe the process added false (the blackboard node's inline dispatch, a
+  blackboard client's unacknowledged writes). Its answer (`ParticipantReport`) carries the process's
+  Zenoh message counters, received and sent, without the barrier's own traffic. A participant still
+  busy after `busy_reply_s` [s wall] answers `busy=True` instead, so the barrier can tell a long job
+  (it waits) from a silent process (it skips it).
 - the **barrier** (`Barrier`), in the simulator node: after each clock publication it asks every
-  participant it knows by liveliness, in waves, until two waves in a row find everyone idle with
-  the same counters, the simulator's own included (a message sent but not yet received changes a
-  receiver's counter between the waves, so the barrier waits for it). A participant whose token
-  went is dropped at once (a killed process); one that does not answer within `timeout_s` [s wall]
-  (SIGSTOPped, a wedged loop) becomes *silent*: skipped for the rest of that step and not waited for
-  in later steps either, only probed (one ask in flight at a time) until it answers idle again, so a
-  module wedged for 5 s sim stays away 5 s sim, as it would in real time, at lock-step speed rather
-  than one time-out per step. One that stays busy for `busy_limit_s` [s wall] is skipped for the rest
-  of that step. Both are counted (`BarrierStats.skips`, `.silenced`), so faults never hang a run.
+  participant in waves (each wave one put, its answers matched by the wave's sequence number) until
+  two waves in a row find everyone known by liveliness idle with the same counters, the simulator's
+  own included (a message sent but not yet received changes a receiver's counter between the waves,
+  so the barrier waits for it). One wave is enough when everyone answers idle and **no participant
+  sent anything since the last step that ended quiet**: then the only messages that can be in flight
+  are the simulator's own, and those travel each link ahead of the ask (below), so nothing is. A
+  participant whose token went is dropped at once (a killed process); one that does not answer
+  within `timeout_s` [s wall] (SIGSTOPped, a wedged loop) becomes *silent*: skipped for the rest of
+  that step and not waited for in later steps either, only heard (every ask reaches it) until it
+  answers idle again, so a module wedged for 5 s sim stays away 5 s sim, as it would in real time,
+  at lock-step speed rather than one time-out per step. One that stays busy for `busy_limit_s`
+  [s wall] is skipped for the rest of that step. Both are counted (`BarrierStats.skips`,
+  `.silenced`), so faults never hang a run.
 
 Counters cannot see a put still in flight across two whole waves (its sender counted it in both, its
 receiver in neither). Between peers linked directly that happened on a loaded machine (a put on one
 peer link, the asks on others), so in lock-step every process that connects to a router is its
 client (`wire.session.lockstep_topology`): a put and every later ask to its receiver then travel
-the router's one link to that process, in order, and the receiver has counted the put before it
-answers. What still links directly (a process others connect to) keeps the hazard; gets are exact
-(counted until their end).
+the router's one link to that process, in order (same priority, reliable), and the receiver has
+counted the put before it answers. What still links directly (a process others connect to) keeps
+the hazard; gets are exact (counted until their end).
+
+Why puts and not one get per participant: a get costs a query, a reply and a final message through
+the router for each participant and wave; a broadcast ask costs one put in and one out per
+participant. The keys sit under a verbatim chunk (`@lockstep`) so that no `**` subscriber (the
+recorder, the monitor) receives them. The barrier is most of a lock-step run's CPU (`sidewalk bench lockstep`).
 
 Processes take part when `SIDEWALK_LOCKSTEP=1` is in their environment (`lockstep_enabled()`;
 `sidewalk run --lockstep` sets it for every child, with PYTHONHASHSEED fixed); the same variable
 switches their wall-clock decisions to counts (e.g. the planners' wall-time caps). Without it
 nothing here is created and real-time behaviour is unchanged.
 
-Zenoh rules: callbacks only hand over (`call_soon_threadsafe`, an Event); replies are sent from the
+Zenoh rules: callbacks only hand over (`call_soon_threadsafe`, an Event); answers are sent from the
 loop (participant) or collected by callbacks (barrier); every declaration is undeclared by `close()`.
 """
 
@@ -57,7 +67,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from wire.errors import PayloadError, WireError
 from wire.keys import LockstepKeys
-from wire.session import Query, Reply, Session, gets_in_flight, traffic
+from wire.session import Session, gets_in_flight, own_traffic
 from wire.timemode import LOCKSTEP_ENV, lockstep_enabled, lockstep_env
 
 __all__ = [
@@ -95,10 +105,11 @@ _FROZEN = ConfigDict(frozen=True, extra="forbid")
 
 
 class BarrierAsk(BaseModel):
-    """What the barrier asks: the step it waits for, the wave, and the sim time [s sim] just published."""
+    """What the barrier asks: its sequence number, the step it waits for, the wave, and the sim time [s sim] just published."""
 
     model_config = _FROZEN
 
+    seq: int = Field(ge=0)
     step: int = Field(ge=0)
     wave: int = Field(ge=0)
     sim_time: float
@@ -108,12 +119,13 @@ class ParticipantReport(BaseModel):
     """A participant's answer: idle or still busy, and its Zenoh counters without the barrier's traffic.
 
     `received`/`sent` count messages (samples, queries, replies) since the process started;
-    `waited_s` [s wall] is how long it held the answer back while busy.
+    `waited_s` [s wall] is how long it held the answer back while busy; `seq` is the ask's.
     """
 
     model_config = _FROZEN
 
     name: str
+    seq: int
     step: int
     wave: int
     busy: bool
@@ -137,11 +149,12 @@ class BarrierResult(BaseModel):
 
 
 class BarrierStats(BaseModel):
-    """What the barrier did so far: steps, waves, skips, participants gone silent / heard again, dropped, wall time [s wall]."""
+    """What the barrier did so far: steps (`one_wave` of them quiet after one wave), waves, skips, participants gone silent / heard again, dropped, wall time [s wall]."""
 
     model_config = ConfigDict(extra="forbid")
 
     steps: int = 0
+    one_wave: int = 0
     waves: int = 0
     skips: int = 0
     silenced: int = 0
@@ -221,15 +234,14 @@ class Participant:
         self._probes: list[Callable[[], bool]] = []
         self._executor = _CountingExecutor(self._loop)
         self._loop.set_default_executor(self._executor)
-        self._asks_in = 0  # asks received (Zenoh threads; an int increment under the GIL)
-        self._replies_out = 0  # answers sent (loop thread)
-        self._pending: tuple[Query, BarrierAsk, float] | None = None
-        self._timer: asyncio.TimerHandle | None = None
+        self._pending: tuple[BarrierAsk, float] | None = None
+        self._timer: asyncio.Handle | None = None
         self._closed = False
         #: asks answered, and how many of them were answered busy
         self.answered = 0
         self.busy_answers = 0
-        self._q = session.queryable(self._keys.ask(name), self._on_ask)
+        self._pub = session.publisher(self._keys.report(name))
+        self._sub = session.subscribe_payload(self._keys.ask, self._on_ask)
         self._tok = session.liveliness_token(self._keys.alive(name))
 
     def add_probe(self, busy: Callable[[], bool]) -> None:
@@ -242,43 +254,38 @@ class Participant:
         return self._executor.in_flight
 
     def close(self) -> None:
-        """Undeclare the queryable and the token (idempotent; the session stays the caller's)."""
+        """Undeclare the subscription, the publisher and the token (idempotent; the session stays the caller's)."""
         if self._closed:
             return
         self._closed = True
         if self._timer is not None:
             self._timer.cancel()
-        for h in (self._tok, self._q):
+        self._pending = None
+        for h in (self._tok, self._sub, self._pub):
             self._session.undeclare(h)
-        if self._pending is not None:
-            self._pending[0].finish()
-            self._pending = None
 
     # ---- Zenoh thread -----------------------------------------------------------------------
 
-    def _on_ask(self, q: Query) -> None:
-        self._asks_in += 1
+    def _on_ask(self, _key: str, payload: bytes) -> None:
         try:
-            self._loop.call_soon_threadsafe(self._take, q)
+            self._loop.call_soon_threadsafe(self._take, payload)
         except RuntimeError:  # loop closed
-            q.finish()
+            pass
 
     # ---- loop thread -----------------------------------------------------------------------
 
-    def _take(self, q: Query) -> None:
+    def _take(self, payload: bytes) -> None:
         try:
-            ask = decode(BarrierAsk, q.payload, as_json=q.is_json)
+            ask = decode(BarrierAsk, payload)
         except LockstepPayloadError as exc:
-            q.reply_err(str(exc).encode(), as_json=True)
-            q.finish()
+            log.warning("lockstep: ignoring an ask: %s", exc)
             return
         if self._closed:
-            q.finish()
             return
-        if self._pending is not None:  # the barrier gave up on the older ask: only the newest is answered
-            self._pending[0].finish()
-        self._pending = (q, ask, time.monotonic())
-        self._check()
+        # only the newest ask is answered (the barrier moved on from older ones)
+        self._pending = (ask, time.monotonic())
+        if self._timer is None:
+            self._check()
 
     def _busy(self) -> bool:
         ready = getattr(self._loop, "_ready", None)  # asyncio's queue of callbacks ready to run
@@ -292,66 +299,36 @@ class Participant:
         self._timer = None
         if self._pending is None or self._closed:
             return
-        q, ask, t0 = self._pending
+        ask, t0 = self._pending
         waited = time.monotonic() - t0
         busy = self._busy()
         if busy and waited < self._busy_reply_s:
             if getattr(self._loop, "_ready", None):
-                self._loop.call_soon(self._check)  # after what is ready now: real work, not a spin
+                self._timer = self._loop.call_soon(self._check)  # after what is ready now: real work, not a spin
             else:
                 self._timer = self._loop.call_later(self._poll_s, self._check)
             return
         self._pending = None
-        msgs_out, _bo, msgs_in, _bi = traffic()
-        rep = ParticipantReport(name=self.name, step=ask.step, wave=ask.wave, busy=busy,
-                                received=max(0, msgs_in - self._asks_in), sent=max(0, msgs_out - self._replies_out),
-                                waited_s=waited)
-        self._replies_out += 1
+        sent, received = own_traffic()
+        rep = ParticipantReport(name=self.name, seq=ask.seq, step=ask.step, wave=ask.wave, busy=busy,
+                                received=received, sent=sent, waited_s=waited)
         self.answered += 1
         self.busy_answers += int(busy)
-        try:
-            q.reply(encode(rep))
-        finally:
-            q.finish()
+        self._pub.put(encode(rep))
 
 
 # ---- barrier ------------------------------------------------------------------------------------
 
-def _read_report(name: str, r: Reply) -> ParticipantReport | None:
-    """Return participant `name`'s report in reply `r`, or None (an error reply; a bad payload, logged)."""
-    if not r.ok:
-        return None
-    try:
-        return decode(ParticipantReport, r.payload, as_json=r.is_json)
-    except LockstepPayloadError as exc:
-        log.warning("lockstep: %s answered badly: %s", name, exc)
-        return None
-
-
 class _Wave:
-    """The replies of one wave, collected on Zenoh threads."""
+    """The answers to one ask, collected on Zenoh threads (under the barrier's lock)."""
 
-    def __init__(self, n: int) -> None:
-        self.lock = threading.Lock()
-        self.left = n
+    def __init__(self, seq: int, names: list[str]) -> None:
+        self.seq = seq
+        self.expect = set(names)
         self.done = threading.Event()
         self.reports: dict[str, ParticipantReport] = {}
-        self.replies = 0
-        if n == 0:
+        if not names:
             self.done.set()
-
-    def on_reply(self, name: str, r: Reply) -> None:
-        rep = _read_report(name, r)
-        with self.lock:
-            self.replies += 1
-            if rep is not None:
-                self.reports[name] = rep
-
-    def on_done(self) -> None:
-        with self.lock:
-            self.left -= 1
-            if self.left <= 0:
-                self.done.set()
 
 
 class Barrier:
@@ -359,7 +336,8 @@ class Barrier:
 
     `timeout_s` [s wall]: how long an ask may go unanswered before its participant is skipped for
     the step; `busy_limit_s` [s wall]: how long a participant may answer busy in one step before it is
-    skipped; `quiet_waves`: consecutive waves with the same idle counters that make a step quiet (≥ 2).
+    skipped; `quiet_waves`: consecutive waves with the same idle counters that make a step quiet (≥ 2)
+    when someone sent something since the last quiet step (else one wave is enough).
     """
 
     def __init__(self, session: Session, *, timeout_s: float = 2.0, busy_limit_s: float = 10.0, quiet_waves: int = 2) -> None:
@@ -374,10 +352,14 @@ class Barrier:
         self._changed = threading.Condition(self._lock)
         self._members: set[str] = set()
         self.stats = BarrierStats()
-        self._gets_out = 0  # the barrier's own traffic, taken off this process's counters
-        self._replies_in = 0
-        self._silent: dict[str, bool] = {}  # participant → a probe in flight (under _lock)
+        self._silent: set[str] = set()
+        self._wave_now: _Wave | None = None  # under _lock
+        self._seq = 0
+        #: participant → messages sent when the last step ended quiet (None: that step was not quiet)
+        self._baseline: dict[str, int] | None = None
         self._closed = False
+        self._pub = session.publisher(self._keys.ask)
+        self._reports = session.subscribe_payload(self._keys.report_all, self._on_report)
         self._sub = session.liveliness_subscribe(self._keys.alive_all, self._on_alive, history=True)
 
     def members(self) -> list[str]:
@@ -391,10 +373,11 @@ class Barrier:
             return self._changed.wait_for(lambda: until(set(self._members)), timeout)
 
     def close(self) -> None:
-        """Stop following liveliness (idempotent; the session stays the caller's)."""
+        """Stop following liveliness and answers (idempotent; the session stays the caller's)."""
         if not self._closed:
             self._closed = True
-            self._session.undeclare(self._sub)
+            for h in (self._sub, self._reports, self._pub):
+                self._session.undeclare(h)
 
     def _on_alive(self, key: str, alive: bool) -> None:  # Zenoh thread: a set update under a lock
         name = key.rsplit("/", 1)[-1]
@@ -404,10 +387,28 @@ class Barrier:
                 self.stats.joined += 1
             elif not alive and name in self._members:
                 self._members.discard(name)
-                self._silent.pop(name, None)
+                self._silent.discard(name)
                 self.stats.dropped += 1
                 log.info("lockstep: %s is gone (dropped)", name)
             self._changed.notify_all()
+
+    def _on_report(self, key: str, payload: bytes) -> None:  # Zenoh thread
+        try:
+            rep = decode(ParticipantReport, payload)
+        except LockstepPayloadError as exc:
+            log.warning("lockstep: a bad answer on %s: %s", key, exc)
+            return
+        with self._lock:
+            if rep.name in self._silent and not rep.busy:
+                self._silent.discard(rep.name)
+                self.stats.heard_again += 1
+                log.info("lockstep: %s answers again: waited for from the next step", rep.name)
+                self._changed.notify_all()
+            w = self._wave_now
+            if w is not None and rep.seq == w.seq and rep.name in w.expect:
+                w.reports[rep.name] = rep
+                if len(w.reports) == len(w.expect):
+                    w.done.set()
 
     def silent(self) -> list[str]:
         """Return the participants not waited for (no answer within the time-out since), sorted."""
@@ -419,59 +420,19 @@ class Barrier:
         with self._changed:
             return self._changed.wait_for(lambda: name not in self._silent, timeout)
 
-    def _own_counters(self) -> tuple[int, int]:
-        msgs_out, _bo, msgs_in, _bi = traffic()
+    def _wave(self, names: list[str], step: int, wave: int, sim_time: float) -> _Wave:
         with self._lock:
-            return msgs_in - self._replies_in, msgs_out - self._gets_out
-
-    def _probe(self, ask: BarrierAsk) -> None:
-        """Ask every silent participant without a probe in flight; an idle answer makes it a waited-for member again."""
-        payload = encode(ask)
+            self._seq += 1
+            w = self._wave_now = _Wave(self._seq, names)
+        self._pub.put(encode(BarrierAsk(seq=w.seq, step=step, wave=wave, sim_time=sim_time)))
+        w.done.wait(self.timeout_s)
         with self._lock:
-            due = [n for n, in_flight in self._silent.items() if not in_flight]
-            for n in due:
-                self._silent[n] = True
-                self._gets_out += 1
-        for n in due:
-            try:
-                self._session.get(self._keys.ask(n), payload, timeout=self.timeout_s,
-                                  on_reply=lambda r, n=n: self._on_probe_reply(n, r), on_done=lambda n=n: self._on_probe_done(n))
-            except WireError:  # the session closed under us
-                self._on_probe_done(n)
-
-    def _on_probe_reply(self, name: str, r: Reply) -> None:  # Zenoh thread
-        rep = _read_report(name, r)
-        with self._lock:
-            self._replies_in += 1
-            if rep is not None and not rep.busy and self._silent.pop(name, None) is not None:
-                self.stats.heard_again += 1
-                log.info("lockstep: %s answers again: waited for from the next step", name)
-                self._changed.notify_all()
-
-    def _on_probe_done(self, name: str) -> None:  # Zenoh thread
-        with self._lock:
-            if name in self._silent:
-                self._silent[name] = False
-
-    def _wave(self, names: list[str], ask: BarrierAsk) -> _Wave:
-        w = _Wave(len(names))
-        payload = encode(ask)
-        for name in names:
-            self._gets_out += 1
-            try:
-                self._session.get(self._keys.ask(name), payload, timeout=self.timeout_s,
-                                  on_reply=lambda r, n=name: w.on_reply(n, r), on_done=w.on_done)
-            except WireError:  # the session closed under us
-                w.on_done()
-        w.done.wait(self.timeout_s + 1.0)
-        with w.lock:
-            replies = w.replies
-        with self._lock:
-            self._replies_in += replies
+            self._wave_now = None
         return w
 
     def wait(self, step: int, sim_time: float, *, stop: threading.Event | None = None) -> BarrierResult:
-        """Return once every participant is idle with the same counters in `quiet_waves` waves in a row.
+        """Return once every participant is idle: with the same counters in `quiet_waves` waves in a row, or in one
+        wave when none of them sent anything since the last quiet step.
 
         `step` is the simulator's step count, `sim_time` [s sim] the time just published; `stop` (set)
         ends the wait at once.
@@ -482,12 +443,13 @@ class Barrier:
         prev: tuple | None = None
         same = 1
         waves = 0
+        quiet = False
         answered: tuple[str, ...] = ()
-        self._probe(BarrierAsk(step=step, wave=0, sim_time=sim_time))
+        reports: dict[str, ParticipantReport] = {}
         while not self._closed and not (stop is not None and stop.is_set()):
             silent = set(self.silent())
             names = [n for n in self.members() if n not in skipped and n not in silent]
-            w = self._wave(names, BarrierAsk(step=step, wave=waves, sim_time=sim_time))
+            w = self._wave(names, step, waves, sim_time)
             waves += 1
             now = time.monotonic()
             alive = set(self.members())
@@ -500,7 +462,7 @@ class Barrier:
                         self.stats.skips += 1
                         with self._lock:
                             if n in self._members and n not in self._silent:
-                                self._silent[n] = False
+                                self._silent.add(n)
                                 self.stats.silenced += 1
                         log.warning("lockstep: %s did not answer within %.1f s at step %d: not waited for until it answers",
                                     n, self.timeout_s, step)
@@ -512,15 +474,25 @@ class Barrier:
                         skipped.add(n)
                         self.stats.skips += 1
                         log.warning("lockstep: %s busy for %.1f s: skipped at step %d", n, now - first, step)
-            answered = tuple(sorted(w.reports))
-            counters = (tuple((n, w.reports[n].received, w.reports[n].sent) for n in answered), self._own_counters())
+            reports = w.reports
+            answered = tuple(sorted(reports))
+            if (waves == 1 and all_idle and self._baseline is not None and set(answered) == set(self._baseline)
+                    and all(reports[n].sent == self._baseline[n] for n in answered)):
+                quiet = True
+                self.stats.one_wave += 1
+                break
+            counters = (tuple((n, reports[n].received, reports[n].sent) for n in answered), own_traffic())
             if all_idle and counters == prev:
                 same += 1
                 if same >= self.quiet_waves:
+                    quiet = True
                     break
             else:
                 same = 1 if all_idle else 0
             prev = counters if all_idle else None
+        silent_now = tuple(n for n in self.silent() if n not in skipped)
+        self._baseline = ({n: reports[n].sent for n in answered}
+                          if quiet and not skipped and not silent_now and set(answered) == set(self.members()) else None)
         wall = time.monotonic() - t0
         st = self.stats
         st.steps += 1
@@ -528,4 +500,4 @@ class Barrier:
         st.wall_s += wall
         st.max_wall_s = max(st.max_wall_s, wall)
         return BarrierResult(step=step, waves=waves, participants=answered, skipped=tuple(sorted(skipped)),
-                             silent=tuple(n for n in self.silent() if n not in skipped), wall_s=wall)
+                             silent=silent_now, wall_s=wall)

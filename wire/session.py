@@ -31,7 +31,7 @@ from wire.timemode import lockstep_enabled
 
 __all__ = [
     "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "secure_hint", "session_stats", "traffic", "barrier_traffic", "is_json_payload",
-    "gets_in_flight", "lockstep_topology",
+    "gets_in_flight", "lockstep_topology", "own_traffic",
 ]
 
 _JSON = zenoh.Encoding.APPLICATION_JSON
@@ -61,7 +61,7 @@ def is_json_payload(encoding: str, payload: bytes) -> bool:
 
 
 #: The key segment of the lock-step barrier (`wire.keys.LockstepKeys`): its traffic is also counted apart.
-_BARRIER_SEGMENT = "/lockstep/"
+_BARRIER_SEGMENT = "/@lockstep/"
 
 
 class _Traffic:
@@ -130,6 +130,13 @@ def traffic() -> tuple[int, int, int, int]:
     t = _traffic
     with t.lock:
         return t.msgs_out, t.bytes_out, t.msgs_in, t.bytes_in
+
+
+def own_traffic() -> tuple[int, int]:
+    """Return (messages out, messages in) of this process's Zenoh traffic without the lock-step barrier's, read at once."""
+    t = _traffic
+    with t.lock:
+        return t.msgs_out - t.barrier[0], t.msgs_in - t.barrier[2]
 
 
 def barrier_traffic() -> tuple[int, int, int, int]:

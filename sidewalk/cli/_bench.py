@@ -197,6 +197,26 @@ def bench_eddie(
     _emit(_measure(mod, samples=samples), as_json)
 
 
+@bench_app.command("lockstep")
+def bench_lockstep(
+    as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,
+    missions: Annotated[str, typer.Option(help="Missions (comma-separated names or files)")] = "campus-tour,amv-delivery",
+    arch: Annotated[str, typer.Option(help="Architectures (comma-separated: codger, eddie)")] = "codger,eddie",
+    seed: Annotated[int, typer.Option(help="Seed of every run")] = 0,
+    out: Annotated[str, typer.Option(help="Directory for the runs (default: a fresh temporary one)")] = "",
+) -> None:
+    """Lock-step RTF per architecture and mission (the comparison's runs), with CPU, traffic and barrier waves per sim second."""
+    archs = tuple(a.strip() for a in arch.split(",") if a.strip())
+    bad = [a for a in archs if a not in ("codger", "eddie")]
+    if bad or not archs:
+        raise typer.BadParameter(f"--arch takes codger and/or eddie, got {arch!r}")
+    names = tuple(m.strip() for m in missions.split(",") if m.strip())
+    if not names:
+        raise typer.BadParameter("--missions names no mission")
+    mod = importlib.import_module("bench.lockstep")
+    _emit(_measure(mod, missions=names, archs=archs, seed=seed, out=out or None), as_json)
+
+
 @bench_app.command("cli")
 def bench_cli(
     as_json: Annotated[bool, typer.Option("--json", help="Print one JSON object")] = False,

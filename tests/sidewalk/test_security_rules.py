@@ -45,15 +45,18 @@ def _concrete(pattern: str) -> str:
 
 
 def _includes(pattern: str, key: str) -> bool:
-    """Return whether key expression `pattern` (chunks, `*`, `**`) includes the concrete `key`."""
+    """Return whether key expression `pattern` (chunks, `*`, `**`) includes the concrete `key`.
+
+    As in Zenoh, a wildcard never matches a verbatim chunk (one starting with `@`, e.g. the barrier's `@lockstep`).
+    """
     p, k = pattern.split("/"), key.split("/")
 
     def match(i: int, j: int) -> bool:
         if i == len(p):
             return j == len(k)
         if p[i] == "**":
-            return any(match(i + 1, jj) for jj in range(j, len(k) + 1))
-        return j < len(k) and (p[i] == "*" or p[i] == k[j]) and match(i + 1, j + 1)
+            return any(match(i + 1, jj) for jj in range(j, len(k) + 1) if not any(c.startswith("@") for c in k[j:jj]))
+        return j < len(k) and (p[i] == k[j] or (p[i] == "*" and not k[j].startswith("@"))) and match(i + 1, j + 1)
 
     return match(0, 0)
 
@@ -68,7 +71,9 @@ def deployment(tmp_path_factory):
     d = tmp_path_factory.mktemp("acl") / "sec"
     init_secure_dir(d, extra_roles=(PROBE,))
     data = yaml.safe_load((d / "rules.yaml").read_text())
-    data["roles"][PROBE] = {op: ["everything"] for op in OPERATIONS}
+    # `everything` (`**`) matches no verbatim chunk: the probe also needs the barrier's keys to see them used
+    data["families"]["verbatim"] = {"doc": "the barrier's keys, for the probe", "keys": ["@lockstep/**"]}
+    data["roles"][PROBE] = {op: ["everything", "verbatim"] for op in OPERATIONS}
     data["extra_roles"] = []
     (d / "rules.yaml").write_text(yaml.safe_dump(data))
     rules = load_rules(d / "rules.yaml")

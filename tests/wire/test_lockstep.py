@@ -82,7 +82,7 @@ def net() -> Iterator[Net]:
 def test_payloads_round_trip_and_bad_ones_are_typed() -> None:
     from wire.lockstep import LockstepPayloadError
 
-    ask = BarrierAsk(step=3, wave=1, sim_time=0.15)
+    ask = BarrierAsk(seq=7, step=3, wave=1, sim_time=0.15)
     assert decode(BarrierAsk, encode(ask)) == ask
     assert decode(BarrierAsk, ask.model_dump_json().encode(), as_json=True) == ask
     with pytest.raises(LockstepPayloadError):
@@ -112,6 +112,24 @@ def test_a_message_in_flight_between_two_participants_holds_the_barrier(net: Net
     # a's job, a → b, b's job, b → here: all before the barrier let the step go
     assert done.is_set(), f"the barrier returned with a message still between participants: {res}"
     assert res.skipped == () and len(res.participants) == 2
+
+
+@pytest.mark.timeout(60)  # quiet ~3 s
+def test_after_a_quiet_step_one_wave_is_enough_unless_a_participant_sent_something(net: Net) -> None:
+    net.start("b", "--work", "0.2")
+    net.start("a", "--work", "0.2", "--forward", "b")
+    first = net.barrier.wait(1, 0.05)
+    assert first.waves >= 2, "the first step has no quiet step before it: it needs two waves"
+    idle = net.barrier.wait(2, 0.10)
+    assert idle.waves == 1 and net.barrier.stats.one_wave == 1, idle
+    done = net.done_event("b")
+    net.go("a")
+    res = net.barrier.wait(3, 0.15)
+    # a's job and its put to b, b's job and its put here: a sent something, so one idle wave was not taken as quiet
+    assert done.is_set(), f"the barrier returned with a message still between participants: {res}"
+    assert res.waves >= 2 and res.skipped == (), res
+    again = net.barrier.wait(4, 0.20)
+    assert again.waves == 1, again
 
 
 @pytest.mark.timeout(60)

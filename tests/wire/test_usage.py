@@ -51,7 +51,7 @@ def test_the_lockstep_barriers_traffic_is_counted_apart() -> None:
     b = open_session(connector)
     try:
         b.wait_connected(timeout=10.0)
-        ask = LockstepKeys("usageb").ask("pilot")  # a key of the barrier's, as the simulator asks a participant
+        ask = LockstepKeys("usageb").report("pilot")  # a key of the barrier's, as a participant answers the simulator
         got, other = threading.Event(), threading.Event()
         a.subscribe_payload(ask, lambda *_: got.set())
         a.subscribe_payload("sidewalk/usageb/pilot/path", lambda *_: other.set())

@@ -13,8 +13,9 @@ Two sides, over the process's one Zenoh session:
   renders), and every busy probe the process added false (the blackboard node's inline dispatch, a
   blackboard client's unacknowledged writes). Its answer (`ParticipantReport`) carries the process's
   Zenoh message counters, received and sent, without the barrier's own traffic. A participant still
-  busy after `busy_reply_s` [s wall] answers `busy=True` instead, so the barrier can tell a long job
-  (it waits) from a silent process (it skips it).
+  busy after `busy_reply_s` [s wall] answers `busy=True` instead — from a keeper thread when the loop
+  itself cannot run (a long synchronous computation, a process starved of CPU) — so the barrier can
+  tell a long job or a loaded machine (it waits) from a stopped process (silent: it skips it).
 - the **barrier** (`Barrier`), in the simulator node: after each clock publication it asks every
   participant in waves (each wave one put, its answers matched by the wave's sequence number) until
   two waves in a row find everyone known by liveliness idle with the same counters, the simulator's
@@ -27,7 +28,7 @@ Two sides, over the process's one Zenoh session:
   that step and not waited for in later steps either, only heard (every ask reaches it) until it
   answers idle again, so a module wedged for 5 s sim stays away 5 s sim, as it would in real time,
   at lock-step speed rather than one time-out per step. One that stays busy for `busy_limit_s`
-  [s wall] is skipped for the rest of that step. Both are counted (`BarrierStats.skips`,
+  [s wall] is skipped and then treated as silent. Both are counted (`BarrierStats.skips`,
   `.silenced`), so faults never hang a run.
 
 Counters cannot see a put still in flight across two whole waves (its sender counted it in both, its
@@ -234,13 +235,19 @@ class Participant:
         self._probes: list[Callable[[], bool]] = []
         self._executor = _CountingExecutor(self._loop)
         self._loop.set_default_executor(self._executor)
-        self._pending: tuple[BarrierAsk, float] | None = None
+        self._pending: tuple[BarrierAsk, float, bytes] | None = None
         self._timer: asyncio.Handle | None = None
         self._closed = False
-        #: asks answered, and how many of them were answered busy
+        #: asks answered, and how many of them were answered busy (by the loop or the keeper)
         self.answered = 0
         self.busy_answers = 0
+        # the keeper: the newest ask (payload, arrival [s monotonic]) and the last one the loop answered
+        self._newest: tuple[bytes, float] | None = None
+        self._answered_payload: bytes | None = None
+        self._keeper_stop = threading.Event()
         self._pub = session.publisher(self._keys.report(name))
+        self._keeper = threading.Thread(target=self._keep_answering, name=f"lockstep-keeper-{name}", daemon=True)
+        self._keeper.start()
         self._sub = session.subscribe_payload(self._keys.ask, self._on_ask)
         self._tok = session.liveliness_token(self._keys.alive(name))
 
@@ -261,16 +268,49 @@ class Participant:
         if self._timer is not None:
             self._timer.cancel()
         self._pending = None
-        for h in (self._tok, self._sub, self._pub):
+        self._keeper_stop.set()
+        for h in (self._tok, self._sub):
             self._session.undeclare(h)
+        self._keeper.join(2.0)
+        self._session.undeclare(self._pub)
 
     # ---- Zenoh thread -----------------------------------------------------------------------
 
     def _on_ask(self, _key: str, payload: bytes) -> None:
+        self._newest = (payload, time.monotonic())
         try:
             self._loop.call_soon_threadsafe(self._take, payload)
         except RuntimeError:  # loop closed
             pass
+
+    # ---- keeper thread ---------------------------------------------------------------------
+
+    def _keep_answering(self) -> None:
+        """Answer `busy` for an ask the loop has not answered within `busy_reply_s` [s wall] (checked twice a period).
+
+        A loop held by a long synchronous computation, or a process starved of CPU on a loaded
+        machine, cannot run `_check`; without this the barrier would take it for a stopped one
+        (silent) and step on without it, and the run would no longer repeat. A SIGSTOPped process
+        stops this thread too, so it stays silent, as it should.
+        """
+        answered_busy: bytes | None = None
+        while not self._keeper_stop.wait(self._busy_reply_s / 2):
+            newest = self._newest
+            if newest is None or newest[0] is self._answered_payload or newest[0] is answered_busy:
+                continue
+            payload, t0 = newest
+            waited = time.monotonic() - t0
+            if waited < self._busy_reply_s:
+                continue
+            answered_busy = payload
+            try:
+                ask = decode(BarrierAsk, payload)
+            except LockstepPayloadError:
+                continue
+            sent, received = own_traffic()
+            self.busy_answers += 1
+            self._pub.put(encode(ParticipantReport(name=self.name, seq=ask.seq, step=ask.step, wave=ask.wave, busy=True,
+                                                   received=received, sent=sent, waited_s=waited)))
 
     # ---- loop thread -----------------------------------------------------------------------
 
@@ -283,7 +323,7 @@ class Participant:
         if self._closed:
             return
         # only the newest ask is answered (the barrier moved on from older ones)
-        self._pending = (ask, time.monotonic())
+        self._pending = (ask, time.monotonic(), payload)
         if self._timer is None:
             self._check()
 
@@ -299,7 +339,7 @@ class Participant:
         self._timer = None
         if self._pending is None or self._closed:
             return
-        ask, t0 = self._pending
+        ask, t0, payload = self._pending
         waited = time.monotonic() - t0
         busy = self._busy()
         if busy and waited < self._busy_reply_s:
@@ -312,6 +352,7 @@ class Participant:
         sent, received = own_traffic()
         rep = ParticipantReport(name=self.name, seq=ask.seq, step=ask.step, wave=ask.wave, busy=busy,
                                 received=received, sent=sent, waited_s=waited)
+        self._answered_payload = payload
         self.answered += 1
         self.busy_answers += int(busy)
         self._pub.put(encode(rep))
@@ -340,7 +381,7 @@ class Barrier:
     when someone sent something since the last quiet step (else one wave is enough).
     """
 
-    def __init__(self, session: Session, *, timeout_s: float = 2.0, busy_limit_s: float = 10.0, quiet_waves: int = 2) -> None:
+    def __init__(self, session: Session, *, timeout_s: float = 2.0, busy_limit_s: float = 60.0, quiet_waves: int = 2) -> None:
         if quiet_waves < 2:
             raise ValueError("quiet_waves must be ≥ 2 (one wave alone cannot see a message in flight)")
         self._session = session
@@ -470,10 +511,15 @@ class Barrier:
                 elif rep.busy:
                     all_idle = False
                     first = busy_since.setdefault(n, now - rep.waited_s)
-                    if now - first >= self.busy_limit_s:
+                    if now - first >= self.busy_limit_s:  # a loop that never ends: not waited for until it answers idle
                         skipped.add(n)
                         self.stats.skips += 1
-                        log.warning("lockstep: %s busy for %.1f s: skipped at step %d", n, now - first, step)
+                        with self._lock:
+                            if n in self._members and n not in self._silent:
+                                self._silent.add(n)
+                                self.stats.silenced += 1
+                        log.warning("lockstep: %s busy for %.1f s: skipped at step %d, not waited for until it answers idle",
+                                    n, now - first, step)
             reports = w.reports
             answered = tuple(sorted(reports))
             if (waves == 1 and all_idle and self._baseline is not None and set(answered) == set(self._baseline)

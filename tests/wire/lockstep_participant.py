@@ -1,9 +1,9 @@
 """A lock-step participant for the barrier tests, run as its own process.
 
-`python -m tests.wire.lockstep_participant NAME ENDPOINT NS [--work S] [--forward NAME]`: connects to
+`python -m tests.wire.lockstep_participant NAME ENDPOINT NS [--work S] [--forward NAME] [--block S]`: connects to
 ENDPOINT, joins the barrier as NAME and prints `READY <participant name>`. Each sample on
 `sidewalk/<ns>/test/go/NAME` starts a handler: a worker-thread job of S seconds wall (what the barrier
-must wait for), then a put on `test/go/<forward>` when forwarding, else on `test/done/NAME`.
+must wait for; with --block, first S seconds holding the loop itself), then a put on `test/go/<forward>` when forwarding, else on `test/done/NAME`.
 """
 
 from __future__ import annotations
@@ -24,6 +24,8 @@ async def main(args: argparse.Namespace) -> None:
     tasks: set[asyncio.Task] = set()
 
     async def handle() -> None:
+        if args.block:
+            time.sleep(args.block)  # a synchronous computation that holds the loop itself
         await asyncio.to_thread(time.sleep, args.work)
         link.put(f"{base}/go/{args.forward}" if args.forward else f"{base}/done/{args.name}", b"x")
 
@@ -49,6 +51,7 @@ if __name__ == "__main__":
     ap.add_argument("ns")
     ap.add_argument("--work", type=float, default=0.3)
     ap.add_argument("--forward", default="")
+    ap.add_argument("--block", type=float, default=0.0)
     try:
         asyncio.run(main(ap.parse_args()))
     except KeyboardInterrupt:

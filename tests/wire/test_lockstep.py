@@ -114,6 +114,18 @@ def test_a_message_in_flight_between_two_participants_holds_the_barrier(net: Net
     assert res.skipped == () and len(res.participants) == 2
 
 
+@pytest.mark.timeout(60)  # quiet ~4 s
+def test_a_participant_whose_loop_is_held_longer_than_the_time_out_is_waited_for_not_skipped(net: Net) -> None:
+    # its loop cannot answer for 3 time-outs (a long synchronous computation, or a process starved of CPU on a
+    # loaded machine); its keeper thread answers busy, so the barrier does not take it for a stopped process
+    net.start("a", "--work", "0.1", "--block", str(3 * net.barrier.timeout_s))
+    done = net.done_event("a")
+    net.go("a")
+    res = net.barrier.wait(1, 0.05)
+    assert done.is_set(), f"the barrier returned before the held loop finished: {res}"
+    assert res.skipped == () and res.silent == () and net.barrier.stats.silenced == 0, res
+
+
 @pytest.mark.timeout(60)  # quiet ~3 s
 def test_after_a_quiet_step_one_wave_is_enough_unless_a_participant_sent_something(net: Net) -> None:
     net.start("b", "--work", "0.2")

@@ -26,7 +26,8 @@ test: $(STAMP) chromium
 	$(PY) -m pytest -q
 
 ## Whole missions under a fault or a run mode (a killed PILOT, a restarted node, a wedged HELM, the compare
-## faults, EDDIE under --secure, a walker in the lane, YARF on marked roads): tens of seconds each, so kept
+## faults, EDDIE under --secure, a walker in the lane, YARF on marked roads, EDDIE's monitor page; seeds 50-99 of the
+## generated streets): tens of seconds each, so kept
 ## out of `make test`'s ten minutes; CI runs them after it.
 test-missions: $(STAMP)
 	$(PY) -m pytest -q -m missions

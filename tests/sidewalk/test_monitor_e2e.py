@@ -339,6 +339,7 @@ def test_replay_draws_the_recording(monitored_run, browser):
                 shutil.copy(monitored_run.out / name, Path(keep) / name)
 
 
+@pytest.mark.missions  # EDDIE's whole mission behind its page (~100 s quiet with the fixture): CI runs it after `make test`
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 def test_monitor_page_draws_a_live_eddie_mission(eddie_run, browser):
@@ -369,6 +370,7 @@ def test_monitor_page_draws_a_live_eddie_mission(eddie_run, browser):
     assert (eddie_run.out / "monitor.png").stat().st_size > 20_000
 
 
+@pytest.mark.missions  # EDDIE's whole mission behind its page (~100 s quiet with the fixture): CI runs it after `make test`
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 def test_eddie_run_mcap_holds_every_message_on_eddies_keys(eddie_run):
@@ -448,6 +450,7 @@ def _coords(g: dict) -> list:
     return [c] if g["type"] == "Point" else (c[0] if g["type"] == "Polygon" else c)
 
 
+@pytest.mark.missions  # EDDIE's whole mission behind its page (~100 s quiet with the fixture): CI runs it after `make test`
 @pytest.mark.e2e
 @pytest.mark.timeout(200)
 def test_replay_draws_an_eddie_recording(eddie_run, browser):

@@ -1,0 +1,211 @@
+"""The PILOT across country (Navlab 1990 §2.4 on CODGER): a `cross-country` segment driven on the terrain tiles.
+
+When the route segment is an off-road goal (mode `cross-country`, from the MAP NAVIGATOR's off-road step)
+the PILOT plans with the cross-country planner instead of its road planner: it pastes the TERRAIN module's
+`terrain_tile` tokens into a terrain map of its own (the segment's corridor), plans from its *estimated*
+pose to the goal — or, while the goal lies beyond what the laser has seen, to the best reachable point
+toward it at the edge of the known map (the paper's "next sensing point") — and posts the path for the
+HELM as a `local_path_plan` like its other paths. It plans again only when new tiles came in (and at most
+every `replan_s` of sim time) or when the vehicle nears the end of its path: a lock-step tick with
+nothing new does no planning. The step ends by the arrival rule of every segment that stops: the
+estimate within the exit radius, then at rest.
+
+  reads   route_segment (mode cross-country), terrain_tile, poses
+  writes  local_path_plan, segment_result
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from blackboard import Spec
+from blackboard.errors import BlackboardError
+from modules.pilot.planner import PlannedPath, path_curvature
+from modules.terrain.cross_country_planner import CrossCountryPlan, CrossCountryPlanner, CrossCountrySettings
+from modules.terrain.errors import InadmissibleGoal, InadmissibleStart, TerrainPlanningError
+from modules.terrain.terrain_map import TerrainMap
+from modules.terrain.vehicle_model import terrain_vehicle_for
+from modules.vocabulary import RouteSegmentDescription, TerrainTile
+
+__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals"]
+
+log = logging.getLogger(__name__)
+
+#: The navigation mode of a segment the PILOT drives on the terrain tiles.
+CROSS_COUNTRY_MODE = "cross-country"
+
+
+def plans_on_terrain(seg: RouteSegmentDescription) -> bool:
+    """Return whether the PILOT drives `seg` with the cross-country planner on terrain tiles (else its road planner)."""
+    return seg.mode == CROSS_COUNTRY_MODE
+
+
+@dataclass(frozen=True)
+class CrossCountryOptions:
+    """How the PILOT drives across country: re-planning [s] sim, frontier goals [m], [rad], the planner's settings."""
+
+    replan_s: float = 1.0
+    near_end_m: float = 4.0
+    frontier_reach_m: tuple[float, ...] = (16.0, 13.0, 10.0, 7.0, 4.5)
+    frontier_bearings: tuple[float, ...] = tuple(math.radians(a) for a in (0.0, 20.0, -20.0, 40.0, -40.0, 65.0, -65.0))
+    goal_tolerance_m: float = 0.5
+    frontier_tolerance_m: float = 1.5
+    frontier_states: int = 15_000
+    planner: CrossCountrySettings = CrossCountrySettings(max_unknown_share=0.05)
+
+
+def frontier_goals(x: float, y: float, goal: tuple[float, float], opts: CrossCountryOptions) -> list[tuple[float, float]]:
+    """Return intermediate goals (x, y) [m] `world` toward `goal` from (x, y), the ones closest to the goal first.
+
+    Each lies `frontier_reach_m` from the vehicle at a bearing off the line to the goal; the planner
+    takes the first it can reach (a point the laser has not seen is refused at once by sensing).
+    """
+    head = math.atan2(goal[1] - y, goal[0] - x)
+    to_goal = math.hypot(goal[0] - x, goal[1] - y)
+    pts = []
+    for r in opts.frontier_reach_m:
+        if r >= to_goal:
+            continue
+        for b in opts.frontier_bearings:
+            px, py = x + r * math.cos(head + b), y + r * math.sin(head + b)
+            pts.append((math.hypot(goal[0] - px, goal[1] - py), px, py))
+    pts.sort()
+    return [(px, py) for _, px, py in pts]
+
+
+def _planned_path(plan: CrossCountryPlan) -> PlannedPath:
+    """Return the planner's path as the PILOT's path: poses (n, 3) world, arc length, forward, curvature."""
+    poses = plan.poses.copy()
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
+    return PlannedPath(poses=poses, s=s, direction=np.ones(len(poses)), curvature=path_curvature(poses))
+
+
+class CrossCountryDriving:
+    """The PILOT's cross-country part: one segment at a time, on the parts of a running `Pilot`."""
+
+    def __init__(self, pilot, opts: CrossCountryOptions = CrossCountryOptions()) -> None:
+        self.pilot = pilot
+        self.opts = opts
+        self.vehicle = terrain_vehicle_for(pilot.cfg.vehicle)
+        self.plans = 0
+        self.plan_failures = 0
+        self.terrain_queries = 0
+
+    def _map_for(self, seg: RouteSegmentDescription, resolution: float) -> TerrainMap:
+        """Return an empty terrain map over the segment's corridor (its centreline's box grown by half its width)."""
+        pts = np.asarray(seg.centreline, np.float64)
+        half = seg.width_m / 2.0
+        bounds = (float(pts[:, 0].min() - half), float(pts[:, 1].min() - half), float(pts[:, 0].max() + half),
+                  float(pts[:, 1].max() + half))
+        return TerrainMap(bounds, resolution, self.vehicle)
+
+    async def drive(self, seg_tok):
+        """Drive cross-country segment `seg_tok` to its exit; post its result; return a newer segment that pre-empted it."""
+        p = self.pilot
+        seg: RouteSegmentDescription = seg_tok.attrs
+        clock, estimator, monitor, cfg = p.rt.clock, p.estimator, p.monitor, p.cfg
+        goal = seg.exit.point
+        tiles: asyncio.Queue = asyncio.Queue()
+        mon = await p.bb.monitor(Spec(type="terrain_tile")).start()
+        pump = asyncio.ensure_future(p._pump(mon, tiles))
+        terrain: TerrainMap | None = None
+        planner: CrossCountryPlanner | None = None
+        sensed_at = -math.inf
+        changed = False
+        last_plan_t = -math.inf
+        path_end: tuple[float, float] | None = None
+        reaches_goal = False
+        start_distance = estimator.distance_m
+        last_progress = (clock.now(), math.hypot(goal[0] - estimator.pose[0], goal[1] - estimator.pose[1]))
+        log.info("pilot: cross-country segment %s to (%.1f, %.1f), %.0f m", seg.segment_id, goal[0], goal[1], seg.length_m)
+        try:
+            for tok in sorted(await p.bb.retrieve(Spec(type="terrain_tile")), key=lambda t: t.attrs.sensed_at):
+                tiles.put_nowait(tok)
+            while not p.rt.stopping:
+                now = clock.now()
+                if p._stalled():
+                    last_progress = (now, last_progress[1])
+                await estimator.step()
+                change = await monitor.change(seg)
+                if change is not None:
+                    return change.by
+                moved = await p.landmark_fixes()
+                await estimator.post(force=moved is not None, source="perception" if moved is not None else "dead-reckoning")
+                while not tiles.empty():
+                    ev = tiles.get_nowait()
+                    tile = getattr(ev, "token", ev).attrs
+                    if getattr(ev, "kind", "new") == "deleted" or not isinstance(tile, TerrainTile):
+                        continue
+                    if terrain is None:
+                        terrain = self._map_for(seg, tile.resolution)
+                        planner = CrossCountryPlanner(terrain.pyramid, self.vehicle, self.opts.planner)
+                    changed = terrain.paste(tile) or changed
+                    sensed_at = max(sensed_at, tile.sensed_at)
+                x, y, yaw = (float(v) for v in estimator.pose)
+                to_goal = math.hypot(goal[0] - x, goal[1] - y)
+                if to_goal <= seg.exit.radius_m:
+                    return await p._come_to_rest(seg, f"off-road goal reached ({self.plans} cross-country plans)", start_distance)
+                near_end = path_end is not None and not reaches_goal and math.hypot(path_end[0] - x, path_end[1] - y) < self.opts.near_end_m
+                due = now - last_plan_t >= self.opts.replan_s
+                if planner is not None and (path_end is None or ((changed or near_end) and due)):
+                    t_plan = clock.now()
+                    changed = False
+                    plan, reaches_goal_now, why = await asyncio.to_thread(self._plan, planner, (x, y, yaw), goal)
+                    last_plan_t = clock.now()
+                    last_progress = (last_progress[0] + max(0.0, last_plan_t - t_plan), last_progress[1])
+                    if plan is None:
+                        self.plan_failures += 1
+                        log.warning("pilot: no cross-country plan from (%.1f, %.1f): %s", x, y, why)
+                    else:
+                        reaches_goal = reaches_goal_now
+                        path_end = (float(plan.poses[-1, 0]), float(plan.poses[-1, 1]))
+                        self.plans += 1
+                        self.terrain_queries += plan.terrain_queries
+                        await p.planner.post(seg, _planned_path(plan), estimator.world_from_local(), (),
+                                             seg.constraints.speed_limit or cfg.max_speed, True, clock.now(),
+                                             sensed_at=sensed_at if math.isfinite(sensed_at) else None)
+                if to_goal < last_progress[1] - 0.2:
+                    last_progress = (now, to_goal)
+                elif now - last_progress[0] > cfg.stuck_timeout_s:
+                    await monitor.report(seg, False, f"no progress across country for {cfg.stuck_timeout_s:.0f} s, "
+                                                     f"{to_goal:.1f} m from the goal ({self.plan_failures} planning failures)",
+                                         start_distance)
+                    return None
+                await clock.sleep(cfg.tick_s)
+            return None
+        finally:
+            pump.cancel()
+            try:
+                await mon.close()
+            except BlackboardError:
+                pass
+
+    def _plan(self, planner: CrossCountryPlanner, start: tuple[float, float, float],
+              goal: tuple[float, float]) -> tuple[CrossCountryPlan | None, bool, str]:
+        """Return (a plan to the goal or to the best frontier point, whether it reaches the goal, why none was found)."""
+        opts = self.opts
+        why = ""
+        planner.settings = opts.planner.model_copy(update={"goal_tolerance": opts.goal_tolerance_m})
+        try:
+            return planner.plan(start, (goal[0], goal[1], 0.0)), True, ""
+        except InadmissibleStart as exc:
+            return None, False, str(exc)
+        except TerrainPlanningError as exc:
+            why = str(exc)
+        planner.settings = opts.planner.model_copy(update={"goal_tolerance": opts.frontier_tolerance_m,
+                                                           "max_states": opts.frontier_states})
+        for gx, gy in frontier_goals(start[0], start[1], goal, opts):
+            try:
+                return planner.plan(start, (gx, gy, 0.0)), False, ""
+            except InadmissibleGoal:
+                continue
+            except InadmissibleStart as exc:
+                return None, False, str(exc)
+            except TerrainPlanningError as exc:
+                why = str(exc)
+        return None, False, why

@@ -1,0 +1,85 @@
+"""An off-road step: the MAP NAVIGATOR looks up no road and hands the PILOT one cross-country segment to the goal itself;
+the PILOT drives it with the cross-country planner, its other segments with its road planner."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from codger.pilot.cross_country import CrossCountryOptions, frontier_goals, plans_on_terrain
+from modules.map_navigator import NavigatorOptions, Planned, StepJob, load_map
+from modules.map_navigator.describe import ARRIVAL_RADIUS_M
+from modules.vocabulary import Destination, MissionStep, SegmentResult, StepConstraints, StepResult
+
+pytestmark = pytest.mark.timeout(60)  # quiet run ~1 s (the cross-country map read once)
+
+GOAL = (395.142, 46.981)  # worlds/cross-country.yaml
+
+
+@pytest.fixture(scope="module")
+def cross_country():
+    return load_map("cross_country")
+
+
+def _step(dest: Destination, **cons) -> MissionStep:
+    return MissionStep(mission_id="m", step_index=0, name="to the goal", destination=dest, constraints=StepConstraints(**cons))
+
+
+def test_an_off_road_step_is_one_cross_country_segment_from_where_the_vehicle_is_to_the_goal_itself(cross_country) -> None:
+    assert not cross_country.world.edges  # no road the navigator could route over
+    job = StepJob(cross_country, _step(Destination(xy=GOAL, off_road=True)), (25.0, 33.019), NavigatorOptions(vehicle="navlab"))
+    out = job.plan()
+    assert isinstance(out, Planned) and len(out.segments) == 1
+    seg = out.segments[0]
+    assert seg.mode == "cross-country" and plans_on_terrain(seg)
+    assert seg.centreline == ((25.0, 33.019), GOAL)
+    assert seg.exit.point == GOAL and seg.exit.radius_m == ARRIVAL_RADIUS_M  # the arrival rule of every step
+    assert seg.constraints.stop_at_exit and seg.constraints.speed_limit is not None
+    assert seg.length_m == pytest.approx(math.hypot(GOAL[0] - 25.0, GOAL[1] - 33.019))
+    assert out.plan.edge_ids == () and out.plan.goal_xy == GOAL
+    assert job.current() == seg
+
+
+def test_a_step_limit_below_the_cross_country_speed_is_kept(cross_country) -> None:
+    out = StepJob(cross_country, _step(Destination(xy=GOAL, off_road=True), speed_limit=0.7), (25.0, 33.0)).plan()
+    assert isinstance(out, Planned) and out.segments[0].constraints.speed_limit == 0.7
+
+
+def test_a_failed_cross_country_segment_is_planned_again_from_where_it_stopped_until_the_replans_run_out(cross_country) -> None:
+    job = StepJob(cross_country, _step(Destination(xy=GOAL, off_road=True)), (25.0, 33.0), NavigatorOptions(max_replans=1))
+    seg = job.plan().segments[0]
+    again = job.segment_done(SegmentResult(segment_id=seg.segment_id, plan_id=seg.plan_id, segment_index=0, success=False,
+                                           reason="stuck", end_xy=(120.0, 40.0), distance_m=95.0))
+    assert isinstance(again, Planned) and again.segments[0].centreline[0] == (120.0, 40.0)
+    assert again.segments[0].segment_id != seg.segment_id
+    last = job.segment_done(SegmentResult(segment_id=again.segments[0].segment_id, plan_id=again.plan.plan_id, segment_index=0,
+                                          success=False, reason="stuck"))
+    assert isinstance(last, StepResult) and not last.success and "no replans left" in last.reason
+
+
+def test_a_reached_cross_country_segment_ends_the_step(cross_country) -> None:
+    job = StepJob(cross_country, _step(Destination(xy=GOAL, off_road=True)), (25.0, 33.0))
+    seg = job.plan().segments[0]
+    res = job.segment_done(SegmentResult(segment_id=seg.segment_id, plan_id=seg.plan_id, segment_index=0, success=True,
+                                         end_xy=(394.6, 47.3), distance_m=380.0))
+    assert isinstance(res, StepResult) and res.success and res.segments_done == 1
+
+
+def test_the_pilot_keeps_its_road_planner_for_a_road_segment() -> None:
+    campus = load_map("campus")
+    out = StepJob(campus, _step(Destination(place="library")), (0.3, -28.25)).plan()
+    assert isinstance(out, Planned) and out.segments
+    assert not any(plans_on_terrain(s) for s in out.segments)
+
+
+def test_frontier_goals_lie_at_the_reach_toward_the_goal_nearest_first_and_never_past_it() -> None:
+    opts = CrossCountryOptions()
+    pts = frontier_goals(0.0, 0.0, (100.0, 0.0), opts)
+    assert len(pts) == len(opts.frontier_reach_m) * len(opts.frontier_bearings)
+    assert pts[0] == pytest.approx((max(opts.frontier_reach_m), 0.0))
+    left = [math.hypot(100.0 - x, y) for x, y in pts]
+    assert left == sorted(left)
+    assert all(min(opts.frontier_reach_m) - 1e-9 <= math.hypot(x, y) <= max(opts.frontier_reach_m) + 1e-9 for x, y in pts)
+    near = frontier_goals(0.0, 0.0, (8.0, 0.0), opts)  # the goal 8 m off: only points closer than it
+    assert near and all(math.hypot(x, y) < 8.0 for x, y in near)

@@ -32,7 +32,7 @@ from modules.terrain.terrain_map import TerrainMap
 from modules.terrain.vehicle_model import terrain_vehicle_for
 from modules.vocabulary import RouteSegmentDescription, TerrainTile
 
-__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals"]
+__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals", "planned_path"]
 
 log = logging.getLogger(__name__)
 
@@ -56,7 +56,7 @@ class CrossCountryOptions:
     goal_tolerance_m: float = 0.5
     frontier_tolerance_m: float = 1.5
     frontier_states: int = 15_000
-    planner: CrossCountrySettings = CrossCountrySettings(max_unknown_share=0.05)
+    planner: CrossCountrySettings = CrossCountrySettings(max_unknown_share=0.05, reverse_cost=3.0)
 
 
 def frontier_goals(x: float, y: float, goal: tuple[float, float], opts: CrossCountryOptions) -> list[tuple[float, float]]:
@@ -78,11 +78,16 @@ def frontier_goals(x: float, y: float, goal: tuple[float, float], opts: CrossCou
     return [(px, py) for _, px, py in pts]
 
 
-def _planned_path(plan: CrossCountryPlan) -> PlannedPath:
-    """Return the planner's path as the PILOT's path: poses (n, 3) world, arc length, forward, curvature."""
+def planned_path(plan: CrossCountryPlan) -> PlannedPath:
+    """Return the planner's path as the PILOT's path: poses (n, 3) world, arc length, direction of the motion *leaving*
+    each pose (±1, the road planner's convention), signed curvature."""
     poses = plan.poses.copy()
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
-    return PlannedPath(poses=poses, s=s, direction=np.ones(len(poses)), curvature=path_curvature(poses))
+    direction = np.ones(len(poses))
+    if plan.direction is not None and len(poses) > 1:
+        direction[:-1] = plan.direction[1:]  # the planner's: the motion *reaching* each pose
+        direction[-1] = direction[-2]
+    return PlannedPath(poses=poses, s=s, direction=direction, curvature=path_curvature(poses) * direction)
 
 
 class CrossCountryDriving:
@@ -166,7 +171,7 @@ class CrossCountryDriving:
                         path_end = (float(plan.poses[-1, 0]), float(plan.poses[-1, 1]))
                         self.plans += 1
                         self.terrain_queries += plan.terrain_queries
-                        await p.planner.post(seg, _planned_path(plan), estimator.world_from_local(), (),
+                        await p.planner.post(seg, planned_path(plan), estimator.world_from_local(), (),
                                              seg.constraints.speed_limit or cfg.max_speed, True, clock.now(),
                                              sensed_at=sensed_at if math.isfinite(sensed_at) else None)
                 if to_goal < last_progress[1] - 0.2:

@@ -83,3 +83,17 @@ def test_frontier_goals_lie_at_the_reach_toward_the_goal_nearest_first_and_never
     assert all(min(opts.frontier_reach_m) - 1e-9 <= math.hypot(x, y) <= max(opts.frontier_reach_m) + 1e-9 for x, y in pts)
     near = frontier_goals(0.0, 0.0, (8.0, 0.0), opts)  # the goal 8 m off: only points closer than it
     assert near and all(math.hypot(x, y) < 8.0 for x, y in near)
+
+
+def test_a_plan_that_backs_up_reaches_the_helm_with_the_road_planners_directions() -> None:
+    import numpy as np
+
+    from codger.pilot.cross_country import planned_path
+    from modules.terrain.cross_country_planner import CrossCountryPlan
+
+    poses = np.array([[0.0, 0, 0], [0.2, 0, 0], [0.4, 0, 0], [0.2, 0, 0], [0.0, 0, 0]])
+    plan = CrossCountryPlan(poses, np.zeros(5), np.zeros(5, np.int8), 0.8, 1, 1, (), 1, 1, 1, 0.1,
+                            direction=np.array([1.0, 1.0, 1.0, -1.0, -1.0]))
+    path = planned_path(plan)
+    assert path.direction.tolist() == [1.0, 1.0, -1.0, -1.0, -1.0]  # the motion leaving each pose
+    assert path.s.tolist() == pytest.approx([0.0, 0.2, 0.4, 0.6, 0.8])

@@ -70,3 +70,23 @@ def test_on_rolling_ground_the_planner_drives_where_the_body_clears_it_by_far() 
     assert plan.length < 35.0
     for x, y, th in plan.poses[::3]:  # every pose the path takes is admissible cell by cell
         assert evaluate_configuration(grid, pyr, NAVLAB_TERRAIN, x, y, th).admissible
+
+
+def test_a_navlab_facing_a_wall_backs_out_only_when_it_may_reverse() -> None:
+    n = 200  # 40 m square, the vehicle at its centre heading +x, a wall 5 m ahead across the whole map
+    z = np.zeros((n, n), np.float32)
+    x0 = -20.0
+    j_wall = int((5.5 - x0) / RES)
+    z[:, j_wall:j_wall + 5] = 1.5
+    grid = ElevationGrid(x0, x0, RES, z, np.full_like(z, 0.02))
+    pyr = TerrainPyramid(grid)
+    start, goal = (0.0, 0.0, 0.0), (-4.0, 12.0, 0.0)  # up and to the left: a forward turn needs 7 m it has not got
+    from modules.terrain.errors import NoAdmissiblePath
+    with pytest.raises(NoAdmissiblePath):
+        CrossCountryPlanner(pyr, NAVLAB_TERRAIN, CrossCountrySettings(max_states=20_000)).plan(start, goal)
+    plan = CrossCountryPlanner(pyr, NAVLAB_TERRAIN, CrossCountrySettings(max_states=20_000, reverse_cost=3.0)).plan(start, goal)
+    assert (plan.direction < 0).any() and (plan.direction > 0).any()
+    assert math.hypot(plan.poses[-1, 0] - goal[0], plan.poses[-1, 1] - goal[1]) <= 1.0
+    assert plan.poses[:, 0].max() < 5.5 - NAVLAB_TERRAIN.body_front + 0.2  # never into the wall
+    for x, y, th in plan.poses[::3]:
+        assert evaluate_configuration(grid, pyr, NAVLAB_TERRAIN, x, y, th).admissible

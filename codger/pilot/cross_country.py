@@ -29,7 +29,7 @@ from modules.pilot.planner import PlannedPath, path_curvature
 from modules.terrain.cross_country_planner import CrossCountryPlan, CrossCountryPlanner, CrossCountrySettings
 from modules.terrain.errors import InadmissibleGoal, InadmissibleStart, TerrainPlanningError
 from modules.terrain.terrain_map import TerrainMap
-from modules.terrain.vehicle_model import terrain_vehicle_for
+from modules.terrain.vehicle_model import TerrainVehicle, terrain_vehicle_for
 from modules.vocabulary import RouteSegmentDescription, TerrainTile
 
 __all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals", "planned_path"]
@@ -78,10 +78,11 @@ def frontier_goals(x: float, y: float, goal: tuple[float, float], opts: CrossCou
     return [(px, py) for _, px, py in pts]
 
 
-def planned_path(plan: CrossCountryPlan) -> PlannedPath:
-    """Return the planner's path as the PILOT's path: poses (n, 3) world, arc length, direction of the motion *leaving*
-    each pose (±1, the road planner's convention), signed curvature."""
-    poses = plan.poses.copy()
+def planned_path(plan: CrossCountryPlan, vehicle: TerrainVehicle) -> PlannedPath:
+    """Return the planner's path as the PILOT's path: poses (n, 3) of the vehicle's pose frame in world (the planner's
+    are its reference point's), arc length, direction of the motion *leaving* each pose (±1, the road planner's
+    convention), signed curvature."""
+    poses = vehicle.origin_of(plan.poses)
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
     direction = np.ones(len(poses))
     if plan.direction is not None and len(poses) > 1:
@@ -171,7 +172,7 @@ class CrossCountryDriving:
                         path_end = (float(plan.poses[-1, 0]), float(plan.poses[-1, 1]))
                         self.plans += 1
                         self.terrain_queries += plan.terrain_queries
-                        await p.planner.post(seg, planned_path(plan), estimator.world_from_local(), (),
+                        await p.planner.post(seg, planned_path(plan, self.vehicle), estimator.world_from_local(), (),
                                              seg.constraints.speed_limit or cfg.max_speed, True, clock.now(),
                                              sensed_at=sensed_at if math.isfinite(sensed_at) else None)
                 if to_goal < last_progress[1] - 0.2:
@@ -190,11 +191,18 @@ class CrossCountryDriving:
             except BlackboardError:
                 pass
 
-    def _plan(self, planner: CrossCountryPlanner, start: tuple[float, float, float],
+    def _plan(self, planner: CrossCountryPlanner, pose: tuple[float, float, float],
               goal: tuple[float, float]) -> tuple[CrossCountryPlan | None, bool, str]:
-        """Return (a plan to the goal or to the best frontier point, whether it reaches the goal, why none was found)."""
+        """Return (a plan to the goal or to the best frontier point, whether it reaches the goal, why none was found).
+
+        `pose` is the vehicle's pose frame; the planner's configurations are its reference point, so the goal
+        for the reference point lies `reference_ahead` beyond the goal on the line from the vehicle.
+        """
         opts = self.opts
         why = ""
+        start = self.vehicle.reference_of(*pose)
+        ahead = math.atan2(goal[1] - pose[1], goal[0] - pose[0])
+        goal = (goal[0] + self.vehicle.reference_ahead * math.cos(ahead), goal[1] + self.vehicle.reference_ahead * math.sin(ahead))
         planner.settings = opts.planner.model_copy(update={"goal_tolerance": opts.goal_tolerance_m})
         try:
             return planner.plan(start, (goal[0], goal[1], 0.0)), True, ""

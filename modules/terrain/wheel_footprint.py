@@ -6,7 +6,8 @@ vehicle stands on that ground: its wheels rest on it, so the plane through their
 vehicle's own plane — its height the pose's z, its slope the inclinometer's roll and pitch — and the
 ground under the belly lies below that plane plus the clearance (else it would be high-centred).
 
-`footprint_heights` writes that plane into the *unknown* cells of the body's rectangle (cells the laser
+The pose is the vehicle's pose frame (the Navlab's: its rear axle); the body lies around the reference point
+`reference_ahead` in front of it. `footprint_heights` writes that plane into the *unknown* cells of the body's rectangle (cells the laser
 measured keep their heights), with a standard deviation `sigma` [m] that says it is an assumption, not
 a measurement. `ahead` [m] extends the rectangle beyond the bumper: at the start of a drive the
 vehicle has seen nothing there yet, and it can neither plan nor move without a premise about it; the
@@ -46,7 +47,7 @@ def footprint_heights(grid: ElevationGrid, pose: VehiclePose, vehicle: TerrainVe
     ny, nx = grid.shape
     front = vehicle.body_front + max(ahead, 0.0) + margin
     rear, half = vehicle.body_rear + margin, vehicle.body_half_width + margin
-    reach = math.hypot(max(rear, front), half) + r
+    reach = math.hypot(max(rear, front), half) + abs(vehicle.reference_ahead) + r
     i0, j0 = grid.cell_of(pose.x - reach, pose.y - reach)
     i1, j1 = grid.cell_of(pose.x + reach, pose.y + reach)
     i0, j0, i1, j1 = max(i0, 0), max(j0, 0), min(i1 + 1, ny), min(j1 + 1, nx)
@@ -56,7 +57,7 @@ def footprint_heights(grid: ElevationGrid, pose: VehiclePose, vehicle: TerrainVe
     cy = grid.origin_y + (np.arange(i0, i1) + 0.5) * r - pose.y
     dx, dy = np.meshgrid(cx, cy)
     c, s = math.cos(pose.yaw), math.sin(pose.yaw)
-    u, v = c * dx + s * dy, -s * dx + c * dy
+    u, v = c * dx + s * dy - vehicle.reference_ahead, -s * dx + c * dy  # u from the reference point, the body's origin
     inside = (u >= -rear) & (u <= front) & (np.abs(v) <= half)
     n = pose.rotation()[:, 2]  # the vehicle's up axis: the normal of the wheels' plane, through (x, y, z)
     plane = pose.z - (n[0] * dx + n[1] * dy) / max(n[2], 1e-6)

@@ -94,6 +94,10 @@ def test_a_plan_that_backs_up_reaches_the_helm_with_the_road_planners_directions
     poses = np.array([[0.0, 0, 0], [0.2, 0, 0], [0.4, 0, 0], [0.2, 0, 0], [0.0, 0, 0]])
     plan = CrossCountryPlan(poses, np.zeros(5), np.zeros(5, np.int8), 0.8, 1, 1, (), 1, 1, 1, 0.1,
                             direction=np.array([1.0, 1.0, 1.0, -1.0, -1.0]))
-    path = planned_path(plan)
+    from modules.terrain.vehicle_model import TERREGATOR_TERRAIN, NAVLAB_TERRAIN
+
+    path = planned_path(plan, TERREGATOR_TERRAIN)
     assert path.direction.tolist() == [1.0, 1.0, -1.0, -1.0, -1.0]  # the motion leaving each pose
     assert path.s.tolist() == pytest.approx([0.0, 0.2, 0.4, 0.6, 0.8])
+    navlab = planned_path(plan, NAVLAB_TERRAIN)  # its pose frame is its rear axle, 1.85 m behind the planner's point
+    assert navlab.poses[:, 0].tolist() == pytest.approx([-1.85, -1.65, -1.45, -1.65, -1.85])

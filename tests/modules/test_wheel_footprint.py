@@ -32,16 +32,18 @@ def test_the_plane_the_vehicle_stands_on_fills_the_cells_under_it() -> None:
     pose = VehiclePose(10.0, 10.0, 1.3, 0.0, pitch, yaw)
     footprint_heights(g, pose, NAVLAB_TERRAIN, margin=0.0)
     rise = math.tan(-pitch)
-    for d in (-2.5, 0.0, 2.5):  # along the heading, under the body
+    for d in (-0.8, 1.85, 4.4):  # along the heading, under the body (the pose is the rear axle; the body reaches 1.0 m behind, 4.6 m ahead)
         i, j = _centre(g, 10.0 + d * math.cos(yaw), 10.0 + d * math.sin(yaw))
         x, y = g.centre_of(i, j)
         along = (x - 10.0) * math.cos(yaw) + (y - 10.0) * math.sin(yaw)
         assert g.z[i, j] == pytest.approx(1.3 + rise * along, abs=0.01)
         assert g.sigma[i, j] == pytest.approx(FOOTPRINT_SIGMA_M)
-    i, j = _centre(g, 10.0 + 4.0 * math.cos(yaw), 10.0 + 4.0 * math.sin(yaw))
+    i, j = _centre(g, 10.0 + 5.0 * math.cos(yaw), 10.0 + 5.0 * math.sin(yaw))
     assert np.isnan(g.z[i, j])  # beyond the bumper: not the vehicle's to know
     i, j = _centre(g, 10.0 - 1.6 * math.sin(yaw), 10.0 + 1.6 * math.cos(yaw))
     assert np.isnan(g.z[i, j])  # beside it
+    i, j = _centre(g, 10.0 - 1.5 * math.cos(yaw), 10.0 - 1.5 * math.sin(yaw))
+    assert np.isnan(g.z[i, j])  # behind the rear bumper
 
 
 def test_measured_cells_keep_their_heights_and_the_start_pad_reaches_ahead() -> None:
@@ -51,8 +53,8 @@ def test_measured_cells_keep_their_heights_and_the_start_pad_reaches_ahead() -> 
     footprint_heights(g, pose, NAVLAB_TERRAIN, ahead=4.0)
     assert g.z[50, 50] == 7.0 and g.sigma[50, 50] == pytest.approx(0.01)
     i, j = g.cell_of(pose.x + 6.0, pose.y)
-    assert g.z[i, j] == pytest.approx(0.0)  # 6 m ahead: inside the pad (bumper 2.75 m + 4 m)
-    i, j = g.cell_of(pose.x + 7.5, pose.y)
+    assert g.z[i, j] == pytest.approx(0.0)  # 6 m ahead: inside the pad (bumper 4.6 m ahead of the rear axle, + 4 m)
+    i, j = g.cell_of(pose.x + 9.5, pose.y)
     assert np.isnan(g.z[i, j])
 
 

@@ -26,6 +26,7 @@ import numpy as np
 from blackboard import Spec
 from blackboard.errors import BlackboardError
 from modules.pilot.planner import PlannedPath, path_curvature
+from modules.terrain.constraints import ADMISSIBLE
 from modules.terrain.cross_country_planner import CrossCountryPlan, CrossCountryPlanner, CrossCountrySettings
 from modules.terrain.errors import InadmissibleGoal, InadmissibleStart, TerrainPlanningError
 from modules.terrain.terrain_map import TerrainMap
@@ -124,7 +125,8 @@ class CrossCountryDriving:
         sensed_at = -math.inf
         changed = False
         last_plan_t = -math.inf
-        path_end: tuple[float, float] | None = None
+        current: CrossCountryPlan | None = None  # the newest plan posted (configurations of the reference point)
+        path_end: tuple[float, float] | None = None  # where it leaves the vehicle's pose frame, world [m]
         reaches_goal = False
         start_distance = estimator.distance_m
         last_progress = (clock.now(), math.hypot(goal[0] - estimator.pose[0], goal[1] - estimator.pose[1]))
@@ -160,7 +162,14 @@ class CrossCountryDriving:
                 due = now - last_plan_t >= self.opts.replan_s
                 if planner is not None and (path_end is None or ((changed or near_end) and due)):
                     t_plan = clock.now()
-                    changed = False
+                    fresh, changed = changed, False
+                    if fresh and not near_end and current is not None and (current.direction is not None and (current.direction < 0).any()) \
+                            and await asyncio.to_thread(self._still_admissible, planner, current, (x, y, yaw)):
+                        # a manoeuvre that backs up is driven out while the new tiles leave it admissible: a new plan
+                        # from here would begin the manoeuvre again
+                        last_plan_t = clock.now()
+                        await clock.sleep(cfg.tick_s)
+                        continue
                     plan, reaches_goal_now, why = await asyncio.to_thread(self._plan, planner, (x, y, yaw), goal)
                     last_plan_t = clock.now()
                     last_progress = (last_progress[0] + max(0.0, last_plan_t - t_plan), last_progress[1])
@@ -169,7 +178,9 @@ class CrossCountryDriving:
                         log.warning("pilot: no cross-country plan from (%.1f, %.1f): %s", x, y, why)
                     else:
                         reaches_goal = reaches_goal_now
-                        path_end = (float(plan.poses[-1, 0]), float(plan.poses[-1, 1]))
+                        current = plan
+                        end = self.vehicle.origin_of(plan.poses[-1:])[0]
+                        path_end = (float(end[0]), float(end[1]))
                         self.plans += 1
                         self.terrain_queries += plan.terrain_queries
                         await p.planner.post(seg, planned_path(plan, self.vehicle), estimator.world_from_local(), (),
@@ -190,6 +201,14 @@ class CrossCountryDriving:
                 await mon.close()
             except BlackboardError:
                 pass
+
+    def _still_admissible(self, planner: CrossCountryPlanner, plan: CrossCountryPlan, pose: tuple[float, float, float]) -> bool:
+        """Return whether the rest of `plan` from the configuration nearest the vehicle at `pose` is admissible on the map now."""
+        ref = self.vehicle.reference_of(*pose)
+        near = int(np.argmin(np.hypot(plan.poses[:, 0] - ref[0], plan.poses[:, 1] - ref[1])))
+        hier = planner.hierarchy
+        hier.reset()  # the pyramid changed under the cache
+        return all(hier.classify(float(px), float(py), float(th))[0] == ADMISSIBLE for px, py, th in plan.poses[near:])
 
     def _plan(self, planner: CrossCountryPlanner, pose: tuple[float, float, float],
               goal: tuple[float, float]) -> tuple[CrossCountryPlan | None, bool, str]:

@@ -90,13 +90,15 @@ def _four_wheels(wheelbase: float, track: float) -> tuple[tuple[float, float], .
 
 
 #: The Navlab (a Chevrolet one-ton van): wheelbase 3.7 m, track 1.75 m, 5.6 m × 2.1 m body with 1.0 m
-#: behind the rear axle (assumed); 0.20 m under the belly and 0.35 m under the bumpers (assumed);
+#: behind the rear axle (assumed); 0.20 m under the belly and the bumpers (a van's bumper hangs about as low as its
+#: floor pan; assumed), less 2 cm for the terrain map's own error (a first guess of 0.35 m under the bumpers let
+#: the planner put a bumper over a rock);
 #: 20° roll and 25° pitch, well inside a van's static tip-over angle of about 38° (assumed); a wheel
 #: climbs 0.2 m, about half its 0.38 m radius (assumed); 7 m minimum turning radius (seed §2.4); its pose frame is
 #: its rear axle, half the wheelbase behind the reference point (as the PILOT's road planner has it).
 NAVLAB_TERRAIN = TerrainVehicle(
     name="navlab", wheels=_four_wheels(3.7, 1.75), wheel_patch=0.15, body_rear=2.85, body_front=2.75,
-    body_half_width=1.05, clearance=0.20, overhang_clearance=0.35, max_roll=math.radians(20.0),
+    body_half_width=1.05, clearance=0.18, overhang_clearance=0.18, max_roll=math.radians(20.0),
     max_pitch=math.radians(25.0), max_step=0.20, steering="ackermann", min_turning_radius=7.0, reference_ahead=1.85)
 
 #: The Terregator: six wheels, skid steer turning in place (DESIGN.md); three axles 0.8 m apart, 1.5 m

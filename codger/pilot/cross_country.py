@@ -33,7 +33,7 @@ from modules.terrain.terrain_map import TerrainMap
 from modules.terrain.vehicle_model import TerrainVehicle, terrain_vehicle_for
 from modules.vocabulary import RouteSegmentDescription, TerrainTile
 
-__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals", "planned_path"]
+__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals", "planned_path", "retreat_path"]
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +57,13 @@ class CrossCountryOptions:
     goal_tolerance_m: float = 0.5
     frontier_tolerance_m: float = 1.5
     frontier_states: int = 15_000
-    planner: CrossCountrySettings = CrossCountrySettings(max_unknown_share=0.05, reverse_cost=3.0)
+    trail_m: float = 12.0
+    retreat_m: float = 4.0
+    max_retreats: int = 6
+    # The voxels grown by 0.25 m and 2°: what the HELM's tracking of the Navlab (steering lag, cusps) strays by, besides
+    # the sampling; unknown terrain up to 5 % of the body's area, which the coarse nodes the bounds read overlap.
+    planner: CrossCountrySettings = CrossCountrySettings(max_unknown_share=0.05, reverse_cost=4.0, position_uncertainty=0.25,
+                                                         heading_uncertainty=math.radians(2.0))
 
 
 def frontier_goals(x: float, y: float, goal: tuple[float, float], opts: CrossCountryOptions) -> list[tuple[float, float]]:
@@ -89,6 +95,28 @@ def planned_path(plan: CrossCountryPlan, vehicle: TerrainVehicle) -> PlannedPath
     if plan.direction is not None and len(poses) > 1:
         direction[:-1] = plan.direction[1:]  # the planner's: the motion *reaching* each pose
         direction[-1] = direction[-2]
+    return PlannedPath(poses=poses, s=s, direction=direction, curvature=path_curvature(poses) * direction)
+
+
+def retreat_path(trail: list[tuple[float, float, float]], length: float) -> PlannedPath | None:
+    """Return the path backing up `length` [m] along `trail` (the vehicle's own poses, oldest first, world), or None if it is too short.
+
+    The ground the vehicle just drove over is ground it can stand on, whatever the map says now: when the newest
+    tiles make the configuration it stands in inadmissible (a tree's crown seen from under its edge), it retraces
+    its track in reverse and plans again from there.
+    """
+    pts = [trail[-1]]
+    run = 0.0
+    for p in reversed(trail[:-1]):
+        run += math.hypot(p[0] - pts[-1][0], p[1] - pts[-1][1])
+        pts.append(p)
+        if run >= length:
+            break
+    if run < 0.5 * length:
+        return None
+    poses = np.array(pts, np.float64)
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))])
+    direction = -np.ones(len(poses))
     return PlannedPath(poses=poses, s=s, direction=direction, curvature=path_curvature(poses) * direction)
 
 
@@ -128,6 +156,9 @@ class CrossCountryDriving:
         current: CrossCountryPlan | None = None  # the newest plan posted (configurations of the reference point)
         path_end: tuple[float, float] | None = None  # where it leaves the vehicle's pose frame, world [m]
         reaches_goal = False
+        trail: list[tuple[float, float, float]] = []  # the vehicle's own poses, world, at least 0.2 m apart
+        retreats = 0
+        retreating = False
         start_distance = estimator.distance_m
         last_progress = (clock.now(), math.hypot(goal[0] - estimator.pose[0], goal[1] - estimator.pose[1]))
         log.info("pilot: cross-country segment %s to (%.1f, %.1f), %.0f m", seg.segment_id, goal[0], goal[1], seg.length_m)
@@ -155,10 +186,15 @@ class CrossCountryDriving:
                     changed = terrain.paste(tile) or changed
                     sensed_at = max(sensed_at, tile.sensed_at)
                 x, y, yaw = (float(v) for v in estimator.pose)
+                if not trail or math.hypot(x - trail[-1][0], y - trail[-1][1]) >= 0.2:
+                    trail.append((x, y, yaw))
+                    while len(trail) > 2 and math.hypot(trail[1][0] - x, trail[1][1] - y) > self.opts.trail_m:
+                        trail.pop(0)
                 to_goal = math.hypot(goal[0] - x, goal[1] - y)
                 if to_goal <= seg.exit.radius_m:
                     return await p._come_to_rest(seg, f"off-road goal reached ({self.plans} cross-country plans)", start_distance)
-                near_end = path_end is not None and not reaches_goal and math.hypot(path_end[0] - x, path_end[1] - y) < self.opts.near_end_m
+                near_end = path_end is not None and not reaches_goal and \
+                    math.hypot(path_end[0] - x, path_end[1] - y) < (0.5 if retreating else self.opts.near_end_m)
                 due = now - last_plan_t >= self.opts.replan_s
                 if planner is not None and (path_end is None or ((changed or near_end) and due)):
                     t_plan = clock.now()
@@ -170,14 +206,23 @@ class CrossCountryDriving:
                         last_plan_t = clock.now()
                         await clock.sleep(cfg.tick_s)
                         continue
-                    plan, reaches_goal_now, why = await asyncio.to_thread(self._plan, planner, (x, y, yaw), goal)
+                    plan, reaches_goal_now, why, start_refused = await asyncio.to_thread(self._plan, planner, (x, y, yaw), goal)
                     last_plan_t = clock.now()
                     last_progress = (last_progress[0] + max(0.0, last_plan_t - t_plan), last_progress[1])
                     if plan is None:
                         self.plan_failures += 1
                         log.warning("pilot: no cross-country plan from (%.1f, %.1f): %s", x, y, why)
+                        back = retreat_path(trail, self.opts.retreat_m) if start_refused and retreats < self.opts.max_retreats else None
+                        if back is not None:
+                            retreats += 1
+                            log.warning("pilot: backing up %.1f m along the track it came on (%d)", back.length, retreats)
+                            current, reaches_goal, retreating = None, False, True
+                            path_end = (float(back.poses[-1, 0]), float(back.poses[-1, 1]))
+                            trail = trail[:len(trail) - len(back.poses) + 1]
+                            await p.planner.post(seg, back, estimator.world_from_local(), (), min(1.0, seg.constraints.speed_limit or cfg.max_speed),
+                                                 True, clock.now())
                     else:
-                        reaches_goal = reaches_goal_now
+                        reaches_goal, retreating = reaches_goal_now, False
                         current = plan
                         end = self.vehicle.origin_of(plan.poses[-1:])[0]
                         path_end = (float(end[0]), float(end[1]))
@@ -211,8 +256,9 @@ class CrossCountryDriving:
         return all(hier.classify(float(px), float(py), float(th))[0] == ADMISSIBLE for px, py, th in plan.poses[near:])
 
     def _plan(self, planner: CrossCountryPlanner, pose: tuple[float, float, float],
-              goal: tuple[float, float]) -> tuple[CrossCountryPlan | None, bool, str]:
-        """Return (a plan to the goal or to the best frontier point, whether it reaches the goal, why none was found).
+              goal: tuple[float, float]) -> tuple[CrossCountryPlan | None, bool, str, bool]:
+        """Return (a plan to the goal or to the best frontier point, whether it reaches the goal, why none was found,
+        whether the configuration the vehicle stands in was refused).
 
         `pose` is the vehicle's pose frame; the planner's configurations are its reference point, so the goal
         for the reference point lies `reference_ahead` beyond the goal on the line from the vehicle.
@@ -224,20 +270,20 @@ class CrossCountryDriving:
         goal = (goal[0] + self.vehicle.reference_ahead * math.cos(ahead), goal[1] + self.vehicle.reference_ahead * math.sin(ahead))
         planner.settings = opts.planner.model_copy(update={"goal_tolerance": opts.goal_tolerance_m})
         try:
-            return planner.plan(start, (goal[0], goal[1], 0.0)), True, ""
+            return planner.plan(start, (goal[0], goal[1], 0.0)), True, "", False
         except InadmissibleStart as exc:
-            return None, False, str(exc)
+            return None, False, str(exc), True
         except TerrainPlanningError as exc:
             why = str(exc)
         planner.settings = opts.planner.model_copy(update={"goal_tolerance": opts.frontier_tolerance_m,
                                                            "max_states": opts.frontier_states})
         for gx, gy in frontier_goals(start[0], start[1], goal, opts):
             try:
-                return planner.plan(start, (gx, gy, 0.0)), False, ""
+                return planner.plan(start, (gx, gy, 0.0)), False, "", False
             except InadmissibleGoal:
                 continue
             except InadmissibleStart as exc:
-                return None, False, str(exc)
+                return None, False, str(exc), True
             except TerrainPlanningError as exc:
                 why = str(exc)
-        return None, False, why
+        return None, False, why, False

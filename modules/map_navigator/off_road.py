@@ -19,8 +19,8 @@ __all__ = ["OFF_ROAD_CORRIDOR_M", "OFF_ROAD_SPEED_M_S", "off_road_plan"]
 #: Width [m] of the corridor around the straight line in which the PILOT keeps its terrain map (30 m a side).
 OFF_ROAD_CORRIDOR_M = 60.0
 #: Speed limit [m/s] across country: the planner's path is checked for a vehicle that keeps to it within
-#: 0.1 m, and the laser sees the ground 6–20 m ahead; the 1990 cross-country runs went at walking pace.
-OFF_ROAD_SPEED_M_S = 1.5
+#: 0.25 m, and the laser sees the ground 6–20 m ahead; the 1990 cross-country runs went at walking pace.
+OFF_ROAD_SPEED_M_S = 1.0
 
 
 def off_road_plan(step: MissionStep, start_xy: tuple[float, float], plan_id: str, revision: int) -> tuple[RoutePlan, RouteSegmentDescription]:

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+
 import pytest
 
 from codger.pilot.cross_country import CrossCountryOptions, frontier_goals, plans_on_terrain
@@ -101,3 +103,15 @@ def test_a_plan_that_backs_up_reaches_the_helm_with_the_road_planners_directions
     assert path.s.tolist() == pytest.approx([0.0, 0.2, 0.4, 0.6, 0.8])
     navlab = planned_path(plan, NAVLAB_TERRAIN)  # its pose frame is its rear axle, 1.85 m behind the planner's point
     assert navlab.poses[:, 0].tolist() == pytest.approx([-1.85, -1.65, -1.45, -1.65, -1.85])
+
+
+def test_backing_up_retraces_the_vehicles_own_track_in_reverse() -> None:
+    from codger.pilot.cross_country import retreat_path
+
+    trail = [(float(x), 0.5 * float(x), 0.46) for x in np.arange(0.0, 10.01, 0.25)]  # oldest first
+    back = retreat_path(trail, 4.0)
+    assert back is not None and (back.direction == -1.0).all()
+    assert tuple(back.poses[0]) == trail[-1]  # from where the vehicle stands
+    assert 4.0 <= back.length < 4.0 + 0.3
+    assert all(tuple(p) in trail for p in back.poses)  # only where it has been
+    assert retreat_path(trail[:4], 4.0) is None  # too little track to back up on

@@ -26,14 +26,13 @@ import numpy as np
 from blackboard import Spec
 from blackboard.errors import BlackboardError
 from modules.pilot.planner import PlannedPath, path_curvature
-from modules.terrain.constraints import ADMISSIBLE
 from modules.terrain.cross_country_planner import CrossCountryPlan, CrossCountryPlanner, CrossCountrySettings
 from modules.terrain.errors import InadmissibleGoal, InadmissibleStart, TerrainPlanningError
 from modules.terrain.terrain_map import TerrainMap
 from modules.terrain.vehicle_model import TerrainVehicle, terrain_vehicle_for
 from modules.vocabulary import RouteSegmentDescription, TerrainTile
 
-__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals", "planned_path", "retreat_path"]
+__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals", "planned_path", "first_leg", "retreat_path"]
 
 log = logging.getLogger(__name__)
 
@@ -48,7 +47,12 @@ def plans_on_terrain(seg: RouteSegmentDescription) -> bool:
 
 @dataclass(frozen=True)
 class CrossCountryOptions:
-    """How the PILOT drives across country: re-planning [s] sim, frontier goals [m], [rad], the planner's settings."""
+    """How the PILOT drives across country: re-planning [s] sim, frontier goals [m], [rad], the planner's settings.
+
+    A plan is re-made when tiles arrive (at most every `replan_s`), within `near_end_m` of its end, or when the
+    vehicle has not moved for `stall_s`; a manoeuvre is handed to the HELM one leg at a time, the next planned
+    within `leg_end_m` of the leg's end. `trail_m` of the vehicle's own track is kept to back up `retreat_m` on.
+    """
 
     replan_s: float = 1.0
     near_end_m: float = 4.0
@@ -57,6 +61,8 @@ class CrossCountryOptions:
     goal_tolerance_m: float = 0.5
     frontier_tolerance_m: float = 1.5
     frontier_states: int = 15_000
+    leg_end_m: float = 0.6
+    stall_s: float = 4.0
     trail_m: float = 12.0
     retreat_m: float = 4.0
     max_retreats: int = 6
@@ -98,6 +104,17 @@ def planned_path(plan: CrossCountryPlan, vehicle: TerrainVehicle) -> PlannedPath
     return PlannedPath(poses=poses, s=s, direction=direction, curvature=path_curvature(poses) * direction)
 
 
+def first_leg(path: PlannedPath) -> PlannedPath:
+    """Return `path` up to its first change of direction (all of it when it has none): the HELM drives one leg at a time."""
+    change = np.flatnonzero(path.direction[1:-1] != path.direction[:-2])
+    if not len(change):
+        return path
+    n = int(change[0]) + 2  # through the pose where the direction changes
+    direction = path.direction[:n].copy()
+    direction[-1] = direction[-2]
+    return PlannedPath(poses=path.poses[:n], s=path.s[:n], direction=direction, curvature=path.curvature[:n])
+
+
 def retreat_path(trail: list[tuple[float, float, float]], length: float) -> PlannedPath | None:
     """Return the path backing up `length` [m] along `trail` (the vehicle's own poses, oldest first, world), or None if it is too short.
 
@@ -130,6 +147,9 @@ class CrossCountryDriving:
         self.plans = 0
         self.plan_failures = 0
         self.terrain_queries = 0
+        #: the vehicle's own poses (world, oldest first, 0.2 m apart, the last `trail_m`), kept across segments
+        self.trail: list[tuple[float, float, float]] = []
+        self.retreats = 0
 
     def _map_for(self, seg: RouteSegmentDescription, resolution: float) -> TerrainMap:
         """Return an empty terrain map over the segment's corridor (its centreline's box grown by half its width)."""
@@ -153,12 +173,10 @@ class CrossCountryDriving:
         sensed_at = -math.inf
         changed = False
         last_plan_t = -math.inf
-        current: CrossCountryPlan | None = None  # the newest plan posted (configurations of the reference point)
-        path_end: tuple[float, float] | None = None  # where it leaves the vehicle's pose frame, world [m]
+        path_end: tuple[float, float] | None = None  # where the path posted leaves the vehicle's pose frame, world [m]
         reaches_goal = False
-        trail: list[tuple[float, float, float]] = []  # the vehicle's own poses, world, at least 0.2 m apart
-        retreats = 0
-        retreating = False
+        one_leg = False  # the path posted is one leg of a manoeuvre (it ends where the vehicle changes direction)
+        moved_at = (clock.now(), tuple(float(v) for v in estimator.pose[:2]))  # when the vehicle last moved 0.2 m
         start_distance = estimator.distance_m
         last_progress = (clock.now(), math.hypot(goal[0] - estimator.pose[0], goal[1] - estimator.pose[1]))
         log.info("pilot: cross-country segment %s to (%.1f, %.1f), %.0f m", seg.segment_id, goal[0], goal[1], seg.length_m)
@@ -186,50 +204,50 @@ class CrossCountryDriving:
                     changed = terrain.paste(tile) or changed
                     sensed_at = max(sensed_at, tile.sensed_at)
                 x, y, yaw = (float(v) for v in estimator.pose)
+                trail = self.trail
                 if not trail or math.hypot(x - trail[-1][0], y - trail[-1][1]) >= 0.2:
                     trail.append((x, y, yaw))
                     while len(trail) > 2 and math.hypot(trail[1][0] - x, trail[1][1] - y) > self.opts.trail_m:
                         trail.pop(0)
+                if math.hypot(x - moved_at[1][0], y - moved_at[1][1]) >= 0.2:
+                    moved_at = (now, (x, y))
                 to_goal = math.hypot(goal[0] - x, goal[1] - y)
                 if to_goal <= seg.exit.radius_m:
                     return await p._come_to_rest(seg, f"off-road goal reached ({self.plans} cross-country plans)", start_distance)
                 near_end = path_end is not None and not reaches_goal and \
-                    math.hypot(path_end[0] - x, path_end[1] - y) < (0.5 if retreating else self.opts.near_end_m)
+                    math.hypot(path_end[0] - x, path_end[1] - y) < (self.opts.leg_end_m if one_leg else self.opts.near_end_m)
                 due = now - last_plan_t >= self.opts.replan_s
-                if planner is not None and (path_end is None or ((changed or near_end) and due)):
+                # A leg of a manoeuvre is driven to its end (a new plan from mid-leg would begin the manoeuvre again)
+                # unless the vehicle stopped on it.
+                driving_leg = one_leg and now - moved_at[0] < self.opts.stall_s
+                if planner is not None and (path_end is None or (near_end and due) or (changed and due and not driving_leg)
+                                            or (path_end is not None and now - moved_at[0] >= self.opts.stall_s and due)):
                     t_plan = clock.now()
-                    fresh, changed = changed, False
-                    if fresh and not near_end and current is not None and (current.direction is not None and (current.direction < 0).any()) \
-                            and await asyncio.to_thread(self._still_admissible, planner, current, (x, y, yaw)):
-                        # a manoeuvre that backs up is driven out while the new tiles leave it admissible: a new plan
-                        # from here would begin the manoeuvre again
-                        last_plan_t = clock.now()
-                        await clock.sleep(cfg.tick_s)
-                        continue
+                    changed = False
                     plan, reaches_goal_now, why, start_refused = await asyncio.to_thread(self._plan, planner, (x, y, yaw), goal)
                     last_plan_t = clock.now()
                     last_progress = (last_progress[0] + max(0.0, last_plan_t - t_plan), last_progress[1])
+                    path: PlannedPath | None = None
                     if plan is None:
                         self.plan_failures += 1
                         log.warning("pilot: no cross-country plan from (%.1f, %.1f): %s", x, y, why)
-                        back = retreat_path(trail, self.opts.retreat_m) if start_refused and retreats < self.opts.max_retreats else None
-                        if back is not None:
-                            retreats += 1
-                            log.warning("pilot: backing up %.1f m along the track it came on (%d)", back.length, retreats)
-                            current, reaches_goal, retreating = None, False, True
-                            path_end = (float(back.poses[-1, 0]), float(back.poses[-1, 1]))
-                            trail = trail[:len(trail) - len(back.poses) + 1]
-                            await p.planner.post(seg, back, estimator.world_from_local(), (), min(1.0, seg.constraints.speed_limit or cfg.max_speed),
-                                                 True, clock.now())
+                        path = retreat_path(trail, self.opts.retreat_m) if start_refused and self.retreats < self.opts.max_retreats else None
+                        if path is not None:
+                            self.retreats += 1
+                            log.warning("pilot: backing up %.1f m along the track it came on (%d)", path.length, self.retreats)
+                            del trail[len(trail) - len(path.poses) + 1:]
+                            reaches_goal, one_leg = False, True
                     else:
-                        reaches_goal, retreating = reaches_goal_now, False
-                        current = plan
-                        end = self.vehicle.origin_of(plan.poses[-1:])[0]
-                        path_end = (float(end[0]), float(end[1]))
                         self.plans += 1
                         self.terrain_queries += plan.terrain_queries
-                        await p.planner.post(seg, planned_path(plan, self.vehicle), estimator.world_from_local(), (),
-                                             seg.constraints.speed_limit or cfg.max_speed, True, clock.now(),
+                        path = first_leg(planned_path(plan, self.vehicle))
+                        one_leg = path.length < planned_path(plan, self.vehicle).length - 1e-6
+                        reaches_goal = reaches_goal_now and not one_leg
+                    if path is not None:
+                        path_end = (float(path.poses[-1, 0]), float(path.poses[-1, 1]))
+                        moved_at = (clock.now(), (x, y))
+                        speed = seg.constraints.speed_limit or cfg.max_speed
+                        await p.planner.post(seg, path, estimator.world_from_local(), (), speed, True, clock.now(),
                                              sensed_at=sensed_at if math.isfinite(sensed_at) else None)
                 if to_goal < last_progress[1] - 0.2:
                     last_progress = (now, to_goal)
@@ -246,14 +264,6 @@ class CrossCountryDriving:
                 await mon.close()
             except BlackboardError:
                 pass
-
-    def _still_admissible(self, planner: CrossCountryPlanner, plan: CrossCountryPlan, pose: tuple[float, float, float]) -> bool:
-        """Return whether the rest of `plan` from the configuration nearest the vehicle at `pose` is admissible on the map now."""
-        ref = self.vehicle.reference_of(*pose)
-        near = int(np.argmin(np.hypot(plan.poses[:, 0] - ref[0], plan.poses[:, 1] - ref[1])))
-        hier = planner.hierarchy
-        hier.reset()  # the pyramid changed under the cache
-        return all(hier.classify(float(px), float(py), float(th))[0] == ADMISSIBLE for px, py, th in plan.poses[near:])
 
     def _plan(self, planner: CrossCountryPlanner, pose: tuple[float, float, float],
               goal: tuple[float, float]) -> tuple[CrossCountryPlan | None, bool, str, bool]:

@@ -115,3 +115,15 @@ def test_backing_up_retraces_the_vehicles_own_track_in_reverse() -> None:
     assert 4.0 <= back.length < 4.0 + 0.3
     assert all(tuple(p) in trail for p in back.poses)  # only where it has been
     assert retreat_path(trail[:4], 4.0) is None  # too little track to back up on
+
+
+def test_a_manoeuvre_goes_to_the_helm_one_leg_at_a_time() -> None:
+    from codger.pilot.cross_country import first_leg
+    from modules.pilot.planner import PlannedPath
+
+    poses = np.array([[0.0, 0, 0], [0.2, 0, 0], [0.4, 0, 0], [0.2, 0, 0], [0.0, 0, 0], [0.2, 0.1, 0.3]])
+    path = PlannedPath(poses=poses, s=np.arange(6) * 0.2, direction=np.array([1.0, 1, -1, -1, 1, 1]), curvature=np.zeros(6))
+    leg = first_leg(path)
+    assert leg.poses.tolist() == poses[:3].tolist() and (leg.direction == 1.0).all()  # up to the cusp, forward
+    whole = PlannedPath(poses=poses[:3], s=np.arange(3) * 0.2, direction=np.ones(3), curvature=np.zeros(3))
+    assert first_leg(whole) is whole

@@ -32,7 +32,7 @@ from modules.terrain.terrain_map import TerrainMap
 from modules.terrain.vehicle_model import TerrainVehicle, terrain_vehicle_for
 from modules.vocabulary import RouteSegmentDescription, TerrainTile
 
-__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals", "planned_path", "first_leg", "retreat_path"]
+__all__ = ["CROSS_COUNTRY_MODE", "CrossCountryDriving", "CrossCountryOptions", "plans_on_terrain", "frontier_goals", "planned_path", "first_leg", "retreat_path", "stop_path"]
 
 log = logging.getLogger(__name__)
 
@@ -113,6 +113,13 @@ def first_leg(path: PlannedPath) -> PlannedPath:
     direction = path.direction[:n].copy()
     direction[-1] = direction[-2]
     return PlannedPath(poses=path.poses[:n], s=path.s[:n], direction=direction, curvature=path.curvature[:n])
+
+
+def stop_path(pose: tuple[float, float, float], length: float = 0.3) -> PlannedPath:
+    """Return a path `length` [m] straight ahead of `pose` (x, y [m], yaw [rad], world) that ends in a stop: the HELM brakes now."""
+    x, y, yaw = pose
+    poses = np.array([[x, y, yaw], [x + length * math.cos(yaw), y + length * math.sin(yaw), yaw]])
+    return PlannedPath(poses=poses, s=np.array([0.0, length]), direction=np.ones(2), curvature=np.zeros(2))
 
 
 def retreat_path(trail: list[tuple[float, float, float]], length: float) -> PlannedPath | None:
@@ -213,6 +220,8 @@ class CrossCountryDriving:
                     moved_at = (now, (x, y))
                 to_goal = math.hypot(goal[0] - x, goal[1] - y)
                 if to_goal <= seg.exit.radius_m:
+                    # stop here: the path being driven may go on (past the goal, or backing up from a refused start)
+                    await p.planner.post(seg, stop_path((x, y, yaw)), estimator.world_from_local(), (), 0.5, True, clock.now())
                     return await p._come_to_rest(seg, f"off-road goal reached ({self.plans} cross-country plans)", start_distance)
                 near_end = path_end is not None and not reaches_goal and \
                     math.hypot(path_end[0] - x, path_end[1] - y) < (self.opts.leg_end_m if one_leg else self.opts.near_end_m)

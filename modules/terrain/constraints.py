@@ -643,13 +643,38 @@ def configuration_bits(feat: np.ndarray, offsets: np.ndarray, dims: np.ndarray, 
             over_clear = min(over_clear, boxes[b, 4])
     reach = math.hypot(max(-body[0], body[1]), max(-body[2], body[3])) + res
     i0, i1 = int(math.floor((y - reach) / res)), int(math.floor((y + reach) / res))
-    j0, j1 = int(math.floor((x - reach) / res)), int(math.floor((x + reach) / res))
     patch = sc[S_PATCH]
+    # Each row's cells span only the x the body's rectangle covers there (a scan line), grown by a cell.
+    cu = np.array([body[0], body[1], body[1], body[0]])
+    cv = np.array([body[2], body[2], body[3], body[3]])
+    px = x + c * cu - s * cv
+    py = y + s * cu + c * cv
+    span = np.empty((i1 - i0 + 1, 2), np.int64)
+    for r in range(i1 - i0 + 1):
+        yc = (i0 + r + 0.5) * res
+        lo, hi = np.inf, -np.inf
+        for e in range(4):
+            ax, ay, bx, by = px[e], py[e], px[(e + 1) % 4], py[(e + 1) % 4]
+            ya, yb = min(ay, by) - res, max(ay, by) + res
+            if yc < ya or yc > yb:
+                continue
+            if abs(by - ay) < 1e-12:
+                lo, hi = min(lo, ax, bx), max(hi, ax, bx)
+            else:
+                t = min(max((yc - ay) / (by - ay), 0.0), 1.0)
+                xe = ax + t * (bx - ax)
+                lo, hi = min(lo, xe), max(hi, xe)
+        if lo > hi:
+            span[r, 0], span[r, 1] = 1, 0
+        else:
+            # grown by two cells: a wheel patch may reach past the body's edge
+            span[r, 0] = int(math.floor((lo - 2.0 * res) / res))
+            span[r, 1] = int(math.floor((hi + 2.0 * res) / res))
     zw = np.full(nw, -np.inf)
     unknown = 0.0
     step = 0.0
     for i in range(i0, i1 + 1):
-        for j in range(j0, j1 + 1):
+        for j in range(span[i - i0, 0], span[i - i0, 1] + 1):
             cx, cy = (j + 0.5) * res - x, (i + 0.5) * res - y
             u, v = c * cx + s * cy, -s * cx + c * cy
             inside = 0 <= i < ny and 0 <= j < nx
@@ -682,7 +707,7 @@ def configuration_bits(feat: np.ndarray, offsets: np.ndarray, dims: np.ndarray, 
     if abs(tp) > sc[S_TAN_PITCH] or abs(tr) > sc[S_TAN_ROLL]:
         bits |= B_TIP
     for i in range(max(i0, 0), min(i1 + 1, ny)):
-        for j in range(max(j0, 0), min(j1 + 1, nx)):
+        for j in range(max(span[i - i0, 0], 0), min(span[i - i0, 1] + 1, nx)):
             m = base + i * w0 + j
             if feat[m, F_COUNT] <= 0.0:
                 continue

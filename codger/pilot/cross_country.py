@@ -229,8 +229,8 @@ class CrossCountryDriving:
                 # A leg of a manoeuvre is driven to its end (a new plan from mid-leg would begin the manoeuvre again)
                 # unless the vehicle stopped on it.
                 driving_leg = one_leg and now - moved_at[0] < self.opts.stall_s
-                if planner is not None and (path_end is None or (near_end and due) or (changed and due and not driving_leg)
-                                            or (path_end is not None and now - moved_at[0] >= self.opts.stall_s and due)):
+                if planner is not None and due and (path_end is None or near_end or (changed and not driving_leg)
+                                                    or now - moved_at[0] >= self.opts.stall_s):
                     t_plan = clock.now()
                     changed = False
                     plan, reaches_goal_now, why, start_refused = await asyncio.to_thread(self._plan, planner, (x, y, yaw), goal)

@@ -289,12 +289,12 @@ def _step_report(rec: RunRecord, i: int, outcomes: dict[int, StepOutcome], origi
     return report, cte_first, cte_newest
 
 
-def _disagreement(claimed: bool, claimed_reason: str, steps: list[StepReport], collisions: int) -> str:
+def _disagreement(claimed: bool, claimed_reason: str, steps: list[StepReport], collisions: int, stranded: tuple[str, ...] = ()) -> str:
     """Name why truth and claim differ (or the claimed reason when both say failure)."""
     misses = [f"step {i + 1} {s.name!r} " + ("was never reached" if s.distance_m is None else
                                              f"ended {s.distance_m:.2f} m from its destination (tolerance {s.tolerance_m:.2f} m)")
               for i, s in enumerate(steps) if not s.success]
-    truth = misses + ([f"{collisions} collision(s)"] if collisions else [])
+    truth = misses + ([f"{collisions} collision(s)"] if collisions else []) + [f"the vehicle {k}" for k in stranded]
     if claimed and truth:
         return "the robot claimed success, but by truth " + "; ".join(truth)
     if not claimed and not truth:
@@ -327,8 +327,11 @@ def build_report(rec: RunRecord) -> RunReport:
         ctes_newest.append(cn)
     events = [e for e in rec.events if t0 <= e.stamp <= settled]
     collisions = sum(1 for e in events if e.kind == "collision")
+    # on rough ground (issue 40) the simulator's truth also says when the vehicle tipped over or high-centred
+    stranded = tuple(sorted({"tipped over" if e.kind == "tip-over" else "high-centred" for e in events
+                             if e.kind in ("tip-over", "high-centred")}))
     claimed = final is not None and final.state == "succeeded"
-    success = all(s.success for s in steps) and collisions == 0
+    success = all(s.success for s in steps) and collisions == 0 and not stranded
     claimed_reason = rec.stop_reason or (final.reason if final is not None else "no mission status was ever seen")
     goal = _goal_point(rec, len(rec.destinations) - 1)
     goal_error = None
@@ -345,7 +348,7 @@ def build_report(rec: RunRecord) -> RunReport:
         architecture=rec.architecture,
         success=success,
         claimed_success=claimed,
-        reason="" if success and claimed else _disagreement(claimed, claimed_reason, steps, collisions),
+        reason="" if success and claimed else _disagreement(claimed, claimed_reason, steps, collisions, stranded),
         mission=rec.mission.name,
         world=rec.world,
         vehicle=rec.vehicle,

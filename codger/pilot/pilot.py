@@ -21,6 +21,7 @@ from blackboard.errors import BlackboardError
 from modules.captain.arrival import REST_TIMEOUT_S, RestDetector
 from modules.pilot.config import PilotConfig
 from runtime.watch import HeartbeatWatch
+from codger.pilot.cross_country import CrossCountryDriving, plans_on_terrain
 from codger.pilot.driving_monitor import DrivingMonitor
 from codger.pilot.driving_unit_finder import DrivingUnitFinder
 from codger.pilot.driving_unit_navigator import DrivingUnitNavigator, UnitConstraints
@@ -50,6 +51,8 @@ class Pilot:
         self.finder = DrivingUnitFinder(rt.bb, cfg, self.estimator)
         self.navigator = DrivingUnitNavigator(rt.bb, cfg)
         self.planner = LocalPathPlanning(rt.bb, cfg)
+        #: the cross-country part: segments to an off-road goal are planned on the terrain tiles
+        self.cross_country = CrossCountryDriving(self)
         self.plan_failures = 0
         self.landmark_events: asyncio.Queue = asyncio.Queue()
         #: the HELM's heartbeat: while it is silent (wedged) the vehicle cannot move, which is no lack of progress
@@ -118,6 +121,8 @@ class Pilot:
     async def _drive_segment(self, seg_tok):
         """Drive one segment to its exit; post its result; return a newer segment that pre-empted it."""
         seg: RouteSegmentDescription = seg_tok.attrs
+        if plans_on_terrain(seg):
+            return await self.cross_country.drive(seg_tok)
         cfg, clock = self.cfg, self.rt.clock
         monitor, finder, estimator = self.monitor, self.finder, self.estimator
         try:

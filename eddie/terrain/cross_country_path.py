@@ -63,8 +63,10 @@ def terrain_path(terrain: TerrainMap, start_world: tuple[float, float, float], g
     Raises the planner's `TerrainPlanningError` (inadmissible start or goal, no admissible path).
     """
     planner = CrossCountryPlanner(terrain.pyramid, terrain.vehicle, cfg.planner)
-    plan = planner.plan(start_world, (float(goal_world[0]), float(goal_world[1]), 0.0))
+    # the planner's configurations are the vehicle's reference point, the controller's poses its pose frame
+    plan = planner.plan(terrain.vehicle.reference_of(*start_world), (float(goal_world[0]), float(goal_world[1]), 0.0))
     head, whole = _cut(plan, cfg.lookahead_m)
+    head = terrain.vehicle.origin_of(head)
     lfw = np.asarray(local_from_world, np.float64)
     xy = transform_points(lfw, head[:, :2])
     yaw = wrap_angle(head[:, 2] + lfw[2])

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field, replace
 
 from modules.map_navigator.describe import DescribeOptions, describe_segment
 from modules.map_navigator.mapdata import MapData
+from modules.map_navigator.off_road import off_road_plan
 from modules.map_navigator.route import NoRouteError, Route, RouteError, RouteOptions, select_route
 from modules.map_navigator.segments import SegmentOptions, SegmentPlan, segment_route
 from modules.vocabulary import MissionStep, RoutePlan, RouteSegmentDescription, SegmentResult, StepResult
@@ -122,6 +123,12 @@ class StepJob:
         """Plan (or replan) from the current position; return the plan, or the step's result if done/failed."""
         self.revision += 1
         self.retried = False
+        if self.step.destination.off_road:  # no road: one cross-country segment the PILOT plans on the terrain
+            plan, seg = off_road_plan(self.step, self.position, self.plan_id, self.revision)
+            self._plans = []
+            self.cursor = 0
+            self.planned = Planned(plan, (seg,))
+            return self.planned
         try:
             route = self._route()
         except RouteError as exc:
@@ -168,7 +175,8 @@ class StepJob:
             return nxt
         if res.end_xy is not None:
             self.position = res.end_xy
-        self.blocked.update(self._plans[self.cursor].edge_ids)
+        if self._plans:
+            self.blocked.update(self._plans[self.cursor].edge_ids)
         self._retreat = _travel_direction(seg.centreline, self.position)
         why = f"segment {seg.segment_index} ({seg.mode}) failed: {res.reason or 'no reason given'}"
         # A retry of the same way that got nowhere (< RETRY_MIN_PROGRESS_M) is not tried yet again.

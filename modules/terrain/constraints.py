@@ -38,12 +38,12 @@ from numba import njit
 
 from modules.terrain.elevation_grid import ElevationGrid
 from modules.terrain.errors import TerrainError
-from modules.terrain.pyramid import (F_ABOVE, F_BELOW, F_CELLS, F_COUNT, F_DISC, F_PGX, F_PGY, F_PZ, F_SX, F_SXX,
+from modules.terrain.pyramid import (F_ABOVE, F_BELOW, F_CELLS, F_COUNT, F_DISC, F_ZMAX, F_PGX, F_PGY, F_PZ, F_SX, F_SXX,
                                      F_SXY, F_SXZ, F_SY, F_SYY, F_SYZ, F_ZSUM, TerrainPyramid)
 from modules.terrain.vehicle_model import TerrainVehicle
 
 __all__ = ["Constraint", "constraints_in", "ConfigurationVerdict", "evaluate_configuration", "VehicleArrays",
-           "voxel_bounds", "wheel_patch_on", "allowed_unknown", "ADMISSIBLE", "INADMISSIBLE", "MIXED"]
+           "voxel_bounds", "configuration_bits", "wheel_patch_on", "allowed_unknown", "ADMISSIBLE", "INADMISSIBLE", "MIXED"]
 
 
 class Constraint(str, Enum):
@@ -617,3 +617,108 @@ def voxel_bounds(feat: np.ndarray, offsets: np.ndarray, dims: np.ndarray, res: f
         if not kk + above + worst <= boxes[b, 4]:
             return MIXED, 0, bit
     return ADMISSIBLE, 0, 0
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def configuration_bits(feat: np.ndarray, offsets: np.ndarray, dims: np.ndarray, res: float, ny: int, nx: int,
+                       wheels: np.ndarray, boxes: np.ndarray, body: np.ndarray, sc: np.ndarray, x: float, y: float,
+                       th: float) -> int:
+    """Return the bits of the constraints configuration (x, y [m] from the grid's origin, θ [rad]) violates, cell by cell.
+
+    The compiled twin of `evaluate_configuration`, on the pyramid's level-0 nodes (one per cell): the
+    exact answer at the pixel resolution where the voxel bounds are too loose to decide.
+    """
+    c, s = math.cos(th), math.sin(th)
+    w0 = dims[0, 1]
+    base = offsets[0]
+    nw = wheels.shape[0]
+    ua0, ua1 = wheels[0, 0], wheels[0, 0]
+    for k in range(nw):
+        ua0, ua1 = min(ua0, wheels[k, 0]), max(ua1, wheels[k, 0])
+    belly_clear, over_clear = np.inf, np.inf
+    for b in range(boxes.shape[0]):
+        if boxes[b, 5] == 0.0:
+            belly_clear = min(belly_clear, boxes[b, 4])
+        else:
+            over_clear = min(over_clear, boxes[b, 4])
+    reach = math.hypot(max(-body[0], body[1]), max(-body[2], body[3])) + res
+    i0, i1 = int(math.floor((y - reach) / res)), int(math.floor((y + reach) / res))
+    patch = sc[S_PATCH]
+    # Each row's cells span only the x the body's rectangle covers there (a scan line), grown by a cell.
+    cu = np.array([body[0], body[1], body[1], body[0]])
+    cv = np.array([body[2], body[2], body[3], body[3]])
+    px = x + c * cu - s * cv
+    py = y + s * cu + c * cv
+    span = np.empty((i1 - i0 + 1, 2), np.int64)
+    for r in range(i1 - i0 + 1):
+        yc = (i0 + r + 0.5) * res
+        lo, hi = np.inf, -np.inf
+        for e in range(4):
+            ax, ay, bx, by = px[e], py[e], px[(e + 1) % 4], py[(e + 1) % 4]
+            ya, yb = min(ay, by) - res, max(ay, by) + res
+            if yc < ya or yc > yb:
+                continue
+            if abs(by - ay) < 1e-12:
+                lo, hi = min(lo, ax, bx), max(hi, ax, bx)
+            else:
+                t = min(max((yc - ay) / (by - ay), 0.0), 1.0)
+                xe = ax + t * (bx - ax)
+                lo, hi = min(lo, xe), max(hi, xe)
+        if lo > hi:
+            span[r, 0], span[r, 1] = 1, 0
+        else:
+            # grown by two cells: a wheel patch may reach past the body's edge
+            span[r, 0] = int(math.floor((lo - 2.0 * res) / res))
+            span[r, 1] = int(math.floor((hi + 2.0 * res) / res))
+    zw = np.full(nw, -np.inf)
+    unknown = 0.0
+    step = 0.0
+    for i in range(i0, i1 + 1):
+        for j in range(span[i - i0, 0], span[i - i0, 1] + 1):
+            cx, cy = (j + 0.5) * res - x, (i + 0.5) * res - y
+            u, v = c * cx + s * cy, -s * cx + c * cy
+            inside = 0 <= i < ny and 0 <= j < nx
+            known = inside and feat[base + i * w0 + j, F_COUNT] > 0.0
+            if body[0] <= u <= body[1] and body[2] <= v <= body[3] and not known:
+                unknown += 1.0
+            if not known:
+                continue
+            m = base + i * w0 + j
+            for k in range(nw):
+                if math.hypot(u - wheels[k, 0], v - wheels[k, 1]) <= patch:
+                    zw[k] = max(zw[k], feat[m, F_ZMAX])
+                    d = feat[m, F_DISC]
+                    if d == d:
+                        step = max(step, d)
+    bits = 0
+    if unknown > sc[S_ALLOWED]:
+        bits |= B_SENSING
+    if step > sc[S_STEP]:
+        bits |= B_COLLIDE
+    for k in range(nw):
+        if zw[k] == -np.inf:
+            return bits | B_SENSING
+    zbar = 0.0
+    tp = tr = 0.0
+    for k in range(nw):
+        zbar += zw[k] / nw
+        tp += wheels[k, 0] * zw[k] / sc[S_SUU]
+        tr += wheels[k, 1] * zw[k] / sc[S_SVV]
+    if abs(tp) > sc[S_TAN_PITCH] or abs(tr) > sc[S_TAN_ROLL]:
+        bits |= B_TIP
+    for i in range(max(i0, 0), min(i1 + 1, ny)):
+        for j in range(max(span[i - i0, 0], 0), min(span[i - i0, 1] + 1, nx)):
+            m = base + i * w0 + j
+            if feat[m, F_COUNT] <= 0.0:
+                continue
+            cx, cy = (j + 0.5) * res - x, (i + 0.5) * res - y
+            u, v = c * cx + s * cy, -s * cx + c * cy
+            if not (body[0] <= u <= body[1] and body[2] <= v <= body[3]):
+                continue
+            rise = feat[m, F_ZMAX] - (zbar + u * tp + v * tr)
+            if ua0 <= u <= ua1:
+                if rise > belly_clear:
+                    bits |= B_HIGH
+            elif rise > over_clear:
+                bits |= B_COLLIDE
+    return bits

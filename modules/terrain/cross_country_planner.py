@@ -4,7 +4,8 @@ The three kinds of constraint: *sensing* and *environmental* ones (tip-over, hig
 collision; `constraints`) are evaluated on voxels of the configuration space, whole voxels at a
 time, by the `resolution_hierarchy` over the terrain pyramid; *kinematic* ones shape the motions
 the search may make — forward arcs no tighter than the minimum turning radius (the Navlab: 7 m),
-and for a skid-steered vehicle (the Terregator) turns in place as well. The search is a weighted
+for a skid-steered vehicle (the Terregator) turns in place as well, and, with `reverse_cost`, the same arcs
+backed up (at a higher cost per metre). The search is a weighted
 hybrid A*: states are continuous configurations, a lattice of `closed_cell` [m] × `lattice_headings`
 keeps one state per cell, and every motion is sampled every `sample` [m] (or heading step); each
 sample must lie in an admissible voxel — of whatever level decided it — or be admissible itself.
@@ -53,6 +54,8 @@ class CrossCountrySettings(BaseModel):
     step: float = Field(1.5, gt=0.0, description="arc length of one motion [m]")
     sample: float = Field(0.2, gt=0.0, description="a motion is checked at most this far apart [m]")
     arcs: int = Field(5, ge=1, description="motions per state: curvatures evenly spread over ±1/turning radius (odd: one straight)")
+    reverse_cost: float | None = Field(None, gt=0.0, description="backing up: the same arcs driven in reverse, each metre costing this many "
+                                       "(None: forward only) — how a car-like vehicle gets out of a dead end")
     skid_turning_radius: float = Field(2.0, gt=0.0, description="tightest arc of a skid-steered vehicle besides its turns in place [m]")
     turn_in_place: float = Field(math.radians(22.5), gt=0.0, description="heading change of one turn in place [rad] (skid steer)")
     turn_cost: float = Field(0.5, ge=0.0, description="cost of heading change [m/rad], added to the distance driven")
@@ -79,6 +82,7 @@ class CrossCountryPlan:
     configuration itself). `terrain_queries` voxels (and single configurations) classified from the
     pyramid, `node_reads` pyramid nodes they read, `voxels` per level and class;
     `fine_configurations` what a pixel-sized tessellation of the map would evaluate (cells × headings).
+    `direction` (n,) float64 +1 where the motion reaching the pose drives forward, −1 where it backs up.
     """
 
     poses: np.ndarray
@@ -92,6 +96,7 @@ class CrossCountryPlan:
     expansions: int
     states: int
     plan_ms: float
+    direction: np.ndarray | None = None
 
 
 class CrossCountryPlanner:
@@ -161,8 +166,13 @@ class CrossCountryPlanner:
         poses[:, 2] = wrap_angle(poses[:, 2])
         length = float(np.hypot(*np.diff(poses[:, :2], axis=0).T).sum())
         ny, nx = p.shape
+        step = np.diff(poses[:, :2], axis=0)
+        along = step[:, 0] * np.cos(poses[1:, 2]) + step[:, 1] * np.sin(poses[1:, 2])
+        direction = np.concatenate([[1.0], np.where(along < 0.0, -1.0, 1.0)])
+        if len(direction) > 1:
+            direction[0] = direction[1]
         return CrossCountryPlan(poses, curv, levels, length, queries, reads, voxels, ny * nx * s.headings,
-                                int(expansions), int(nstates), (time.perf_counter() - t0) * 1e3)
+                                int(expansions), int(nstates), (time.perf_counter() - t0) * 1e3, direction)
 
     def _check_goal(self, gx: float, gy: float, gth: float) -> None:
         s, hier = self.settings, self.hierarchy
@@ -197,6 +207,14 @@ def _motions(vehicle: TerrainVehicle, s: CrossCountrySettings) -> tuple[np.ndarr
             rows.append((d, np.zeros(m), np.zeros(m), s.step, 0.0))
         else:
             rows.append((np.sin(k * d) / k, (1.0 - np.cos(k * d)) / k, k * d, s.step * (1.0 + s.turn_cost * abs(k)), k))
+    if s.reverse_cost is not None:
+        for k in kappas:
+            d = -s.step * np.arange(1, m + 1) / m
+            if abs(k) < 1e-12:
+                rows.append((d, np.zeros(m), np.zeros(m), s.step * s.reverse_cost, 0.0))
+            else:
+                rows.append((np.sin(k * d) / k, (1.0 - np.cos(k * d)) / k, k * d,
+                             s.step * s.reverse_cost * (1.0 + s.turn_cost * abs(k)), k))
     if vehicle.steering == "skid":
         # Turning in place: heading samples no farther apart than a sample's arc turns at the tightest radius.
         mr = int(math.ceil(s.turn_in_place / (s.sample * kmax) - 1e-9))

@@ -25,6 +25,7 @@ from modules.terrain.pyramid import TerrainPyramid
 from modules.terrain.range_image import RangeImage
 from modules.terrain.vehicle_model import TerrainVehicle
 from modules.terrain.vehicle_pose import VehiclePose
+from modules.terrain.wheel_footprint import FOOTPRINT_MARGIN_M, footprint_heights
 from modules.vocabulary.terrain import TerrainTile
 
 __all__ = ["TerrainMap", "TileIndex"]
@@ -85,10 +86,25 @@ class TerrainMap:
         self.grid.sigma[i0:i1, j0:j1] = merged.sigma
         self.pyramid.update(self.grid, i0, i1, j0, j1)
         self.images += 1
+        return self._tiles_around(i0, i1, j0, j1), off.dz
+
+    def add_footprint(self, pose: VehiclePose, ahead: float = 0.0, margin: float = FOOTPRINT_MARGIN_M) -> list[TileIndex]:
+        """Write the vehicle's own plane at `pose` into the unknown cells under it (and `ahead` [m] of it); return the tiles changed.
+
+        See `modules.terrain.wheel_footprint`: the ground the wheels stand on, which the laser never sees.
+        """
+        block = footprint_heights(self.grid, pose, self.vehicle, ahead=ahead, margin=margin)
+        if block is None:
+            return []
+        i0, i1, j0, j1 = block
+        self.pyramid.update(self.grid, i0, i1, j0, j1)
+        return self._tiles_around(i0, i1, j0, j1)
+
+    def _tiles_around(self, i0: int, i1: int, j0: int, j1: int) -> list[TileIndex]:
+        """Return the tiles of the block (i0:i1, j0:j1) and the ring of cells around it (the pyramid's slope and discontinuity there changed too)."""
         t = self.tile_cells
-        # The pyramid's slope and discontinuity of the ring around the block changed too.
         r0, r1, c0, c1 = max(i0 - 1, 0), min(i1 + 1, self.spec.ny), max(j0 - 1, 0), min(j1 + 1, self.spec.nx)
-        return [TileIndex(ti, tj) for ti in range(r0 // t, (r1 - 1) // t + 1) for tj in range(c0 // t, (c1 - 1) // t + 1)], off.dz
+        return [TileIndex(ti, tj) for ti in range(r0 // t, (r1 - 1) // t + 1) for tj in range(c0 // t, (c1 - 1) // t + 1)]
 
     def tiles(self, which: list[TileIndex], sensed_at: float) -> list[TerrainTile]:
         """Return the `terrain_tile` tokens of tiles `which`: heights, sigmas and inadmissible cells."""

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from typing import Literal
 
+import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from modules.terrain.errors import TerrainError
@@ -41,6 +42,8 @@ class TerrainVehicle(BaseModel):
     max_step: float = Field(gt=0.0, description="the largest discontinuity a wheel can stand on or climb [m] (collision)")
     steering: Literal["ackermann", "skid"] = Field(description="ackermann: forward arcs no tighter than the turning radius; skid: also turns in place")
     min_turning_radius: float = Field(ge=0.0, description="[m] (0 for a vehicle that turns in place)")
+    reference_ahead: float = Field(0.0, description="the reference point lies this far ahead of the origin of the vehicle's "
+                                   "pose frame [m] (the Navlab's frame is its rear axle, its reference point mid-wheelbase)")
 
     @model_validator(mode="after")
     def _symmetric(self) -> "TerrainVehicle":
@@ -57,6 +60,17 @@ class TerrainVehicle(BaseModel):
             if not (-self.body_rear <= u <= self.body_front and abs(v) <= self.body_half_width):
                 raise ValueError(f"{self.name}: wheel ({u}, {v}) lies outside the body")
         return self
+
+    def reference_of(self, x: float, y: float, yaw: float) -> tuple[float, float, float]:
+        """Return the configuration (x, y [m], θ [rad]) of a vehicle whose pose frame is at (x, y, yaw) (same frame)."""
+        return (x + self.reference_ahead * math.cos(yaw), y + self.reference_ahead * math.sin(yaw), yaw)
+
+    def origin_of(self, configs: np.ndarray) -> np.ndarray:
+        """Return the poses (n, 3) of the vehicle's pose frame at configurations `configs` (n, 3) x, y [m], θ [rad]: `reference_of` undone."""
+        out = np.array(configs, dtype=np.float64, copy=True).reshape(-1, 3)
+        out[:, 0] -= self.reference_ahead * np.cos(out[:, 2])
+        out[:, 1] -= self.reference_ahead * np.sin(out[:, 2])
+        return out
 
     @property
     def axle_span(self) -> tuple[float, float]:
@@ -76,13 +90,16 @@ def _four_wheels(wheelbase: float, track: float) -> tuple[tuple[float, float], .
 
 
 #: The Navlab (a Chevrolet one-ton van): wheelbase 3.7 m, track 1.75 m, 5.6 m × 2.1 m body with 1.0 m
-#: behind the rear axle (assumed); 0.20 m under the belly and 0.35 m under the bumpers (assumed);
+#: behind the rear axle (assumed); 0.20 m under the belly and the bumpers (a van's bumper hangs about as low as its
+#: floor pan; assumed), less 2 cm for the terrain map's own error (a first guess of 0.35 m under the bumpers let
+#: the planner put a bumper over a rock);
 #: 20° roll and 25° pitch, well inside a van's static tip-over angle of about 38° (assumed); a wheel
-#: climbs 0.2 m, about half its 0.38 m radius (assumed); 7 m minimum turning radius (seed §2.4).
+#: climbs 0.2 m, about half its 0.38 m radius (assumed); 7 m minimum turning radius (seed §2.4); its pose frame is
+#: its rear axle, half the wheelbase behind the reference point (as the PILOT's road planner has it).
 NAVLAB_TERRAIN = TerrainVehicle(
     name="navlab", wheels=_four_wheels(3.7, 1.75), wheel_patch=0.15, body_rear=2.85, body_front=2.75,
-    body_half_width=1.05, clearance=0.20, overhang_clearance=0.35, max_roll=math.radians(20.0),
-    max_pitch=math.radians(25.0), max_step=0.20, steering="ackermann", min_turning_radius=7.0)
+    body_half_width=1.05, clearance=0.18, overhang_clearance=0.18, max_roll=math.radians(20.0),
+    max_pitch=math.radians(25.0), max_step=0.20, steering="ackermann", min_turning_radius=7.0, reference_ahead=1.85)
 
 #: The Terregator: six wheels, skid steer turning in place (DESIGN.md); three axles 0.8 m apart, 1.5 m
 #: track, a 2.2 m × 1.8 m body, 0.25 m under the belly and the ends, 20° roll and pitch,

@@ -22,12 +22,13 @@ __all__ = [
 ]
 
 #: One navigation mode per route segment (seed §2.3.2); climb-stairs exists in the map for
-#: vehicles that can take stairs.
+#: vehicles that can take stairs; cross-country is an off-road goal with no road to it (Navlab 1990 §2.4):
+#: the PILOT plans on the terrain map, and the segment's centreline is only the straight line to the goal.
 NavigationMode = Literal[
-    "follow-road", "turn-at-intersection", "go-through-intersection", "go-through-slope", "climb-stairs",
+    "follow-road", "turn-at-intersection", "go-through-intersection", "go-through-slope", "climb-stairs", "cross-country",
 ]
 NAVIGATION_MODES: tuple[str, ...] = (
-    "follow-road", "turn-at-intersection", "go-through-intersection", "go-through-slope", "climb-stairs",
+    "follow-road", "turn-at-intersection", "go-through-intersection", "go-through-slope", "climb-stairs", "cross-country",
 )
 
 

@@ -119,6 +119,15 @@ def test_a_claimed_success_the_truth_contradicts_names_the_disagreement():
     assert r.reason == "the robot claimed success, but by truth 1 collision(s)"
 
 
+@pytest.mark.parametrize("kind, words", [("tip-over", "tipped over"), ("high-centred", "high-centred")])
+def test_a_vehicle_stranded_on_rough_ground_fails_by_truth_whatever_it_claims(kind, words):
+    r = build_report(_record(events=(SimEvent(stamp=115.0, kind=kind, x=10, y=5, object_kind="terrain"),)))
+    assert (r.success, r.claimed_success, r.collisions) == (False, True, 0)
+    assert r.reason == f"the robot claimed success, but by truth the vehicle {words}"
+    before = build_report(_record(events=(SimEvent(stamp=90.0, kind=kind, x=0, y=0, object_kind="terrain"),)))
+    assert before.success  # before the submission: not this mission's
+
+
 def test_a_claimed_failure_keeps_its_reason_or_names_the_disagreement():
     statuses = (StampedStatus(wall_s=12.1, sim_s=121.0, status=_status(state="failed", reason="no progress", last_state="failed")),)
     r = build_report(_record(statuses=statuses))  # it failed, yet the vehicle stood 0.5 m from (10, 10)

@@ -26,6 +26,8 @@ from modules.vocabulary import ObstaclePolygon, ObstacleReport
 __all__ = ["FidoObstacleDetector", "FEATURE_HALF_SIDE_M"]
 
 log = logging.getLogger("codger.fido_obstacles")
+#: each sighting that blocks the path is logged whatever SIDEWALK_LOG says: the run's log is where a stop is explained
+log.setLevel(logging.INFO)
 
 #: each obstacle feature is reported as a square this much [m] either side of it
 FEATURE_HALF_SIDE_M = 0.1
@@ -69,6 +71,6 @@ class FidoObstacleDetector(ObstacleDetector):
         self.scans += 1
         self.blocked_scans += int(blocked)
         if blocked:
-            log.info("fido: t=%.2f an obstacle feature %.1f m along the plan (%d obstacle features, %d new; %d features, %d tracked; %.0f ms)",
+            log.info("fido: t=%.2f an obstacle feature %.1f m along the plan (%d obstacle features, %d confirmed now; %d features, %d tracked; %.0f ms)",
                      seen.stamp, d, len(seen.xyz), seen.new, seen.features, seen.tracked, seen.step_ms)
         return rep

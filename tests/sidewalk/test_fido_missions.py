@@ -7,13 +7,11 @@ stop's name. The report (truth) must show a stop with the walker ahead, before i
 once it walked off. Real processes on a real Zenoh loopback, as `sidewalk run` starts them.
 """
 
-import json
-import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from tests.sidewalk._cli import run_report
 
 DATA = Path(__file__).resolve().parent / "data"
 WALKER_Y = -14.0  # where the walker stands on the dormitory walk (the actors file) [m]
@@ -24,23 +22,14 @@ WALKER_Y = -14.0  # where the walker stands on the dormitory walk (the actors fi
 @pytest.mark.parametrize("arch", ["codger", "eddie"])
 @pytest.mark.timeout(600)  # quiet run ~150 s each (busy machine: the runs took 127-190 s wall)
 def test_fido_stops_for_a_walker_in_the_lane_and_reaches_the_quad(tmp_path, arch):
-    cmd = [sys.executable, "-m", "sidewalk", "run", "--arch", arch, "--world", "campus", "--mission", str(DATA / "dorm-quad.yaml"),
-           "--actors", str(DATA / "dorm-walker.actors.yaml"), "--obstacle-sensor", "fido", "--rtf", "2", "--seed", "1",
-           "--out", str(tmp_path), "--max-wall-time", "450"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        _, stderr = proc.communicate(timeout=540)
-    except subprocess.TimeoutExpired:
-        proc.send_signal(signal.SIGINT)  # the launcher stops every process it started, then exits
-        _, stderr = proc.communicate(timeout=90)
-        pytest.fail(f"the run did not end within 540 s wall; stderr:\n{stderr[-3000:]}")
-    report_path = tmp_path / "report.json"
-    assert report_path.exists(), f"no report; stderr:\n{stderr[-3000:]}"
-    report = json.loads(report_path.read_text())
+    report, stderr = run_report(tmp_path, "--arch", arch, "--world", "campus", "--mission", str(DATA / "dorm-quad.yaml"),
+                                "--actors", str(DATA / "dorm-walker.actors.yaml"), "--obstacle-sensor", "fido", "--rtf", "2",
+                                "--seed", "1", "--max-wall-time", "450", wall_s=540)
     assert report["architecture"] == arch
     logs = tmp_path / "logs"
     sensor_log = logs / ("fido_obstacles.log" if arch == "codger" else "obstacle_stop.log")
     assert sensor_log.exists() and not (logs / "obstacles.log").exists()  # FIDO in the laser's place, not beside it
+    assert "fido: t=" in sensor_log.read_text()  # each sighting that blocked the path is in its log
     assert report["collisions"] == 0, report["reason"]
     stops = report["stops"]
     held = [s for s in stops["spans"] if s["actor"] == "walker"]

@@ -49,9 +49,9 @@ class FidoWatchConfig(BaseModel):
     #: an obstacle feature counts once it is confirmed from a second viewpoint: tracked this many steps (found again where
     #: the vehicle's motion puts it, and kept by the motion fit's χ² gate, the Cart's pruning) while the vehicle moved
     #: `min_baseline_m` [m] since its first sighting, or seen where a confirmed obstacle feature stands (the χ² gate of
-    #: their covariances and `odometry_sigma_m`). A single pair's mismatch (a horizontal edge matched at the wrong
-    #: disparity) does not move with the vehicle as a real point does, and a pair seen again from where the vehicle stood
-    #: repeats its own mismatch, so neither counts as a second look
+    #: their covariances and `odometry_sigma_m`, which holds a stop for an obstacle that stays). A single pair's mismatch
+    #: (a horizontal edge matched at the wrong disparity) does not move with the vehicle as a real point does, and a pair
+    #: seen again from where the vehicle stood repeats its own mismatch, so neither confirms a new obstacle
     min_age: int = Field(1, ge=0)
     min_baseline_m: float = Field(0.2, ge=0.0)
     odometry_sigma_m: float = Field(0.1, gt=0.0)  # [m] dead reckoning's error between two sightings, each axis
@@ -85,9 +85,8 @@ class FidoObstacleWatch:
         self.cfg = cfg
         self.memory: FidoMemory | None = None
         self._last: tuple[float, tuple[float, float, float]] | None = None
-        # per step, newest last: the confirmed obstacle features, (M, 3) float64 `local` [m] and (M, 3, 3) float64 [m²],
-        # and the vehicle's (x, y) `local` [m] there
-        self._kept: list[tuple[np.ndarray, np.ndarray, tuple[float, float]]] = []
+        # per step, newest last: the confirmed obstacle features, (M, 3) float64 `local` [m] and (M, 3, 3) float64 [m²]
+        self._kept: list[tuple[np.ndarray, np.ndarray]] = []
         self._first: dict[int, tuple[float, float]] = {}  # feature id → the vehicle's (x, y) `local` [m] at its first sighting
         self._confirmed: set[int] = set()  # ids of tracked features confirmed as obstacles
         self.steps = 0
@@ -115,22 +114,21 @@ class FidoObstacleWatch:
         ok = np.array([int(i) in self._confirmed for i in f.ids[cand]], bool).reshape(-1)
         ok |= (f.age[cand] >= self.cfg.min_age) & (moved.reshape(-1) >= self.cfg.min_baseline_m)
         if self._kept and not ok.all():
-            ok[~ok] = self._near_confirmed(in_local[~ok], cov_local[~ok], (x, y))
+            ok[~ok] = self._near_confirmed(in_local[~ok], cov_local[~ok])
         self._confirmed |= {int(i) for i in f.ids[cand][ok]}
-        self._kept = [*self._kept, (in_local[ok], cov_local[ok], (x, y))][-self.cfg.remember_steps:]
+        self._kept = [*self._kept, (in_local[ok], cov_local[ok])][-self.cfg.remember_steps:]
         kept = np.concatenate([k[0] for k in self._kept]).reshape(-1, 3)
         dx, dy = kept[:, 0] - x, kept[:, 1] - y
         xyz = np.column_stack([c * dx + s * dy, -s * dx + c * dy, kept[:, 2]])
         return FidoSighting(xyz=xyz, new=int(ok.sum()), stamp=pair.stamp, features=len(f),
                             tracked=int(f.tracked.sum()), step_ms=res.timing.total_ms)
 
-    def _near_confirmed(self, p: np.ndarray, cp: np.ndarray, here: tuple[float, float]) -> np.ndarray:
-        """Return (M,) bool: which points `p` (M, 3) `local` [m] (covariances `cp` (M, 3, 3) [m²]), seen from `here`
-        (x, y) `local` [m], lie within the χ² gate of an obstacle feature confirmed at an earlier step from a viewpoint at
-        least `min_baseline_m` away."""
-        apart = [k for k in self._kept if math.hypot(k[2][0] - here[0], k[2][1] - here[1]) >= self.cfg.min_baseline_m]
-        q = np.concatenate([np.zeros((0, 3))] + [k[0] for k in apart])
-        cq = np.concatenate([np.zeros((0, 3, 3))] + [k[1] for k in apart])
+    def _near_confirmed(self, p: np.ndarray, cp: np.ndarray) -> np.ndarray:
+        """Return (M,) bool: which points `p` (M, 3) `local` [m] (covariances `cp` (M, 3, 3) [m²]) lie within the χ² gate
+        of an obstacle feature confirmed at an earlier step (from anywhere: standing, the vehicle must go on seeing an
+        obstacle it confirmed while it moved)."""
+        q = np.concatenate([np.zeros((0, 3))] + [k[0] for k in self._kept])
+        cq = np.concatenate([np.zeros((0, 3, 3))] + [k[1] for k in self._kept])
         if not len(q):
             return np.zeros(len(p), bool)
         odo = np.diag([self.cfg.odometry_sigma_m ** 2] * 2 + [0.0])

@@ -46,12 +46,14 @@ class FidoWatchConfig(BaseModel):
     #: world model of obstacles): the interest operator does not pick the same corner in every pair. Counted in steps,
     #: not seconds: on a loaded machine a step takes longer and the memory must still span the same number of looks
     remember_steps: int = Field(8, ge=1)
-    #: an obstacle feature counts once it is confirmed from a second viewpoint: tracked this many steps (found again where
-    #: the vehicle's motion puts it, and kept by the motion fit's χ² gate, the Cart's pruning) while the vehicle moved
-    #: `min_baseline_m` [m] since its first sighting, or seen where a confirmed obstacle feature stands (the χ² gate of
-    #: their covariances and `odometry_sigma_m`, which holds a stop for an obstacle that stays). A single pair's mismatch
-    #: (a horizontal edge matched at the wrong disparity) does not move with the vehicle as a real point does, and a pair
-    #: seen again from where the vehicle stood repeats its own mismatch, so neither confirms a new obstacle
+    #: while the vehicle moves, every obstacle feature counts from its first sighting (FIDO's obstacle: one feature); once
+    #: it stands (it moved less than `still_m` [m] since the last pair), the pair repeats the last one's view, mismatches
+    #: included, and only confirmed obstacles count: features tracked this many steps (found again where the vehicle's
+    #: motion puts them, and kept by the motion fit's χ² gate, the Cart's pruning) while the vehicle moved
+    #: `min_baseline_m` [m] since their first sighting, and features seen where a confirmed one stands (the χ² gate of
+    #: their covariances and `odometry_sigma_m`). A horizontal edge matched at the wrong disparity, seen again from where
+    #: the vehicle stood, held it for good; a real obstacle seen while braking for it is confirmed and holds the stop
+    still_m: float = Field(0.05, ge=0.0)
     min_age: int = Field(1, ge=0)
     min_baseline_m: float = Field(0.2, ge=0.0)
     odometry_sigma_m: float = Field(0.1, gt=0.0)  # [m] dead reckoning's error between two sightings, each axis
@@ -85,8 +87,9 @@ class FidoObstacleWatch:
         self.cfg = cfg
         self.memory: FidoMemory | None = None
         self._last: tuple[float, tuple[float, float, float]] | None = None
-        # per step, newest last: the confirmed obstacle features, (M, 3) float64 `local` [m] and (M, 3, 3) float64 [m²]
-        self._kept: list[tuple[np.ndarray, np.ndarray]] = []
+        # per step, newest last: the obstacle features that counted, (M, 3) float64 `local` [m], (M, 3, 3) float64 [m²],
+        # and (M,) bool which of them were confirmed
+        self._kept: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
         self._first: dict[int, tuple[float, float]] = {}  # feature id → the vehicle's (x, y) `local` [m] at its first sighting
         self._confirmed: set[int] = set()  # ids of tracked features confirmed as obstacles
         self.steps = 0
@@ -94,6 +97,7 @@ class FidoObstacleWatch:
     def step(self, pair: StereoPair, rig: StereoRig, pose_local: tuple[float, float, float]) -> FidoSighting:
         """Run a FIDO step on `pair` seen at `pose_local` (dead reckoning, `local`); return its obstacle features."""
         previous, odometry = self.memory, None
+        stood = self._last is None or math.hypot(pose_local[0] - self._last[1][0], pose_local[1] - self._last[1][1]) < self.cfg.still_m
         if self._last is not None and 0.0 <= pair.stamp - self._last[0] <= self.cfg.max_gap_s:
             odometry = motion_between(self._last[1], pose_local)
         else:
@@ -116,19 +120,20 @@ class FidoObstacleWatch:
         if self._kept and not ok.all():
             ok[~ok] = self._near_confirmed(in_local[~ok], cov_local[~ok])
         self._confirmed |= {int(i) for i in f.ids[cand][ok]}
-        self._kept = [*self._kept, (in_local[ok], cov_local[ok])][-self.cfg.remember_steps:]
+        counts = ok | (not stood)
+        self._kept = [*self._kept, (in_local[counts], cov_local[counts], ok[counts])][-self.cfg.remember_steps:]
         kept = np.concatenate([k[0] for k in self._kept]).reshape(-1, 3)
         dx, dy = kept[:, 0] - x, kept[:, 1] - y
         xyz = np.column_stack([c * dx + s * dy, -s * dx + c * dy, kept[:, 2]])
-        return FidoSighting(xyz=xyz, new=int(ok.sum()), stamp=pair.stamp, features=len(f),
+        return FidoSighting(xyz=xyz, new=int(counts.sum()), stamp=pair.stamp, features=len(f),
                             tracked=int(f.tracked.sum()), step_ms=res.timing.total_ms)
 
     def _near_confirmed(self, p: np.ndarray, cp: np.ndarray) -> np.ndarray:
         """Return (M,) bool: which points `p` (M, 3) `local` [m] (covariances `cp` (M, 3, 3) [m²]) lie within the χ² gate
         of an obstacle feature confirmed at an earlier step (from anywhere: standing, the vehicle must go on seeing an
         obstacle it confirmed while it moved)."""
-        q = np.concatenate([np.zeros((0, 3))] + [k[0] for k in self._kept])
-        cq = np.concatenate([np.zeros((0, 3, 3))] + [k[1] for k in self._kept])
+        q = np.concatenate([np.zeros((0, 3))] + [k[0][k[2]] for k in self._kept])
+        cq = np.concatenate([np.zeros((0, 3, 3))] + [k[1][k[2]] for k in self._kept])
         if not len(q):
             return np.zeros(len(p), bool)
         odo = np.diag([self.cfg.odometry_sigma_m ** 2] * 2 + [0.0])

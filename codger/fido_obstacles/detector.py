@@ -71,6 +71,6 @@ class FidoObstacleDetector(ObstacleDetector):
         self.scans += 1
         self.blocked_scans += int(blocked)
         if blocked:
-            log.info("fido: t=%.2f an obstacle feature %.1f m along the plan (%d obstacle features, %d confirmed now; %d features, %d tracked; %.0f ms)",
+            log.info("fido: t=%.2f an obstacle feature %.1f m along the plan (%d obstacle features, %d new; %d features, %d tracked; %.0f ms)",
                      seen.stamp, d, len(seen.xyz), seen.new, seen.features, seen.tracked, seen.step_ms)
         return rep

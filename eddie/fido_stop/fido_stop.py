@@ -69,7 +69,7 @@ class FidoStop(ObstacleStop):
             raise FidoStopError(f"fido: {exc}") from None
         d = self.watch.corridor_distance(seen, corridor_path(self.cfg, self.path, pose), self.cfg.half_width_m)
         if math.isfinite(d):
-            log.info("fido: t=%.2f an obstacle feature %.1f m along the path (%d obstacle features, %d confirmed now; %d features, %d tracked; %.0f ms)",
+            log.info("fido: t=%.2f an obstacle feature %.1f m along the path (%d obstacle features, %d new; %d features, %d tracked; %.0f ms)",
                      seen.stamp, d, len(seen.xyz), seen.new, seen.features, seen.tracked, seen.step_ms)
         return stop_verdict(d, seen.stamp, self.cfg, path_local=self.path, pose_local=pose, speed=self.belief.speed)
 

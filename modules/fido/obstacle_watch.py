@@ -8,11 +8,11 @@ the tracking search, as FIDO used its dead reckoning; it is never the answer. Th
 FIDO's own: in clutter (leaves, shadows) its corner detector finds fewer of them on an obstacle,
 and what it misses the check does not see, as the paper found outdoors.
 
-An obstacle feature counts once a second viewpoint confirms it (see `FidoWatchConfig.min_age`): a
-4×4 template on a horizontal edge (a walk's far side against the grass) matches at the wrong
-disparity and triangulates above the ground, and taken at its first sighting such a mismatch held
-the vehicle; standing still, the same pair repeated it for good. A real point stays where the
-vehicle's motion puts it; a mismatch does not (FIDO's and the Cart's test of a track).
+While the vehicle stands, an obstacle feature counts only once a second viewpoint has confirmed it
+(see `FidoWatchConfig.still_m`): a 4×4 template on a horizontal edge (a walk's far side against the
+grass) matches at the wrong disparity and triangulates above the ground, and standing still the
+same pair repeated such a mismatch for good. A real point stays where the vehicle's motion puts it;
+a mismatch does not (FIDO's and the Cart's test of a track).
 """
 
 from __future__ import annotations
@@ -61,9 +61,9 @@ class FidoWatchConfig(BaseModel):
 
 @dataclass(frozen=True)
 class FidoSighting:
-    """The confirmed obstacle features at a step: `xyz` (M, 3) float64 `vehicle` [m] at the pair's `stamp` [s] sim (this
-    step's and the remembered ones), how many this step confirmed (`new`), and the step's feature count, tracked count
-    and wall time [ms]."""
+    """The obstacle features that count at a step: `xyz` (M, 3) float64 `vehicle` [m] at the pair's `stamp` [s] sim
+    (this step's and the remembered ones), how many of them this step added (`new`), and the step's feature count,
+    tracked count and wall time [ms]."""
 
     xyz: np.ndarray
     new: int

@@ -20,11 +20,11 @@ WALKER_Y = -14.0  # where the walker stands on the dormitory walk (the actors fi
 @pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.parametrize("arch", ["codger", "eddie"])
-@pytest.mark.timeout(600)  # quiet run ~150-180 s each (load average 2-5: codger 148 s, eddie 174-180 s)
+@pytest.mark.timeout(960)  # quiet run 150-180 s, up to 313 s (load average 2-6; a CODGER run that replanned after a 62 s hold)
 def test_fido_stops_for_a_walker_in_the_lane_and_reaches_the_quad(tmp_path, arch):
     report, stderr = run_report(tmp_path, "--arch", arch, "--world", "campus", "--mission", str(DATA / "dorm-quad.yaml"),
                                 "--actors", str(DATA / "dorm-walker.actors.yaml"), "--obstacle-sensor", "fido", "--rtf", "2",
-                                "--seed", "1", "--max-wall-time", "450", wall_s=540)
+                                "--seed", "1", "--max-wall-time", "840", wall_s=900)
     assert report["architecture"] == arch
     logs = tmp_path / "logs"
     sensor_log = logs / ("fido_obstacles.log" if arch == "codger" else "obstacle_stop.log")

@@ -26,6 +26,8 @@ from modules.vocabulary import ObstaclePolygon, ObstacleReport
 __all__ = ["FidoObstacleDetector", "FEATURE_HALF_SIDE_M"]
 
 log = logging.getLogger("codger.fido_obstacles")
+#: each sighting that blocks the path is logged whatever SIDEWALK_LOG says: the run's log is where a stop is explained
+log.setLevel(logging.INFO)
 
 #: each obstacle feature is reported as a square this much [m] either side of it
 FEATURE_HALF_SIDE_M = 0.1

@@ -31,6 +31,8 @@ from modules.fido import FidoError, FidoObstacleWatch, FidoWatchConfig, StereoPa
 __all__ = ["FidoStop", "FidoStopError", "capture_stereo"]
 
 log = logging.getLogger("eddie.fido_stop")
+#: each sighting that blocks the path is logged whatever SIDEWALK_LOG says: the run's log is where a stop is explained
+log.setLevel(logging.INFO)
 
 
 class FidoStopError(EddieModuleError):

@@ -7,6 +7,12 @@ inside its corridor. Between steps the vehicle's dead-reckoned motion (two `loca
 the tracking search, as FIDO used its dead reckoning; it is never the answer. The features are
 FIDO's own: in clutter (leaves, shadows) its corner detector finds fewer of them on an obstacle,
 and what it misses the check does not see, as the paper found outdoors.
+
+While the vehicle stands, an obstacle feature counts only once a second viewpoint has confirmed it
+(see `FidoWatchConfig.still_m`): a 4×4 template on a horizontal edge (a walk's far side against the
+grass) matches at the wrong disparity and triangulates above the ground, and standing still the
+same pair repeated such a mismatch for good. A real point stays where the vehicle's motion puts it;
+a mismatch does not (FIDO's and the Cart's test of a track).
 """
 
 from __future__ import annotations
@@ -18,7 +24,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from modules.fido.fido import FidoConfig, FidoMemory, FidoStep, fido_step
-from modules.fido.motion import PlanarMotion
+from modules.fido.motion import CHI2_3DOF_99, PlanarMotion
 from modules.fido.stereo_pair import StereoPair, StereoRig
 
 __all__ = ["FidoWatchConfig", "FidoSighting", "FidoObstacleWatch", "corridor_distance", "motion_between"]
@@ -40,13 +46,24 @@ class FidoWatchConfig(BaseModel):
     #: world model of obstacles): the interest operator does not pick the same corner in every pair. Counted in steps,
     #: not seconds: on a loaded machine a step takes longer and the memory must still span the same number of looks
     remember_steps: int = Field(8, ge=1)
+    #: while the vehicle moves, every obstacle feature counts from its first sighting (FIDO's obstacle: one feature); once
+    #: it stands (it moved less than `still_m` [m] since the last pair), the pair repeats the last one's view, mismatches
+    #: included, and only confirmed obstacles count: features tracked this many steps (found again where the vehicle's
+    #: motion puts them, and kept by the motion fit's χ² gate, the Cart's pruning) while the vehicle moved
+    #: `min_baseline_m` [m] since their first sighting, and features seen where a confirmed one stands (the χ² gate of
+    #: their covariances and `odometry_sigma_m`). A horizontal edge matched at the wrong disparity, seen again from where
+    #: the vehicle stood, held it for good; a real obstacle seen while braking for it is confirmed and holds the stop
+    still_m: float = Field(0.05, ge=0.0)
+    min_age: int = Field(1, ge=0)
+    min_baseline_m: float = Field(0.2, ge=0.0)
+    odometry_sigma_m: float = Field(0.1, gt=0.0)  # [m] dead reckoning's error between two sightings, each axis
 
 
 @dataclass(frozen=True)
 class FidoSighting:
-    """The obstacle features at a step: `xyz` (M, 3) float64 `vehicle` [m] at the pair's `stamp` [s] sim (this step's and
-    the remembered ones), how many of them this step found (`new`), and the step's feature count, tracked count and
-    wall time [ms]."""
+    """The obstacle features that count at a step: `xyz` (M, 3) float64 `vehicle` [m] at the pair's `stamp` [s] sim
+    (this step's and the remembered ones), how many of them this step added (`new`), and the step's feature count,
+    tracked count and wall time [ms]."""
 
     xyz: np.ndarray
     new: int
@@ -70,12 +87,17 @@ class FidoObstacleWatch:
         self.cfg = cfg
         self.memory: FidoMemory | None = None
         self._last: tuple[float, tuple[float, float, float]] | None = None
-        self._kept: list[np.ndarray] = []  # per step, newest last: (M, 3) float64 obstacle features in `local` [m]
+        # per step, newest last: the obstacle features that counted, (M, 3) float64 `local` [m], (M, 3, 3) float64 [m²],
+        # and (M,) bool which of them were confirmed
+        self._kept: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+        self._first: dict[int, tuple[float, float]] = {}  # feature id → the vehicle's (x, y) `local` [m] at its first sighting
+        self._confirmed: set[int] = set()  # ids of tracked features confirmed as obstacles
         self.steps = 0
 
     def step(self, pair: StereoPair, rig: StereoRig, pose_local: tuple[float, float, float]) -> FidoSighting:
         """Run a FIDO step on `pair` seen at `pose_local` (dead reckoning, `local`); return its obstacle features."""
         previous, odometry = self.memory, None
+        stood = self._last is None or math.hypot(pose_local[0] - self._last[1][0], pose_local[1] - self._last[1][1]) < self.cfg.still_m
         if self._last is not None and 0.0 <= pair.stamp - self._last[0] <= self.cfg.max_gap_s:
             odometry = motion_between(self._last[1], pose_local)
         else:
@@ -84,16 +106,41 @@ class FidoObstacleWatch:
         self.memory, self._last = res.memory, (pair.stamp, tuple(pose_local))
         self.steps += 1
         f = res.features
-        found = f.xyz[res.obstacle]
         x, y, yaw = pose_local
         c, s = math.cos(yaw), math.sin(yaw)
-        in_local = np.column_stack([x + c * found[:, 0] - s * found[:, 1], y + s * found[:, 0] + c * found[:, 1], found[:, 2]])
-        self._kept = [*self._kept, in_local][-self.cfg.remember_steps:]
-        kept = np.concatenate(self._kept).reshape(-1, 3)
+        self._first = {int(i): self._first.get(int(i), (x, y)) for i in f.ids}
+        self._confirmed &= self._first.keys()
+        cand = np.nonzero(res.obstacle)[0]
+        R = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        in_local = f.xyz[cand] @ R.T + (x, y, 0.0)
+        cov_local = R @ f.cov[cand] @ R.T
+        moved = np.array([math.hypot(x - self._first[int(i)][0], y - self._first[int(i)][1]) for i in f.ids[cand]])
+        ok = np.array([int(i) in self._confirmed for i in f.ids[cand]], bool).reshape(-1)
+        ok |= (f.age[cand] >= self.cfg.min_age) & (moved.reshape(-1) >= self.cfg.min_baseline_m)
+        if self._kept and not ok.all():
+            ok[~ok] = self._near_confirmed(in_local[~ok], cov_local[~ok])
+        self._confirmed |= {int(i) for i in f.ids[cand][ok]}
+        counts = ok | (not stood)
+        self._kept = [*self._kept, (in_local[counts], cov_local[counts], ok[counts])][-self.cfg.remember_steps:]
+        kept = np.concatenate([k[0] for k in self._kept]).reshape(-1, 3)
         dx, dy = kept[:, 0] - x, kept[:, 1] - y
         xyz = np.column_stack([c * dx + s * dy, -s * dx + c * dy, kept[:, 2]])
-        return FidoSighting(xyz=xyz, new=len(found), stamp=pair.stamp, features=len(f),
+        return FidoSighting(xyz=xyz, new=int(counts.sum()), stamp=pair.stamp, features=len(f),
                             tracked=int(f.tracked.sum()), step_ms=res.timing.total_ms)
+
+    def _near_confirmed(self, p: np.ndarray, cp: np.ndarray) -> np.ndarray:
+        """Return (M,) bool: which points `p` (M, 3) `local` [m] (covariances `cp` (M, 3, 3) [m²]) lie within the χ² gate
+        of an obstacle feature confirmed at an earlier step (from anywhere: standing, the vehicle must go on seeing an
+        obstacle it confirmed while it moved)."""
+        q = np.concatenate([np.zeros((0, 3))] + [k[0][k[2]] for k in self._kept])
+        cq = np.concatenate([np.zeros((0, 3, 3))] + [k[1][k[2]] for k in self._kept])
+        if not len(q):
+            return np.zeros(len(p), bool)
+        odo = np.diag([self.cfg.odometry_sigma_m ** 2] * 2 + [0.0])
+        S = cp[:, None] + cq[None] + odo  # (M, Q, 3, 3)
+        d = p[:, None] - q[None]  # (M, Q, 3)
+        chi2 = np.einsum("mqi,mqi->mq", d, np.linalg.solve(S, d[..., None])[..., 0])
+        return (chi2 <= CHI2_3DOF_99).any(axis=1)
 
     def corridor_distance(self, sighting: FidoSighting, path: np.ndarray, half_width: float) -> float:
         """Return the distance along `path` (K, 2) [m] `vehicle` to the obstacle the sighting shows in the corridor [m]."""

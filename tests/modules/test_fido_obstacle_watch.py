@@ -1,5 +1,6 @@
-"""FIDO as an obstacle sensor: the corridor distance of known points, the motion between two poses, and a watch stepped
-over rendered campus pairs that finds a pedestrian standing on the south walk at about its true distance."""
+"""FIDO as an obstacle sensor: the corridor distance of known points, the motion between two poses, a watch stepped
+over rendered campus pairs that finds a pedestrian standing on the south walk at about its true distance, and one that
+does not take a pair's mismatch on an empty walk for an obstacle (a mismatch is not confirmed from a second viewpoint)."""
 
 from __future__ import annotations
 
@@ -59,6 +60,7 @@ def test_the_watch_sees_a_pedestrian_on_the_walk_and_not_the_empty_walk() -> Non
             truth = [20.0 - 0.25 - x for x, _, _ in poses]  # the walker's near side, ahead of the vehicle's origin
             hits = [(d, t) for d, t in zip(found, truth) if math.isfinite(d)]
             assert len(hits) >= 3, found
+            assert math.isinf(found[0]), found  # the first sighting is one viewpoint's: it counts once confirmed
             assert all(abs(d - t) < 1.5 for d, t in hits), (found, truth)
             # the walker gone, the vehicle standing: its features are remembered `remember_steps` steps, then forgotten
             x, y, yaw = poses[-1]
@@ -70,3 +72,32 @@ def test_the_watch_sees_a_pedestrian_on_the_walk_and_not_the_empty_walk() -> Non
                 assert math.isinf(watch.corridor_distance(seen, path, 0.9)) is (k == keep), (k, seen.xyz)
         else:
             assert all(math.isinf(d) for d in found), found
+
+
+@pytest.mark.timeout(180)  # quiet run ~25 s (measured busy: load 7, 30 s)
+def test_a_mismatch_on_the_empty_walk_does_not_hold_a_standing_vehicle() -> None:
+    """Up the dormitory walk to 7 m short of the south walk, then standing there 10 pairs (campus, seed 1, no actors:
+    nothing stands in the corridor of a path that turns right onto the south walk). Counting every pair's obstacle
+    features while standing too (`still_m=0`, as the watch did), a paving edge matched at the wrong disparity, seen again
+    and again from where the vehicle stands, holds it for good; counting only confirmed ones while it stands, the
+    corridor is clear once the memory of what it saw while driving has passed."""
+    from vehicle_sim.scene import Scene
+    from vehicle_sim.sensors import CaptureRequest, capture
+    from vehicle_sim.worldfile import load_world
+
+    base = Scene(load_world("campus"), seed=1)
+    req = CaptureRequest(laser=False, camera=False, stereo=True)
+    ys = [-12.0 + 0.4 * k for k in range(12)] + [-7.6] * 10  # 0.4 m a pair, then standing
+    first_look = FidoObstacleWatch(FidoWatchConfig(still_m=0.0))
+    confirmed = FidoObstacleWatch(FidoWatchConfig())
+    seen_first, seen_confirmed = [], []
+    for k, y in enumerate(ys):
+        pose = (0.3, y, math.pi / 2)  # `local` = `world` here
+        cap = capture(base, pose, 0.5 * k, req, vehicle="terregator", rng=np.random.default_rng(k))
+        pair, rig = StereoPair.from_capture(cap), StereoRig.from_capture(cap)
+        turn = -0.6 - y  # where the path turns east onto the south walk's right-hand lane [m] ahead
+        path = np.array([[0.0, 0.0], [turn, 0.0], [turn, -20.0]])
+        seen_first.append(first_look.corridor_distance(first_look.step(pair, rig, pose), path, 1.5))
+        seen_confirmed.append(confirmed.corridor_distance(confirmed.step(pair, rig, pose), path, 1.5))
+    assert sum(map(math.isfinite, seen_first[:12])) >= 3 and all(map(math.isfinite, seen_first[-2:])), seen_first
+    assert all(math.isinf(d) for d in seen_confirmed[-2:]), seen_confirmed

@@ -5,13 +5,11 @@ stop, switched on by the mission's `start_obstacles` trigger, stops the controll
 report (truth) counts the stop and the closest approach.
 """
 
-import json
-import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from tests.sidewalk._cli import run_report
 
 DATA = Path(__file__).resolve().parent / "data"
 
@@ -20,19 +18,9 @@ DATA = Path(__file__).resolve().parent / "data"
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
 def test_eddie_stops_for_a_walker_in_its_lane_and_resumes(tmp_path):
-    cmd = [sys.executable, "-m", "sidewalk", "run", "--arch", "eddie", "--world", "north_hills", "--mission",
-           str(DATA / "oak-walker.yaml"), "--actors", str(DATA / "oak-walker.actors.yaml"), "--rtf", "4", "--seed", "1",
-           "--out", str(tmp_path), "--max-wall-time", "200"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        _, stderr = proc.communicate(timeout=280)
-    except subprocess.TimeoutExpired:
-        proc.send_signal(signal.SIGINT)  # the launcher stops every process it started, then exits
-        _, stderr = proc.communicate(timeout=90)
-        pytest.fail(f"the run did not end within 280 s wall; stderr:\n{stderr[-3000:]}")
-    report_path = tmp_path / "report.json"
-    assert report_path.exists(), f"no report; stderr:\n{stderr[-3000:]}"
-    report = json.loads(report_path.read_text())
+    report, stderr = run_report(tmp_path, "--arch", "eddie", "--world", "north_hills", "--mission", str(DATA / "oak-walker.yaml"),
+                                "--actors", str(DATA / "oak-walker.actors.yaml"), "--rtf", "4", "--seed", "1",
+                                "--max-wall-time", "200", wall_s=280)
     assert report["architecture"] == "eddie"
     assert report["collisions"] == 0, report["reason"]
     stops = report["stops"]

@@ -4,6 +4,8 @@ No processes are started here; the missions driven with FIDO are in `test_fido_m
 
 from pathlib import Path
 
+import pytest
+
 from typer.testing import CliRunner
 
 from sidewalk.architecture import architecture
@@ -50,3 +52,15 @@ def test_a_bad_obstacle_sensor_is_one_line_naming_the_flag(tmp_path):
     res = CliRunner().invoke(app, ["run", "--obstacle-sensor", "sonar", "--out", str(tmp_path)])
     assert res.exit_code != 0 and "--obstacle-sensor" in res.output and "'sonar' is not laser or fido" in res.output
     assert "Traceback" not in res.output
+
+
+def test_a_bad_fido_flag_is_one_line_naming_it(capsys):
+    from eddie.fido_stop.__main__ import build_parser
+    from modules.fido.watch_flags import watch_config
+
+    parser = build_parser()
+    assert watch_config(parser, parser.parse_args(["--min-age", "2"])).min_age == 2
+    with pytest.raises(SystemExit):
+        watch_config(parser, parser.parse_args(["--min-age", "-1", "--stereo-size", "500"]))
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "--min-age: " in err and "--stereo-size: " in err and "Traceback" not in err

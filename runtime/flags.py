@@ -13,13 +13,17 @@ import argparse
 import logging
 import math
 import os
-from typing import Sequence
+from typing import Any, Sequence, TypeVar
+
+from pydantic import BaseModel, ValidationError
 
 from wire.flags import add_network_args, network_from_args
 from wire.network import NetworkConfig
 
 __all__ = ["VEHICLES", "module_parser", "add_vehicle", "add_start_pose", "add_seed", "add_heartbeat", "parse_pose",
-           "parse_module_args", "setup_logging", "config_flag_errors"]
+           "parse_module_args", "setup_logging", "config_flag_errors", "config_from_flags"]
+
+M = TypeVar("M", bound=BaseModel)
 
 #: The vehicles a module can be configured for.
 VEHICLES = ("navlab", "terregator")
@@ -97,3 +101,11 @@ def config_flag_errors(exc, flags: dict[str, str] | None = None) -> str:
         return (flags or {}).get(field, "--" + field.replace("_", "-"))
 
     return "; ".join(f"{flag(str(e['loc'][0]))}: {e['msg']}" for e in exc.errors())
+
+
+def config_from_flags(parser: argparse.ArgumentParser, cls: type[M], values: dict[str, Any]) -> M:
+    """Return the pydantic config `cls(**values)` built from flags; a bad value exits through `parser.error`, naming its flag."""
+    try:
+        return cls(**values)
+    except ValidationError as exc:
+        parser.error(config_flag_errors(exc))

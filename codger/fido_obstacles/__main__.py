@@ -8,8 +8,10 @@ import sys
 from codger.blackboard_part import BlackboardPart
 from codger.fido_obstacles.detector import FidoObstacleDetector
 from codger.obstacles.__main__ import add_corridor_args, detector_config
-from modules.fido.watch_flags import add_watch_args, watch_config
+from modules.fido.obstacle_watch import FidoWatchConfig
+from modules.fido.watch_flags import add_watch_args, watch_values
 from runtime import module_parser, parse_module_args, run_module
+from runtime.flags import config_from_flags
 
 __all__ = ["main", "build_parser"]
 
@@ -31,7 +33,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args, net = parse_module_args(parser, argv)
     cfg = detector_config(parser, args)
-    watch = watch_config(parser, args)
+    watch = config_from_flags(parser, FidoWatchConfig, watch_values(args))
 
     async def body(rt) -> None:
         await FidoObstacleDetector(rt, cfg, watch).run()

@@ -8,8 +8,10 @@ import sys
 from eddie.fido_stop.fido_stop import FidoStop
 from eddie.obstacle_stop.__main__ import build_parser as obstacle_stop_parser, stop_config
 from eddie.toolkit.module import Module, endpoint
-from modules.fido.watch_flags import add_watch_args, watch_config
+from modules.fido.obstacle_watch import FidoWatchConfig
+from modules.fido.watch_flags import add_watch_args, watch_values
 from runtime import parse_module_args, run_module
+from runtime.flags import config_from_flags
 
 __all__ = ["main", "build_parser"]
 
@@ -28,7 +30,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args, net = parse_module_args(parser, argv)
     cfg = stop_config(parser, args)
-    watch = watch_config(parser, args)
+    watch = config_from_flags(parser, FidoWatchConfig, watch_values(args))
     start = args.start_pose
 
     async def body(m: Module) -> None:

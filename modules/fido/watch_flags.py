@@ -4,12 +4,9 @@ from __future__ import annotations
 
 import argparse
 
-from pydantic import ValidationError
-
 from modules.fido.obstacle_watch import FidoWatchConfig
-from runtime.flags import config_flag_errors
 
-__all__ = ["add_watch_args", "watch_config"]
+__all__ = ["add_watch_args", "watch_values"]
 
 #: the watch's settings that have a flag (each flag is the field's name with dashes)
 _FIELDS = ("stereo_size", "min_features", "min_age")
@@ -24,9 +21,6 @@ def add_watch_args(p: argparse.ArgumentParser) -> None:
                    help="steps an obstacle feature must have been tracked before it counts (0: its first sighting)")
 
 
-def watch_config(parser: argparse.ArgumentParser, args: argparse.Namespace) -> FidoWatchConfig:
-    """Return the watch's settings from the parsed flags (a bad one exits through `parser.error`, naming the flag)."""
-    try:
-        return FidoWatchConfig(**{f: getattr(args, f) for f in _FIELDS})
-    except ValidationError as exc:
-        parser.error(config_flag_errors(exc))
+def watch_values(args: argparse.Namespace) -> dict[str, object]:
+    """Return the watch's settings given by the parsed flags, by field (build them with `runtime.flags.config_from_flags`)."""
+    return {f: getattr(args, f) for f in _FIELDS}

@@ -56,11 +56,13 @@ def test_a_bad_obstacle_sensor_is_one_line_naming_the_flag(tmp_path):
 
 def test_a_bad_fido_flag_is_one_line_naming_it(capsys):
     from eddie.fido_stop.__main__ import build_parser
-    from modules.fido.watch_flags import watch_config
+    from modules.fido.obstacle_watch import FidoWatchConfig
+    from modules.fido.watch_flags import watch_values
+    from runtime.flags import config_from_flags
 
     parser = build_parser()
-    assert watch_config(parser, parser.parse_args(["--min-age", "2"])).min_age == 2
+    assert config_from_flags(parser, FidoWatchConfig, watch_values(parser.parse_args(["--min-age", "2"]))).min_age == 2
     with pytest.raises(SystemExit):
-        watch_config(parser, parser.parse_args(["--min-age", "-1", "--stereo-size", "500"]))
+        config_from_flags(parser, FidoWatchConfig, watch_values(parser.parse_args(["--min-age", "-1", "--stereo-size", "500"])))
     err = capsys.readouterr().err.strip().splitlines()[-1]
     assert "--min-age: " in err and "--stereo-size: " in err and "Traceback" not in err

@@ -342,7 +342,7 @@ def test_replay_draws_the_recording(monitored_run, browser):
 @pytest.mark.missions  # EDDIE's whole mission behind its page (~100 s quiet with the fixture): CI runs it after `make test`
 @pytest.mark.e2e
 @pytest.mark.timeout(300)
-def test_monitor_page_draws_a_live_eddie_mission(eddie_run, browser):
+def test_monitor_page_draws_a_live_eddie_mission(browser, eddie_run):  # the browser first: the mission must not run before the page can open
     page = browser.new_page()
     page.goto(eddie_run.url)
     page.wait_for_function("window.monitorState.connected && window.monitorState.map.features > 10", timeout=60_000)

@@ -10,15 +10,21 @@ import tempfile
 import time
 from pathlib import Path
 
-__all__ = ["ROOT", "spawn", "stop"]
+__all__ = ["ROOT", "SPAWN_TIMEOUT_S", "spawn", "stop"]
 
 ROOT = Path(__file__).resolve().parents[2]
 
+#: how long [s wall] a starting process may take to print its ready line: a process that exits is noticed at once,
+#: so this bounds only a slow start. Sized like the supervisor's `READY_TIMEOUT_S` (the simulator took 121 s on a
+#: 2-core machine at a load of 30, numba and all); the old 60 s failed at loads above 20.
+SPAWN_TIMEOUT_S = 300.0
 
-def spawn(args: list[str], ready: str, timeout: float = 60.0) -> subprocess.Popen:
+
+def spawn(args: list[str], ready: str, timeout: float = SPAWN_TIMEOUT_S) -> subprocess.Popen:
     """Start a process and return once a stdout line contains `ready` (wall timeout [s]).
 
-    stderr goes to an unnamed temporary file (never a pipe nobody drains); it is shown on failure.
+    stderr goes to an unnamed temporary file (never a pipe nobody drains); it is shown on failure, with the
+    exit code of a process that died or the load average of one that was only slow.
     """
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     err = tempfile.TemporaryFile()
@@ -30,14 +36,21 @@ def spawn(args: list[str], ready: str, timeout: float = 60.0) -> subprocess.Pope
         if not r:
             break
         line = p.stdout.readline()
-        if not line:
+        if not line:  # stdout closed: the process is ending; let it, so its exit code can be told
+            try:
+                p.wait(5)
+            except subprocess.TimeoutExpired:
+                pass
             break
         if ready in line:
             return p
+    code = p.poll()
     p.kill()
     p.wait(10)
     err.seek(0)
-    raise AssertionError(f"{args[:4]} not ready: {err.read()[-2000:].decode(errors='replace')}")
+    why = (f"exited with code {code} before it was ready" if code is not None
+           else f"printed no ready line within {timeout:.0f} s (load average {os.getloadavg()[0]:.1f})")
+    raise AssertionError(f"{args[:4]} {why}: {err.read()[-2000:].decode(errors='replace')}")
 
 
 def stop(p: subprocess.Popen) -> int:

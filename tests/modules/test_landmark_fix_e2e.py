@@ -9,36 +9,25 @@ the OBSTACLE DETECTOR's `landmark_fix` tokens (laser landmarks matched to the ma
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
 
 import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, Spec
-from blackboard.testing import start_node
 from modules.vocabulary import LandmarkFix, PositionEstimate
-from tests.modules._procs import ROOT, spawn, stop
+from tests.modules._codger_rig import codger_rig
+from tests.modules._procs import ROOT
 
-pytestmark = pytest.mark.e2e
+pytestmark = [pytest.mark.e2e, pytest.mark.timeout(180)]  # quiet ~6 s (2026-11-28); the rest is for a cold numba cache on a busy machine
 
 TRUTH = (1.5, 2.0, math.pi / 2)  # in the northbound lane of Oak; mailboxes at (-4, 14.3) and (4, 16.0)
 TOLD = (2.3, 2.5, math.pi / 2)  # 0.94 m off
 
 
 async def test_a_laser_landmark_fix_moves_an_off_pilot_toward_the_truth():
-    ns = f"lf{os.getpid()}"
-    node = start_node(namespace=ns, types=("modules.vocabulary",))
-    procs: list[subprocess.Popen] = []
-    try:
-        conn = ["--ns", ns, "--connect", node.endpoint]
-        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "north_hills", "--vehicle", "navlab",
-                            f"--start={TRUTH[0]},{TRUTH[1]},90", "--rtf", "2", "--seed", "4", *conn], "ready sim"))
-        procs.append(spawn([sys.executable, "-m", "codger.helm", "--vehicle", "navlab", *conn], "SIDEWALK-READY helm"))
-        procs.append(spawn([sys.executable, "-m", "codger.obstacles", "--map", str(ROOT / "worlds" / "north_hills.map.geojson"),
-                            *conn], "SIDEWALK-READY obstacles"))
-        procs.append(spawn([sys.executable, "-m", "codger.pilot", "--vehicle", "navlab", "--perception", "off",
-                            "--start-pose", ",".join(str(v) for v in TOLD), *conn], "SIDEWALK-READY pilot"))
+    with codger_rig("lf", world="north_hills", truth=TRUTH, pilot_pose=TOLD, seed=4) as rig:
+        rig.start(["-m", "codger.obstacles", "--map", str(ROOT / "worlds" / "north_hills.map.geojson")],
+                  "SIDEWALK-READY obstacles")
+        node = rig.node
         async with BlackboardClient(node.client_net(), source="test") as bb:
             fix = await bb.wait(Spec(type="landmark_fix"), timeout=90.0)
             assert isinstance(fix.attrs, LandmarkFix)
@@ -58,7 +47,4 @@ async def test_a_laser_landmark_fix_moves_an_off_pilot_toward_the_truth():
             assert off < 0.6 * math.dist(TOLD[:2], TRUTH[:2]), off  # moved toward the truth
             wl = await bb.lookup_pose(parent="world", child="local")
             assert math.dist((wl.x, wl.y), TRUTH[:2]) < math.dist(TOLD[:2], TRUTH[:2])  # the correction the HELM's plans use
-    finally:
-        codes = [stop(p) for p in reversed(procs)]
-        node.stop()
-    assert all(c == 0 for c in codes), codes
+    assert all(c == 0 for c in rig.codes), rig.codes

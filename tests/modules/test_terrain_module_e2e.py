@@ -9,38 +9,25 @@ the one height offset the module cannot know (its datum is the first image's veh
 from __future__ import annotations
 
 import math
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
 
 from blackboard import AttrPredicate, BlackboardClient, Spec
-from blackboard.testing import start_node
 from modules.vocabulary import TerrainTile
-from tests.modules._procs import spawn, stop
+from tests.modules._codger_rig import codger_rig
 from vehicle_sim.worldfile import load_world
 
-pytestmark = [pytest.mark.e2e, pytest.mark.missions, pytest.mark.timeout(900)]  # five processes: 18 s quiet, 85 s at load 25, and a cold numba cache compiles the sim's terrain ray cast and the locus code: many minutes on a busy machine
+pytestmark = [pytest.mark.e2e, pytest.mark.missions, pytest.mark.timeout(900)]  # five processes: quiet ~18 s (2026-11-28), 85 s at load 25, and a cold numba cache compiles the sim's terrain ray cast and the locus code: many minutes on a busy machine
 
 START = (25.0, 33.019, math.radians(2.16))  # worlds/cross-country.yaml
 
 
 async def test_the_terrain_tiles_hold_the_ground_ahead_as_the_truth_has_it() -> None:
-    ns = f"tm{os.getpid()}"
-    node = start_node(namespace=ns, types=("modules.vocabulary",))
-    procs: list[subprocess.Popen] = []
-    try:
-        conn = ["--ns", ns, "--connect", node.endpoint]
-        procs.append(spawn([sys.executable, "-m", "sidewalk", "sim", "serve", "--world", "cross_country", "--vehicle", "navlab",
-                            f"--start={START[0]},{START[1]},{math.degrees(START[2])}", "--rtf", "2", "--seed", "3", *conn],
-                           "ready sim", timeout=600.0))
-        procs.append(spawn([sys.executable, "-m", "codger.helm", "--vehicle", "navlab", *conn], "SIDEWALK-READY helm"))
-        procs.append(spawn([sys.executable, "-m", "codger.pilot", "--vehicle", "navlab", "--perception", "off",
-                            "--start-pose", ",".join(str(v) for v in START), *conn], "SIDEWALK-READY pilot"))
-        procs.append(spawn([sys.executable, "-m", "codger.terrain", "--vehicle", "navlab", "--bounds=0,0,80,70", *conn],
-                           "SIDEWALK-READY terrain", timeout=600.0))
+    with codger_rig("tm", world="cross_country", truth=START, pilot_pose=START, seed=3, sim_timeout=600.0) as rig:
+        rig.start(["-m", "codger.terrain", "--vehicle", "navlab", "--bounds=0,0,80,70"], "SIDEWALK-READY terrain",
+                  timeout=600.0)
+        node = rig.node
         async with BlackboardClient(node.client_net(), source="test") as bb:
             first = await bb.wait(Spec(type="terrain_tile"), timeout=600.0)
             assert isinstance(first.attrs, TerrainTile)
@@ -65,7 +52,4 @@ async def test_the_terrain_tiles_hold_the_ground_ahead_as_the_truth_has_it() -> 
         offset = float(np.median(d))
         assert np.percentile(np.abs(d - offset), 90) < 0.15, (offset, np.percentile(np.abs(d - offset), [50, 90, 99]))
         assert bad_near < 0.2 * d.size  # the start is open ground: few cells a wheel cannot stand on
-    finally:
-        codes = [stop(p) for p in reversed(procs)]
-        node.stop()
-    assert all(c == 0 for c in codes), codes
+    assert all(c == 0 for c in rig.codes), rig.codes

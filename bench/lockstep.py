@@ -6,7 +6,8 @@ mission at one seed. Per run, from its `report.json`:
 - `lockstep_rtf`: sim time over wall time of the mission (the report's `rtf_achieved`);
 - `cpu_s` [s]: every process's CPU, and `cpu_per_sim_s` [s/s sim];
 - `msgs_per_sim_s` / `bytes_per_sim_s`: messages and payload bytes sent per sim second, the modules'
-  traffic only, and `barrier_msgs_per_sim_s` apart: what lock-step itself costs;
+  traffic only, and `barrier_msgs_per_sim_s` apart: what lock-step itself costs (`sidewalk compare`'s own
+  figures, `sidewalk.compare.measures`);
 - `barrier_waves`: the barrier's asks (one put per wave, `wire.lockstep`), and `waves_per_barrier`
   over the two barriers of each published tick (`publish_hz` ticks per sim second);
 - the verdict (`success`, `goal_error_m`), so a faster run that decides otherwise shows.
@@ -17,7 +18,6 @@ mission at one seed. Per run, from its `report.json`:
 
 from __future__ import annotations
 
-import json
 import os
 import subprocess
 import sys
@@ -26,13 +26,15 @@ import time
 from pathlib import Path
 
 from bench.errors import BenchError
+from sidewalk.compare.measures import measure_dir
+from vehicle_sim.node import NodeConfig
 
 __all__ = ["run", "DEFAULT_MISSIONS", "PUBLISH_HZ"]
 
 #: The comparison's default missions.
 DEFAULT_MISSIONS = ("campus-tour", "amv-delivery")
-#: The simulator's clock publications per sim second (`vehicle_sim.node.SimConfig.publish_hz`): two barriers each.
-PUBLISH_HZ = 20.0
+#: The simulator's clock publications per sim second (its default): two barriers each.
+PUBLISH_HZ = NodeConfig.model_fields["publish_hz"].default
 
 
 def _one(mission: str, arch: str, seed: int, out: Path, max_wall_s: float) -> dict:
@@ -41,24 +43,19 @@ def _one(mission: str, arch: str, seed: int, out: Path, max_wall_s: float) -> di
     t0 = time.perf_counter()
     p = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
     wall = time.perf_counter() - t0
-    path = out / "report.json"
-    if not path.exists():
+    if not (out / "report.json").exists():
         raise BenchError(f"{arch} {mission} seed {seed}: no report (exit {p.returncode}): {p.stderr.strip()[-400:]}")
-    r = json.loads(path.read_text())
-    mods = r.get("modules") or {}
-    sim_s = float(r["sim_time_s"]) or 1e-9
-    cpu = sum(m["cpu_s"] for m in mods.values())
-    bar_out = sum(m.get("barrier_msgs_out", 0) for m in mods.values())
-    msgs = sum(m["msgs_out"] for m in mods.values()) - bar_out
-    byts = sum(m["bytes_out"] - m.get("barrier_bytes_out", 0) for m in mods.values())
-    waves = (mods.get("sim") or {}).get("barrier_msgs_out", 0)
+    report, m = measure_dir(out)  # the comparison's own figures of the run
+    sim_s = report.sim_time_s or 1e-9
+    sim = report.modules.get("sim")
+    waves = sim.barrier_msgs_out if sim is not None else 0
     return {
-        "mission": mission, "arch": arch, "seed": seed, "success": r["success"], "reason": r.get("reason", ""),
-        "goal_error_m": r.get("goal_error_m"), "sim_time_s": r["sim_time_s"], "wall_time_s": r["wall_time_s"],
-        "command_wall_s": round(wall, 1), "lockstep_rtf": r["rtf_achieved"],
-        "cpu_s": round(cpu, 1), "cpu_per_sim_s": round(cpu / sim_s, 3),
-        "msgs_per_sim_s": round(msgs / sim_s, 1), "bytes_per_sim_s": round(byts / sim_s),
-        "barrier_msgs_per_sim_s": round(bar_out / sim_s, 1), "barrier_waves": waves,
+        "mission": mission, "arch": arch, "seed": seed, "success": report.success, "reason": report.reason,
+        "goal_error_m": report.goal_error_m, "sim_time_s": report.sim_time_s, "wall_time_s": report.wall_time_s,
+        "command_wall_s": round(wall, 1), "lockstep_rtf": report.rtf_achieved,
+        "cpu_s": round(m.cpu_s, 1), "cpu_per_sim_s": round(m.cpu_s / sim_s, 3),
+        "msgs_per_sim_s": m.messages_per_s, "bytes_per_sim_s": round(m.bytes_per_s),
+        "barrier_msgs_per_sim_s": m.barrier_messages_per_s, "barrier_waves": waves,
         "waves_per_barrier": round(waves / (2 * PUBLISH_HZ * sim_s), 3), "run": str(out),
     }
 

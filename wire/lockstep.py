@@ -461,6 +461,15 @@ class Barrier:
         with self._changed:
             return self._changed.wait_for(lambda: name not in self._silent, timeout)
 
+    def _skip(self, name: str, skipped: set[str]) -> None:
+        """Skip `name` for the rest of this step and make it silent: not waited for until it answers idle."""
+        skipped.add(name)
+        self.stats.skips += 1
+        with self._lock:
+            if name in self._members and name not in self._silent:
+                self._silent.add(name)
+                self.stats.silenced += 1
+
     def _wave(self, names: list[str], step: int, wave: int, sim_time: float) -> _Wave:
         with self._lock:
             self._seq += 1
@@ -499,12 +508,7 @@ class Barrier:
                 rep = w.reports.get(n)
                 if rep is None:
                     if n in alive:  # silent (stopped, wedged): not waited for until it answers; gone: dropped by liveliness
-                        skipped.add(n)
-                        self.stats.skips += 1
-                        with self._lock:
-                            if n in self._members and n not in self._silent:
-                                self._silent.add(n)
-                                self.stats.silenced += 1
+                        self._skip(n, skipped)
                         log.warning("lockstep: %s did not answer within %.1f s at step %d: not waited for until it answers",
                                     n, self.timeout_s, step)
                     all_idle = False
@@ -512,12 +516,7 @@ class Barrier:
                     all_idle = False
                     first = busy_since.setdefault(n, now - rep.waited_s)
                     if now - first >= self.busy_limit_s:  # a loop that never ends: not waited for until it answers idle
-                        skipped.add(n)
-                        self.stats.skips += 1
-                        with self._lock:
-                            if n in self._members and n not in self._silent:
-                                self._silent.add(n)
-                                self.stats.silenced += 1
+                        self._skip(n, skipped)
                         log.warning("lockstep: %s busy for %.1f s: skipped at step %d, not waited for until it answers idle",
                                     n, now - first, step)
             reports = w.reports

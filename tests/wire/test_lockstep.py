@@ -17,7 +17,8 @@ from collections.abc import Iterator
 import pytest
 
 from tests._procs import wait_stopped
-from wire.lockstep import Barrier, BarrierAsk, ParticipantReport, decode, encode
+from wire.keys import LockstepKeys
+from wire.lockstep import Barrier, BarrierAsk, BarrierResult, ParticipantReport, decode, encode
 from wire.network import NetworkConfig
 from wire.ports import free_port
 from wire.session import Session, open_session
@@ -116,12 +117,24 @@ def test_a_message_in_flight_between_two_participants_holds_the_barrier(net: Net
 
 @pytest.mark.timeout(60)  # quiet ~4 s
 def test_a_participant_whose_loop_is_held_longer_than_the_time_out_is_waited_for_not_skipped(net: Net) -> None:
-    # its loop cannot answer for 3 time-outs (a long synchronous computation, or a process starved of CPU on a
-    # loaded machine); its keeper thread answers busy, so the barrier does not take it for a stopped process
-    net.start("a", "--work", "0.1", "--block", str(3 * net.barrier.timeout_s))
+    # its loop cannot answer (a long synchronous computation, or a process starved of CPU on a loaded machine); its
+    # keeper thread answers busy, so the barrier does not take it for a stopped process while the loop is held
+    _p, pname = net.start("a", "--work", "0.1", "--hold")
     done = net.done_event("a")
+    busy = threading.Semaphore(0)
+    net.session.subscribe_payload(LockstepKeys(NS).report(pname),
+                                  lambda _k, b: decode(ParticipantReport, b).busy and busy.release())
+    out: dict[str, BarrierResult] = {}
     net.go("a")
-    res = net.barrier.wait(1, 0.05)
+    waiting = threading.Thread(target=lambda: out.update(res=net.barrier.wait(1, 0.05)))
+    waiting.start()
+    held_waves = 3 * round(net.barrier.timeout_s / 0.25)  # each busy answer comes 0.25 s after its ask: 3 time-outs in all
+    for _ in range(held_waves):
+        assert busy.acquire(timeout=30.0), "the held participant stopped answering busy"
+    assert net.barrier.silent() == [] and waiting.is_alive(), "the barrier took the held participant for a stopped one"
+    net.session.put(f"sidewalk/{NS}/test/release/a", b"x")
+    waiting.join(30.0)
+    res = out["res"]
     assert done.is_set(), f"the barrier returned before the held loop finished: {res}"
     assert res.skipped == () and res.silent == () and net.barrier.stats.silenced == 0, res
 

@@ -57,33 +57,33 @@ EDDIE_MODULES = ("controller", "navigator", "map_manager", "mission_service")
 EDDIE_PERCEPTION_MODULES = ("obstacle_stop", "landmark_matching", "road_following")
 
 
-def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, rtf: float, seed: int, watchdog_s: float,
-                start_truth: Optional[tuple[float, float, float]], start_belief: tuple[float, float, float],
-                map_file: Path, annotated_map: Optional[Path], perception: bool, record: bool = True,
-                monitor_port: Optional[int] = None, secure: Optional[Path] = None, actors: Optional[str] = None,
-                max_speed: Optional[float] = None, road_method: tuple[str, ...] = (),
-                obstacle_sensor: str = "laser") -> list[ProcessPlan]:
+def eddie_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str,
+                annotated_map: Optional[Path] = None) -> list[ProcessPlan]:
     """Return EDDIE's processes in start order: router, observers, simulator, then the EDDIE modules; no blackboard.
 
-    `secure`: the `sidewalk security init` directory every process gets as --secure (each its own role);
-    `actors`: objects not on the map the simulator places (an actors file or preset, issue 12).
-    `max_speed` [m/s]: `sidewalk run --max-speed`, EDDIE's counterpart of the PILOT's cap — the mission
-    service's route speed and the controller's top speed (so no trigger or client drives faster).
-    `road_method`: flags for vision road following (`--road-method M [--alvinn-weights F]`, issue 13; `--vision-workers N`, issue 41).
-    `obstacle_sensor`: `laser` (obstacle stop) or `fido` (`eddie.fido_stop`, run under obstacle stop's name, issue 41).
+    The counterpart of CODGER's `build_plans`, from the same run config and setup. `annotated_map`: the
+    mission service's compiled annotations to start with (None: every mission compiled as submitted).
+    From `cfg`: `secure`, the `sidewalk security init` directory every process gets as --secure (each its
+    own role); `actors`, objects not on the map the simulator places (issue 12); `max_speed` [m/s], EDDIE's
+    counterpart of the PILOT's cap — the mission service's route speed and the controller's top speed;
+    the road method and vision workers for road following (issues 13, 41); `obstacle_sensor`: `laser`
+    (obstacle stop) or `fido` (`eddie.fido_stop`, run under obstacle stop's name, issue 41).
     """
+    out, vehicle, seed, map_file, perception = Path(cfg.out), setup.vehicle, cfg.seed, setup.map_file, cfg.perception
+    max_speed, secure, start_truth = cfg.max_speed, cfg.secure, setup.start_truth
+    road_method = road_method_flags(cfg, setup) + vision_flags(cfg)
     cap = () if max_speed is None else ("--max-speed", str(max_speed))
     sec = () if secure is None else ("--secure", str(secure))  # issue 14
     zflags = ("--ns", ns, "--connect", endpoint, *sec)
-    sx, sy, syaw = start_belief
+    sx, sy, syaw = setup.start_belief
     sim_start = () if start_truth is None else (
         f"--start={start_truth[0]},{start_truth[1]},{math.degrees(start_truth[2])}",)
     plans = [
         ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint, *sec)),
-        *observer_plans(out, zflags, record=record, monitor_port=monitor_port, arch="eddie"),
-        ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", world, "--vehicle", vehicle, *sim_start,
-                            "--rtf", str(rtf), "--seed", str(seed), "--watchdog", str(watchdog_s), *zflags,
-                            *(("--actors", actors) if actors else ()))),
+        *observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port, arch="eddie"),
+        ProcessPlan("sim", ("-m", "sidewalk", "up", "sim", "--world", cfg.world, "--vehicle", vehicle, *sim_start,
+                            "--rtf", str(cfg.rtf), "--seed", str(seed), "--watchdog", str(cfg.watchdog_s), *zflags,
+                            *(("--actors", cfg.actors) if cfg.actors else ()))),
         ProcessPlan("controller", ("-m", "sidewalk", "up", "controller", "--vehicle", vehicle, *cap, *zflags)),
         ProcessPlan("navigator", ("-m", "sidewalk", "up", "navigator", f"--start-pose={sx},{sy},{syaw}", *zflags)),
     ]
@@ -93,7 +93,7 @@ def eddie_plans(*, out: Path, ns: str, endpoint: str, world: str, vehicle: str, 
                                              *zflags)))
     if perception:
         # obstacle stop sleeps until the route's `start_obstacles` triggers switch it on (issue 12)
-        up = {"obstacle_stop": "fido_stop"} if obstacle_sensor == "fido" else {}
+        up = {"obstacle_stop": "fido_stop"} if cfg.obstacle_sensor == "fido" else {}
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", up.get(name, name), "--vehicle", vehicle, "--map", str(map_file),
                                      f"--start-pose={sx},{sy},{syaw}", "--seed", str(seed), *zflags,
                                      *(("--asleep",) if name == "obstacle_stop" else ()),
@@ -272,12 +272,7 @@ class EddieArchitecture:
 
     def plans(self, cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str, prepared: Path) -> list[ProcessPlan]:
         """Return EDDIE's processes in start order (`eddie_plans`)."""
-        return eddie_plans(
-            out=Path(cfg.out), ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
-            watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
-            map_file=setup.map_file, annotated_map=prepared, perception=cfg.perception, record=cfg.record,
-            monitor_port=cfg.monitor_port, secure=cfg.secure, max_speed=cfg.max_speed, actors=cfg.actors,
-            road_method=road_method_flags(cfg, setup) + vision_flags(cfg), obstacle_sensor=cfg.obstacle_sensor)  # issues 13, 41
+        return eddie_plans(cfg, setup, ns, endpoint, annotated_map=prepared)
 
     def system(self, plans: list[ProcessPlan], *, ns: str, endpoint: str, log_dir: Path, prepared: Path, secure: Path | None,
                lockstep: bool) -> EddieSystemRun:

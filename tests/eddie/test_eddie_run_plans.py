@@ -14,43 +14,55 @@ from eddie.toolkit.message import encode_body
 from sidewalk.cli import app
 from sidewalk.eddie_observe import LocalPoseView, TransformView, TriggerView, subscribe_eddie
 from sidewalk.eddie_run import EDDIE_PERCEPTION_MODULES, PoseComposer, eddie_plans
+from sidewalk.launcher import prepare_run
 from sidewalk.report import build_report
+from sidewalk.run_setup import RunConfig
 from sidewalk.run_record import FiredTrigger, RunRecord
 from wire.se2 import compose
 
 DATA = Path(__file__).resolve().parents[1] / "sidewalk" / "data"
 
 
-def _plans(perception: bool, annotated: Path | None = Path("/tmp/x/annotated_map.geojson")):
-    return eddie_plans(out=Path("/tmp/x"), ns="t1", endpoint="tcp/127.0.0.1:7447", world="campus", vehicle="terregator",
-                       rtf=8.0, seed=3, watchdog_s=1.0, start_truth=None, start_belief=(1.0, -2.0, 0.5),
-                       map_file=Path("worlds/campus.map.geojson"), annotated_map=annotated, perception=perception)
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("eddie_plans")
 
 
-def test_the_eddie_plan_has_no_blackboard_and_the_perception_modules_only_with_perception() -> None:
-    names = [p.name for p in _plans(True)]
+def _plans_of(out: Path, annotated: Path | None = None, *, start_belief=None, map_file=None, **cfg_kw):
+    """Return EDDIE's plans for a run of `cfg_kw` (the start belief and the robot's map replaced when given)."""
+    cfg = RunConfig(**{"world": "campus", "mission": str(DATA / "short-hop.yaml"), "rtf": 8.0, "seed": 3, "watchdog_s": 1.0,
+                       "arch": "eddie", "out": out, **cfg_kw})
+    setup = prepare_run(cfg)
+    update = {k: v for k, v in (("start_belief", start_belief), ("map_file", map_file)) if v is not None}
+    return eddie_plans(cfg, setup.model_copy(update=update), "t1", "tcp/127.0.0.1:7447", annotated_map=annotated)
+
+
+def _plans(out: Path, perception: bool, annotated: Path | None = Path("/tmp/x/annotated_map.geojson")):
+    return _plans_of(out, annotated, start_belief=(1.0, -2.0, 0.5), perception=perception)
+
+
+def test_the_eddie_plan_has_no_blackboard_and_the_perception_modules_only_with_perception(run_dir) -> None:
+    names = [p.name for p in _plans(run_dir, True)]
     assert "blackboard" not in names and not any(n in names for n in ("captain", "pilot", "helm", "map_navigator"))
     assert names[:3] == ["router", "recorder", "sim"]
     assert {"controller", "navigator", "map_manager", "mission_service", *EDDIE_PERCEPTION_MODULES} <= set(names)
-    blind = [p.name for p in _plans(False)]
+    blind = [p.name for p in _plans(run_dir, False)]
     assert not set(EDDIE_PERCEPTION_MODULES) & set(blind)
-    ms = next(p for p in _plans(False) if p.name == "mission_service")
+    ms = next(p for p in _plans(run_dir, False) if p.name == "mission_service")
     assert "--perception" in ms.args and ms.args[ms.args.index("--perception") + 1] == "off"
-    nav = next(p for p in _plans(False) if p.name == "navigator")
+    nav = next(p for p in _plans(run_dir, False) if p.name == "navigator")
     assert "--start-pose=1.0,-2.0,0.5" in nav.args  # the start belief is the navigator's first world←local
     # the map manager starts empty, its state in the run's out dir: the mission service hands it the mission's annotations
-    mm = next(p for p in _plans(False, annotated=None) if p.name == "map_manager")
-    assert "--annotated-map" not in mm.args and mm.args[mm.args.index("--state") + 1] == "/tmp/x/map_manager.state.json"
+    mm = next(p for p in _plans(run_dir, False, annotated=None) if p.name == "map_manager")
+    assert "--annotated-map" not in mm.args and mm.args[mm.args.index("--state") + 1] == str(run_dir / "map_manager.state.json")
 
 
-def test_a_speed_cap_reaches_the_route_speed_and_the_controllers_top_speed() -> None:
-    plans = eddie_plans(out=Path("/tmp/x"), ns="t1", endpoint="tcp/127.0.0.1:7447", world="campus", vehicle="navlab",
-                        rtf=8.0, seed=3, watchdog_s=1.0, start_truth=None, start_belief=(0.0, 0.0, 0.0),
-                        map_file=Path("worlds/campus.map.geojson"), annotated_map=None, perception=False, max_speed=1.5)
+def test_a_speed_cap_reaches_the_route_speed_and_the_controllers_top_speed(run_dir) -> None:
+    plans = _plans_of(run_dir, vehicle="navlab", perception=False, max_speed=1.5)
     by = {p.name: p.args for p in plans}
     assert by["controller"][by["controller"].index("--max-speed") + 1] == "1.5"
     assert by["mission_service"][by["mission_service"].index("--speed") + 1] == "1.5"
-    assert "--max-speed" not in next(p for p in _plans(False) if p.name == "controller").args
+    assert "--max-speed" not in next(p for p in _plans(run_dir, False) if p.name == "controller").args
 
 
 def test_the_controllers_speed_cap_lowers_the_trackers_top_speed_and_refuses_nonsense(capsys) -> None:
@@ -65,17 +77,16 @@ def test_the_controllers_speed_cap_lowers_the_trackers_top_speed_and_refuses_non
     assert ex.value.code == 2 and "--max-speed" in capsys.readouterr().err
 
 
-def test_actors_go_to_the_simulator_and_obstacle_stop_sleeps_until_a_trigger() -> None:
-    plans = {p.name: p for p in eddie_plans(out=Path("/tmp/x"), ns="t1", endpoint="tcp/127.0.0.1:7447", world="north_hills",
-                                            vehicle="navlab", rtf=4.0, seed=0, watchdog_s=1.0, start_truth=None,
-                                            start_belief=(0.0, -40.0, 1.57), map_file=Path("/tmp/built.map.geojson"),
-                                            annotated_map=Path("/tmp/x/a.geojson"), perception=True, actors="amv-delivery")}
+def test_actors_go_to_the_simulator_and_obstacle_stop_sleeps_until_a_trigger(run_dir) -> None:
+    plans = {p.name: p for p in _plans_of(run_dir, Path("/tmp/x/a.geojson"), map_file=Path("/tmp/built.map.geojson"),
+                                          world="north_hills", mission="amv-delivery", vehicle="navlab", rtf=4.0, seed=0,
+                                          perception=True, actors="amv-delivery")}
     sim = plans["sim"].args
     assert sim[sim.index("--actors") + 1] == "amv-delivery"
     assert "--asleep" in plans["obstacle_stop"].args and "--asleep" not in plans["road_following"].args
     for name in EDDIE_PERCEPTION_MODULES:  # the robot's map (here a built one) reaches every perception module
         assert plans[name].args[plans[name].args.index("--map") + 1] == "/tmp/built.map.geojson"
-    assert "--actors" not in _plans(True)[2].args
+    assert "--actors" not in _plans(run_dir, True)[2].args
 
 
 def test_the_belief_is_world_from_local_composed_with_the_local_pose() -> None:

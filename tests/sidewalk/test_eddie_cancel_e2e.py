@@ -30,9 +30,7 @@ async def test_a_mission_cancelled_under_vision_stops_the_vehicle_for_good(tmp_p
     setup = prepare_run(cfg)
     ns, endpoint = f"cancel{os.getpid()}", f"tcp/127.0.0.1:{free_port()}"
     amap = compile_annotated_map(setup, tmp_path)
-    plans = eddie_plans(out=tmp_path, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf, seed=cfg.seed,
-                        watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth, start_belief=setup.start_belief,
-                        map_file=setup.map_file, annotated_map=amap, perception=True)
+    plans = eddie_plans(cfg, setup, ns, endpoint, annotated_map=amap)
     assert "road_following" in {p.name for p in plans}
     system = EddieSystemRun(plans, ns=ns, endpoint=endpoint, log_dir=tmp_path / "logs", annotated_map=amap)
     try:

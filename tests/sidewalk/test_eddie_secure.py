@@ -42,10 +42,7 @@ async def test_an_eddie_run_under_secure_drives_and_only_the_controller_may(tmp_
                     secure=d, rtf=4.0)
     setup = prepare_run(cfg)
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    plans = eddie_plans(out=tmp_path, ns=ns, endpoint=endpoint, world=cfg.world, vehicle=setup.vehicle, rtf=cfg.rtf,
-                        seed=cfg.seed, watchdog_s=cfg.watchdog_s, start_truth=setup.start_truth,
-                        start_belief=setup.start_belief, map_file=setup.map_file,
-                        annotated_map=compile_annotated_map(setup, tmp_path), perception=False, record=False, secure=d)
+    plans = eddie_plans(cfg, setup, ns, endpoint, annotated_map=compile_annotated_map(setup, tmp_path))
     assert all("--secure" in p.args for p in plans)
     system = EddieSystemRun(plans, ns=ns, endpoint=endpoint, log_dir=tmp_path / "logs", secure=d)
     keys = SimKeys(ns)

@@ -1,4 +1,4 @@
-"""The one set of Zenoh flags every Sidewalk command shares: `--ns --connect --listen --mode --secure --role`.
+"""The one set of Zenoh flags every Sidewalk command shares: `--ns --connect --listen --mode --secure --role --lease`.
 
 Defined once (`FLAGS`) and offered to both command-line front ends: Typer (`with_network`, the
 `sidewalk` CLI) and argparse (`add_network_args` / `network_from_args`, the module entry points).
@@ -60,7 +60,12 @@ FLAGS: tuple[Flag, ...] = (
     Flag("mode", "-m", "SIDEWALK_MODE", "Zenoh mode: peer, client or router (default: by command — router for `up router`, peer for a process that listens, client otherwise)"),
     Flag("secure", "", "SIDEWALK_SECURE", "Secure directory from `sidewalk security init`: mutual TLS, password and the router's access control"),
     Flag("role", "", "", "Identity under --secure (default: the command's — helm, sim, monitor, router…; operator for tools)"),
+    Flag("lease", "", "SIDEWALK_LEASE", "Zenoh lease [s] this process announces: how long it may stay silent (stopped, cut off) "
+         "before the others drop it (default: Zenoh's 10)"),
 )
+
+#: The flag of each NetworkConfig field whose name differs from it (for errors).
+_FLAG_OF = {"lease_s": "lease", "namespace": "ns"}
 
 #: The identity a command has under --secure when it names none: tools act for the operator.
 _ROLE_WHO = {"router": "router", "tool": "operator"}
@@ -71,12 +76,17 @@ class FlagError(WireError, ValueError):
 
 
 def network_config(*, ns: str | None, connect: list[str] | None, listen: list[str] | None, mode: str | None,
-                   role: Role, secure: str | None = None, who: str | None = None) -> NetworkConfig:
+                   role: Role, secure: str | None = None, who: str | None = None, lease: str | None = None) -> NetworkConfig:
     """Return the NetworkConfig of parsed flag values (None = not given: environment, then default); raise FlagError.
 
-    `who` is the identity under --secure (the --role flag, else the command's own name).
+    `who` is the identity under --secure (the --role flag, else the command's own name); `lease` [s] as given.
     """
     env = os.environ
+    lease = lease if lease is not None else env.get("SIDEWALK_LEASE") or None
+    try:
+        lease_s = None if lease is None else float(lease)
+    except ValueError:
+        raise FlagError(f"--lease {lease!r}: wants seconds, e.g. 3") from None
     secure = secure if secure is not None else env.get("SIDEWALK_SECURE") or None
     sec = None
     if secure:
@@ -95,9 +105,9 @@ def network_config(*, ns: str | None, connect: list[str] | None, listen: list[st
     if mode is None:
         mode = env.get("SIDEWALK_MODE") or ("peer" if role == "peer" and listen else _ROLE_MODE[role])
     try:
-        net = NetworkConfig(namespace=ns, mode=mode, connect=tuple(connect), listen=tuple(listen), secure=sec)
+        net = NetworkConfig(namespace=ns, mode=mode, connect=tuple(connect), listen=tuple(listen), secure=sec, lease_s=lease_s)
     except ValidationError as exc:
-        msgs = "; ".join(f"--{e['loc'][0] if e['loc'] else 'connect/listen'}: {e['msg']}".replace("Value error, ", "")
+        msgs = "; ".join(f"--{_FLAG_OF.get(e['loc'][0], e['loc'][0]) if e['loc'] else 'connect/listen'}: {e['msg']}".replace("Value error, ", "")
                          for e in exc.errors())
         raise FlagError(msgs) from None
     net = net.with_defaults()
@@ -142,10 +152,10 @@ def with_network(role: Role = "tool", who: str | None = None) -> Callable[[Calla
 
         @functools.wraps(fn)
         def wrapper(*args: Any, ns: str | None, connect: list[str] | None, listen: list[str] | None, mode: str | None,
-                    secure: str | None, role: str | None, **kwargs: Any) -> Any:
+                    secure: str | None, role: str | None, lease: str | None, **kwargs: Any) -> Any:
             try:
                 net = network_config(ns=ns, connect=connect, listen=listen, mode=mode, role=kind, secure=secure,
-                                     who=role or who)
+                                     who=role or who, lease=lease)
             except FlagError as exc:
                 raise typer.BadParameter(str(exc)) from None
             return fn(*args, net=net, **kwargs)
@@ -185,7 +195,7 @@ def network_from_args(parser: argparse.ArgumentParser, args: argparse.Namespace,
         who = parts[-1].removesuffix("_module") if parts else None
     try:
         return network_config(ns=args.ns, connect=args.connect, listen=args.listen, mode=args.mode, role=role,
-                              secure=args.secure, who=args.role or who)
+                              secure=args.secure, who=args.role or who, lease=args.lease)
     except FlagError as exc:
         parser.error(str(exc))
         raise  # parser.error exits

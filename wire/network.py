@@ -17,7 +17,7 @@ import json
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 __all__ = ["NetworkConfig", "SecureConfig", "DEFAULT_ENDPOINT", "Mode", "check_chunk"]
 
@@ -152,6 +152,8 @@ class NetworkConfig(BaseModel):
     listen: tuple[str, ...] = ()
     multicast_scouting: bool = False
     secure: SecureConfig | None = None
+    #: the lease [s] this session announces: the others drop it after so long without a word (None: Zenoh's 10 s)
+    lease_s: float | None = Field(default=None, ge=1.0, le=3600.0)
 
     @model_validator(mode="before")
     @classmethod
@@ -230,6 +232,8 @@ class NetworkConfig(BaseModel):
             cfg["listen"] = {"endpoints": list(listen)}
         if self.secure is not None:
             cfg.update(self.secure.zenoh_json(self.mode, listen))
+        if self.lease_s is not None:
+            cfg.setdefault("transport", {}).setdefault("link", {})["tx"] = {"lease": round(self.lease_s * 1000)}
         return cfg
 
     def with_role(self, role: str) -> "NetworkConfig":

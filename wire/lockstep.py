@@ -193,7 +193,16 @@ def decode(cls: type[BaseModel], payload: bytes, *, as_json: bool = False) -> An
 # ---- participant --------------------------------------------------------------------------------
 
 class _CountingExecutor(concurrent.futures.ThreadPoolExecutor):
-    """The loop's default executor, counting its jobs in flight until their end reached the loop."""
+    """The loop's default executor, counting its jobs in flight until their result reached the loop.
+
+    The future handed to asyncio is a relay, completed by the job's end; only after completing it
+    (which queues asyncio's hand-over of the result on the loop) is the count's decrement queued. So
+    when the count drops, the hand-over has run and the waiting coroutine's wake-up is ready: the loop
+    never looks idle between a job's end and its coroutine's next step. (Decrementing from a done
+    callback of the job's own future raced with asyncio's: the loop could run the decrement while the
+    worker thread had not yet queued the hand-over, and answer idle with a result on its way — a
+    lock-step run that did not repeat under load.)
+    """
 
     def __init__(self, loop: asyncio.AbstractEventLoop) -> None:
         super().__init__(thread_name_prefix="lockstep-worker")
@@ -202,17 +211,28 @@ class _CountingExecutor(concurrent.futures.ThreadPoolExecutor):
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> concurrent.futures.Future:
         self.in_flight += 1  # run_in_executor submits from the loop thread
-        fut = super().submit(fn, *args, **kwargs)
-        # decremented by a callback queued on the loop BEFORE asyncio's own hand-over of the result
-        # (done callbacks run in registration order): when the count drops the result is queued
-        fut.add_done_callback(self._done)
-        return fut
+        job = super().submit(fn, *args, **kwargs)
+        relay: concurrent.futures.Future = concurrent.futures.Future()
+        relay.add_done_callback(lambda r: job.cancel() if r.cancelled() else None)  # asyncio cancelled its wait
+        job.add_done_callback(lambda j: self._done(j, relay))
+        return relay
 
-    def _done(self, _fut: concurrent.futures.Future) -> None:
+    def _done(self, job: concurrent.futures.Future, relay: concurrent.futures.Future) -> None:
         try:
-            self._loop.call_soon_threadsafe(self._dec)
-        except RuntimeError:  # loop closed
+            if not relay.done():
+                if job.cancelled():
+                    relay.cancel()
+                elif (exc := job.exception()) is not None:
+                    relay.set_exception(exc)
+                else:
+                    relay.set_result(job.result())
+        except concurrent.futures.InvalidStateError:  # cancelled by asyncio meanwhile
             pass
+        finally:
+            try:
+                self._loop.call_soon_threadsafe(self._dec)
+            except RuntimeError:  # loop closed
+                pass
 
     def _dec(self) -> None:
         self.in_flight -= 1

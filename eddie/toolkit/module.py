@@ -293,7 +293,9 @@ class Module:
         if self._held:
             # only what was sent before this tick: a message sent in this tick may reach this module before or
             # after the tick itself does, so it waits for the next one either way
-            t = self.clock.now()
+            if self.rt is None:
+                return
+            t = self.rt.clock.now()  # not `self.clock`: a tick queued before the link closed may run after it
             due, wait = [], []
             for h in self._held:
                 (due if h[5] is None or h[5] < t else wait).append(h)

@@ -7,6 +7,7 @@ and the barrier itself; a test never sleeps.
 
 from __future__ import annotations
 
+import asyncio
 import os
 import signal
 import subprocess
@@ -18,7 +19,7 @@ import pytest
 
 from tests._procs import wait_stopped
 from wire.keys import LockstepKeys
-from wire.lockstep import Barrier, BarrierAsk, BarrierResult, ParticipantReport, decode, encode
+from wire.lockstep import Barrier, BarrierAsk, BarrierResult, ParticipantReport, _CountingExecutor, decode, encode
 from wire.network import NetworkConfig
 from wire.ports import free_port
 from wire.session import Session, open_session
@@ -208,3 +209,41 @@ def test_in_lockstep_a_peer_of_the_router_becomes_its_client(monkeypatch: pytest
     assert lockstep_topology(peer).mode == "client"  # every message and every barrier ask through the router, in order
     assert lockstep_topology(peer).zenoh_json()["mode"] == "client" and "listen" not in lockstep_topology(peer).zenoh_json()
     assert lockstep_topology(listening) == listening  # a process others connect to stays as it is
+
+
+def test_an_executor_job_counts_until_its_result_reached_the_loop() -> None:
+    """The job's count drops only after asyncio's hand-over of its result, even if the worker stalls between the two."""
+
+    class Stalling(_CountingExecutor):
+        def submit(self, fn, /, *args, **kwargs):  # noqa: ANN001, ANN202
+            fut = super().submit(fn, *args, **kwargs)
+            # the worker thread descheduled after the job's end, before asyncio queued the result (a loaded machine):
+            # modelled as a 20 ms stall in a done callback that runs before asyncio's own (it registers after submit)
+            fut.add_done_callback(lambda _f: threading.Event().wait(0.02))
+            return fut
+
+    handed_over: list[bool] = []
+
+    async def main() -> None:
+        loop = asyncio.get_running_loop()
+        ex = Stalling(loop)
+        loop.set_default_executor(ex)
+        jobs: list[asyncio.Future] = []
+        count_drop = ex._dec
+
+        def dec() -> None:  # the k-th drop belongs to the k-th job
+            count_drop()
+            loop.call_soon(look, jobs.pop(0))
+
+        def look(job: asyncio.Future) -> None:  # a participant's next check: the job's coroutine must be able to go on
+            handed_over.append(job.done() or bool(loop._ready))  # type: ignore[attr-defined]
+
+        ex._dec = dec  # type: ignore[method-assign]
+        for i in range(5):
+            fut = loop.run_in_executor(None, sum, (i, 1))
+            jobs.append(fut)
+            assert await fut == i + 1
+        ex.shutdown()
+
+    asyncio.run(main())
+    assert handed_over == [True] * 5

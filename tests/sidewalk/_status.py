@@ -75,8 +75,9 @@ class RunWatch:
         try:
             s.subscribe_payload(ModuleKeys(self.ns).heartbeat_all, lambda _k, _p: beat.set())
             while not ended and time.monotonic() < end and self.proc.poll() is None:
-                if not beat.wait(max(0.0, end - time.monotonic())):
-                    break
+                # a heartbeat, or a second to look whether the run ended (its processes stop beating before it exits)
+                if not beat.wait(min(1.0, max(0.0, end - time.monotonic()))):
+                    continue
                 beat.clear()
                 for r in s.get_blocking(MissionKeys(self.ns).status("*"), timeout=5.0):
                     m = json.loads(r.payload) if r.ok else {}

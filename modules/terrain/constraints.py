@@ -671,28 +671,28 @@ def configuration_bits(feat: np.ndarray, offsets: np.ndarray, dims: np.ndarray, 
             span[r, 0] = int(math.floor((lo - 2.0 * res) / res))
             span[r, 1] = int(math.floor((hi + 2.0 * res) / res))
     zw = np.full(nw, -np.inf)
-    unknown = 0.0
     step = 0.0
-    for i in range(i0, i1 + 1):
-        for j in range(span[i - i0, 0], span[i - i0, 1] + 1):
-            cx, cy = (j + 0.5) * res - x, (i + 0.5) * res - y
-            u, v = c * cx + s * cy, -s * cx + c * cy
-            inside = 0 <= i < ny and 0 <= j < nx
-            known = inside and feat[base + i * w0 + j, F_COUNT] > 0.0
-            if body[0] <= u <= body[1] and body[2] <= v <= body[3] and not known:
-                unknown += 1.0
-            if not known:
+    # Each wheel reads only the cells of its own patch (those of the scan lines above that lie within its reach).
+    for k in range(nw):
+        wx = x + c * wheels[k, 0] - s * wheels[k, 1]
+        wy = y + s * wheels[k, 0] + c * wheels[k, 1]
+        for i in range(max(i0, int(math.floor((wy - patch) / res)) - 1), min(i1, int(math.floor((wy + patch) / res)) + 1) + 1):
+            if not 0 <= i < ny:
                 continue
-            m = base + i * w0 + j
-            for k in range(nw):
+            j_lo = max(span[i - i0, 0], int(math.floor((wx - patch) / res)) - 1, 0)
+            j_hi = min(span[i - i0, 1], int(math.floor((wx + patch) / res)) + 1, nx - 1)
+            for j in range(j_lo, j_hi + 1):
+                m = base + i * w0 + j
+                if not feat[m, F_COUNT] > 0.0:
+                    continue
+                cx, cy = (j + 0.5) * res - x, (i + 0.5) * res - y
+                u, v = c * cx + s * cy, -s * cx + c * cy
                 if math.hypot(u - wheels[k, 0], v - wheels[k, 1]) <= patch:
                     zw[k] = max(zw[k], feat[m, F_ZMAX])
                     d = feat[m, F_DISC]
                     if d == d:
                         step = max(step, d)
     bits = 0
-    if unknown > sc[S_ALLOWED]:
-        bits |= B_SENSING
     if step > sc[S_STEP]:
         bits |= B_COLLIDE
     for k in range(nw):
@@ -706,14 +706,17 @@ def configuration_bits(feat: np.ndarray, offsets: np.ndarray, dims: np.ndarray, 
         tr += wheels[k, 1] * zw[k] / sc[S_SVV]
     if abs(tp) > sc[S_TAN_PITCH] or abs(tr) > sc[S_TAN_ROLL]:
         bits |= B_TIP
-    for i in range(max(i0, 0), min(i1 + 1, ny)):
-        for j in range(max(span[i - i0, 0], 0), min(span[i - i0, 1] + 1, nx)):
-            m = base + i * w0 + j
-            if feat[m, F_COUNT] <= 0.0:
-                continue
+    # One pass over the body's cells: the unknown ones (off the grid too) and the known ones' rise over the wheels' plane.
+    unknown = 0.0
+    for i in range(i0, i1 + 1):
+        for j in range(span[i - i0, 0], span[i - i0, 1] + 1):
             cx, cy = (j + 0.5) * res - x, (i + 0.5) * res - y
             u, v = c * cx + s * cy, -s * cx + c * cy
             if not (body[0] <= u <= body[1] and body[2] <= v <= body[3]):
+                continue
+            m = base + i * w0 + j
+            if not (0 <= i < ny and 0 <= j < nx and feat[m, F_COUNT] > 0.0):
+                unknown += 1.0
                 continue
             rise = feat[m, F_ZMAX] - (zbar + u * tp + v * tr)
             if ua0 <= u <= ua1:
@@ -721,4 +724,6 @@ def configuration_bits(feat: np.ndarray, offsets: np.ndarray, dims: np.ndarray, 
                     bits |= B_HIGH
             elif rise > over_clear:
                 bits |= B_COLLIDE
+    if unknown > sc[S_ALLOWED]:
+        bits |= B_SENSING
     return bits

@@ -36,7 +36,7 @@ from modules.terrain.constraints import ADMISSIBLE, Constraint, constraints_in
 from modules.terrain.cost_to_go import cost_to_go
 from modules.terrain.errors import InadmissibleGoal, InadmissibleStart, NoAdmissiblePath, TerrainError
 from modules.terrain.pyramid import TerrainPyramid
-from modules.terrain.resolution_hierarchy import LevelCounts, ResolutionHierarchy, classify_pose
+from modules.terrain.resolution_hierarchy import NOT_CACHED, LevelCounts, ResolutionHierarchy, cached_level, classify_pose
 from modules.terrain.vehicle_model import TerrainVehicle
 from wire.se2 import wrap_angle
 
@@ -348,9 +348,14 @@ def _levels(poses: np.ndarray, feat: np.ndarray, offsets: np.ndarray, dims: np.n
             wheels: np.ndarray, moments: np.ndarray, boxes: np.ndarray, body: np.ndarray, sc: np.ndarray,
             meta: np.ndarray, cache: np.ndarray, touched: np.ndarray, coff: np.ndarray, margins: np.ndarray,
             scratch: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    """Return the (n,) int8 level that certified each pose (from the cache; the configurations themselves bounded again)."""
+    """Return the (n,) int8 level that certified each pose: from the cache the search filled (a configuration that
+    reached below level 0 was decided by itself: −1), classified afresh only where the cache holds no answer."""
     out = np.empty(poses.shape[0], np.int8)
     for i in range(poses.shape[0]):
+        level = cached_level(poses[i, 0], poses[i, 1], poses[i, 2] % (2.0 * math.pi), dims, res, ny, nx, meta, cache, coff)
+        if level != NOT_CACHED:
+            out[i] = level
+            continue
         state, level, bits = classify_pose(poses[i, 0], poses[i, 1], poses[i, 2] % (2.0 * math.pi), feat, offsets, dims,
                                            res, ny, nx, wheels, moments, boxes, body, sc, meta, cache, touched, coff,
                                            margins, scratch, counts)

@@ -32,10 +32,12 @@ from modules.terrain.errors import TerrainError
 from modules.terrain.pyramid import TerrainPyramid
 from modules.terrain.vehicle_model import TerrainVehicle
 
-__all__ = ["ResolutionHierarchy", "LevelCounts", "classify_pose", "POSE_LEVEL"]
+__all__ = ["ResolutionHierarchy", "LevelCounts", "classify_pose", "cached_level", "POSE_LEVEL", "NOT_CACHED"]
 
 #: The level reported for a configuration decided by bounding its own small voxel (below level 0).
 POSE_LEVEL = -1
+#: What `cached_level` returns when a voxel on the way down was never classified.
+NOT_CACHED = -2
 # counts[]: node reads, voxel queries, pose queries, cache entries written (listed in `touched`), then
 # (admissible, inadmissible, mixed) per level, the configurations themselves last.
 C_NODES, C_VOXELS, C_POSES, C_TOUCHED, C_LEVELS = 0, 1, 2, 3, 4
@@ -138,6 +140,20 @@ class ResolutionHierarchy:
         return out
 
 
+@njit(cache=True, nogil=True, boundscheck=False, inline="always")
+def _voxel_of(x: float, y: float, a: float, lv: int, leaf: int, nth0: int, dims: np.ndarray, res: float, coff: np.ndarray
+              ) -> tuple[int, int, int, int, float, float]:
+    """Return the cache index, row, column, heading interval, side [m] and interval [rad] of level `lv`'s voxel holding (x, y, a)."""
+    k = leaf + lv
+    side = res * (1 << k)
+    h, w = dims[k, 0], dims[k, 1]
+    nth = max(1, nth0 >> lv)
+    width = 2.0 * math.pi / nth
+    i, j = int(y / side), int(x / side)
+    t = min(int(a / width), nth - 1)
+    return coff[lv] + (t * h + i) * w + j, i, j, t, side, width
+
+
 @njit(cache=True, nogil=True, boundscheck=False)
 def classify_pose(x: float, y: float, th: float, feat: np.ndarray, offsets: np.ndarray, dims: np.ndarray, res: float,
                   ny: int, nx: int, wheels: np.ndarray, moments: np.ndarray, boxes: np.ndarray, body: np.ndarray,
@@ -153,14 +169,7 @@ def classify_pose(x: float, y: float, th: float, feat: np.ndarray, offsets: np.n
     leaf, nlev, nth0 = meta[0], meta[1], meta[2]
     a = th % (2.0 * math.pi)
     for lv in range(nlev - 1, -1, -1):
-        k = leaf + lv
-        side = res * (1 << k)
-        h, w = dims[k, 0], dims[k, 1]
-        nth = max(1, nth0 >> lv)
-        width = 2.0 * math.pi / nth
-        i, j = int(y / side), int(x / side)
-        t = min(int(a / width), nth - 1)
-        idx = coff[lv] + (t * h + i) * w + j
+        idx, i, j, t, side, width = _voxel_of(x, y, a, lv, leaf, nth0, dims, res, coff)
         code = np.int64(cache[idx])
         if code == 0:
             state, fail, mixed = voxel_bounds(feat, offsets, dims, res, ny, nx, wheels, moments, boxes, body, sc,
@@ -192,3 +201,25 @@ def classify_pose(x: float, y: float, th: float, feat: np.ndarray, offsets: np.n
     counts[C_POSES] += 1
     counts[C_LEVELS + 3 * nlev + state - 1] += 1
     return state, -1, fail if state == INADMISSIBLE else mixed
+
+
+@njit(cache=True, nogil=True, boundscheck=False)
+def cached_level(x: float, y: float, th: float, dims: np.ndarray, res: float, ny: int, nx: int, meta: np.ndarray,
+                 cache: np.ndarray, coff: np.ndarray) -> int:
+    """Return the level whose cached voxel decided configuration (x, y [m] from the grid's origin, θ [rad]), from the cache only.
+
+    POSE_LEVEL when every voxel down to level 0 is cached mixed (the configuration was decided by itself),
+    NOT_CACHED when a voxel on the way was never classified or the configuration lies off the grid.
+    """
+    if not (0.0 <= x < nx * res and 0.0 <= y < ny * res):
+        return NOT_CACHED
+    leaf, nlev, nth0 = meta[0], meta[1], meta[2]
+    a = th % (2.0 * math.pi)
+    for lv in range(nlev - 1, -1, -1):
+        idx = _voxel_of(x, y, a, lv, leaf, nth0, dims, res, coff)[0]
+        code = np.int64(cache[idx])
+        if code == 0:
+            return NOT_CACHED
+        if code & 3 != MIXED:
+            return lv
+    return POSE_LEVEL

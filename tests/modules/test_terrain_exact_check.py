@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter
 
-from modules.terrain.constraints import VehicleArrays, configuration_bits, constraints_in, evaluate_configuration
+from modules.terrain.constraints import ADMISSIBLE, VehicleArrays, configuration_bits, constraints_in, evaluate_configuration
 from modules.terrain.cross_country_planner import CrossCountryPlanner, CrossCountrySettings
 from modules.terrain.elevation_grid import ElevationGrid
 from modules.terrain.pyramid import TerrainPyramid
@@ -90,3 +90,20 @@ def test_a_navlab_facing_a_wall_backs_out_only_when_it_may_reverse() -> None:
     assert plan.poses[:, 0].max() < 5.5 - NAVLAB_TERRAIN.body_front + 0.2  # never into the wall
     for x, y, th in plan.poses[::3]:
         assert evaluate_configuration(grid, pyr, NAVLAB_TERRAIN, x, y, th).admissible
+
+
+@pytest.mark.parametrize("kind", ["rocks", "ditch"])
+def test_on_the_bench_scenes_every_pose_is_admissible_and_certified_by_the_level_a_fresh_walk_finds(kind: str) -> None:
+    from bench.terrain_scenes import scene
+
+    sc = scene(kind, 1)
+    pyr = TerrainPyramid(sc.grid)
+    planner = CrossCountryPlanner(pyr, NAVLAB_TERRAIN)
+    plan = planner.plan(sc.start, sc.goal)
+    assert (plan.levels == -1).sum() > 10  # the exact check certified some of the path
+    fresh = CrossCountryPlanner(pyr, NAVLAB_TERRAIN).hierarchy  # an empty cache: every voxel and configuration classified again
+    for (x, y, th), level in zip(plan.poses, plan.levels):
+        state, again, _ = fresh.classify(x, y, th)
+        assert state == ADMISSIBLE and again == level, (x, y, th, level, again)
+    for x, y, th in plan.poses[plan.levels == -1][::4]:
+        assert evaluate_configuration(sc.grid, pyr, NAVLAB_TERRAIN, x, y, th).admissible, (x, y, th)

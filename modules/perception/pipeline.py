@@ -282,15 +282,17 @@ class PerceptionPipeline:
         return CycleSetup(method, plan, self.params_for(objects), types, self.table.sensor.x_offset)
 
     def colour_step(self, setup: "CycleSetup", objects: tuple[MapObject, ...], rgb: np.ndarray, mask: np.ndarray | None,
-                    training: np.ndarray | None) -> np.ndarray | None:
+                    training: np.ndarray | None, *, striped: bool = True) -> np.ndarray | None:
         """Classify one frame's colours with the classes kept for these objects, adapting them (None for range alone).
 
-        The one stage that carries state from frame to frame: frames must pass it in order.
+        The one stage that carries state from frame to frame: frames must pass it in order. `striped`:
+        classify in row stripes over the pool's workers (the same labels as in this process).
         """
         if setup.method is Segmentation.RANGE:
             return None
         assert mask is not None
-        return classify_colours(setup.method, rgb, mask, setup.params, self._adapted_model(objects), training=training, pool=self.pool)
+        return classify_colours(setup.method, rgb, mask, setup.params, self._adapted_model(objects), training=training,
+                                pool=self.pool if striped else None)
 
 
 @dataclass(frozen=True)

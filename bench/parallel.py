@@ -22,8 +22,10 @@ a pass's wall time per frame [ms]:
 
 `perception_split_share` is the share of one-process cycle time that runs in the workers (all but
 the colour step), and `amdahl_bound` the speed-up the cycle could reach with it: 1 / (serial + split / N);
-`stripe_split_share` and `stripe_amdahl_bound` the same for a single frame split into stripes
-(registration and colour classification alone). Beside them,
+`pipeline_bound` is the bound of frame partitioning itself, whose serial colour step overlaps
+the workers' frames: min(N, cycle / colour step). `stripe_split_share` and `stripe_amdahl_bound`
+are the share and bound for a single frame split into stripes (registration and colour
+classification alone, the live module's path). Beside them,
 the Warp's measured speed-ups (Navlab 1990 §4.3.2, §4.4.3). `load_avg_1min` says how busy the
 machine was: on a shared machine the figures are provisional.
 """
@@ -161,5 +163,7 @@ def run(world: str = "campus", frames: int = 12, rounds: int = 3, seed: int = 0,
         share = min(1.0, max(0.0, split / cycle_ms))
         out[f"{key or 'perception_'}split_share"] = round(share, 3)
         out[f"{key}amdahl_bound"] = {str(n): round(1.0 / ((1.0 - share) + share / n), 3) for n in counts if n > 1}
+    serial = max(alg["colour_step"]["ms_per_frame"]["1"], 1e-9)
+    out["pipeline_bound"] = {str(n): round(min(float(n), cycle_ms / serial), 3) for n in counts if n > 1}
     out["load_avg_1min"] = round(os.getloadavg()[0], 2)
     return out

@@ -81,10 +81,10 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
     """Run every frame's head, step and tail; return the tails' results in frame order.
 
     Every stage of frame k sees its inputs and outputs (zeroed) by name, in the pool's shared frame
-    (copied there once; in this process with one worker). `step(k, head's value, frame k's arrays)`
+    (the inputs copied there once, when the frame is handed out; with one worker, in this process). `step(k, head's value, frame k's arrays)`
     runs in the caller, for k = 0, 1, … in order, and returns the value for frame k's tail. Each worker holds up to `depth` unfinished frames; the caller takes the next frame itself
     when it would otherwise wait and has less work than every worker (its steps count: frames
-    measured so far give a frame's cost). With one worker every stage runs here, frame after frame.
+    measured so far give a frame's cost; before the first is measured, it takes one). With one worker every stage runs here, frame after frame.
     A failed stage or worker raises (a worker's as WorkerError) once the other workers' answers are read.
     """
     n = len(frames)
@@ -101,15 +101,23 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
     steps_s = 0.0  # the caller's time in steps [s]
     done = assigned = stepped = 0
 
-    if pool.workers > 1:
-        refs = pool.share({f"{k}.{a}": v for k, f in enumerate(frames) for a, v in f.inputs.items()},
-                          {f"{k}.{a}": o for k, f in enumerate(frames) for a, o in f.outputs.items()})
+    if pool.workers > 1:  # room for every frame at once; a frame's inputs are copied in when it is handed out
+        refs = pool.share({}, {f"{k}.{a}": spec for k, f in enumerate(frames)
+                               for a, spec in (*((a, (v.shape, v.dtype)) for a, v in f.inputs.items()), *f.outputs.items())})
         shared = [{a: refs[f"{k}.{a}"] for a in (*f.inputs, *f.outputs)} for k, f in enumerate(frames)]
     else:
         local = [{**f.inputs, **{a: np.zeros(shape, dtype) for a, (shape, dtype) in f.outputs.items()}} for f in frames]
 
     def views(k: int) -> Mapping[str, np.ndarray]:
         return pool.views(shared[k]) if pool.workers > 1 else local[k]
+
+    def hand_out(k: int) -> None:
+        if pool.workers > 1:
+            arrays = views(k)
+            for a, v in frames[k].inputs.items():
+                np.copyto(arrays[a], v, casting="no")
+            for a in frames[k].outputs:
+                arrays[a].fill(0)
 
     def finish(k: int, value: Any, seconds: float) -> None:
         nonlocal done
@@ -134,7 +142,7 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
         if not load:
             return True
         if not measured:
-            return False
+            return mine == 0  # one frame while the workers' first heads run: then a frame's cost is known
         cost = sum(measured) / len(measured)
         return steps_s + mine * cost < min(given.values()) * cost
 
@@ -142,6 +150,7 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
         while done < n:
             for w in load:
                 while load[w] < depth and assigned < n:
+                    hand_out(assigned)
                     pool.post(w, _head_task, shared[assigned], (stages.head, (batch, assigned), frames[assigned].args), f"head {assigned}")
                     owner[assigned] = w
                     load[w] += 1
@@ -166,6 +175,7 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
                 k = assigned
                 assigned += 1
                 mine += 1
+                hand_out(k)
                 heads[k], spent[k] = _head_task(views(k), (stages.head, (batch, k), frames[k].args))
             elif done < n:
                 answer(*pool.collect())

@@ -24,7 +24,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from modules.parallel.errors import StripePlanError, WorkerError
-from modules.parallel.shared_frame import ArrayRef, SharedFrame, view
+from modules.parallel.shared_frame import ArrayRef, SharedFrame
 from modules.parallel.stripe_op import StripeOp, pixels_per_unit, run_stripe, stripe_length
 from modules.parallel.stripes import Stripe, aligned_for, partition
 from modules.parallel.worker import serve
@@ -129,11 +129,11 @@ class VisionPool:
             w.wait_ready(max(0.0, deadline - time.monotonic()))
 
     def _live(self) -> list[_Worker]:
-        """Return the workers, replacing any that died since the last call."""
+        """Return the workers, replacing any that died since the last call (not one with unanswered tasks: `collect` reports it)."""
         if not self._finalizer.alive:
             raise WorkerError("vision pool: used after close()")
         for i, w in enumerate(self._procs):
-            if not w.proc.is_alive():
+            if not w.proc.is_alive() and not self._posted.get(w.index):
                 w.stop(0.1)
                 self._procs[i] = _Worker(self._ctx, w.index, self._warm)
         return self._procs
@@ -242,9 +242,7 @@ class VisionPool:
             raise StripePlanError(f"vision pool: no worker {worker} among {self.workers - 1}")
         frame = self._frame[0]
         assert frame is not None
-        if not self._posted.get(worker):
-            self._live()  # replace a worker that died while idle
-        w = self._procs[worker - 1]
+        w = self._live()[worker - 1]  # a worker that died while idle is replaced
         w.wait_ready(self.start_timeout_s)
         w.send(("task", fn, frame.name, dict(refs), args))
         self._posted.setdefault(worker, deque()).append(what)

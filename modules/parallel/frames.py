@@ -81,11 +81,13 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
     """Run every frame's head, step and tail; return the tails' results in frame order.
 
     Every stage of frame k sees its inputs and outputs (zeroed) by name, in the pool's shared frame
-    (the inputs copied there once, when the frame is handed out; with one worker, in this process). `step(k, head's value, frame k's arrays)`
-    runs in the caller, for k = 0, 1, … in order, and returns the value for frame k's tail. Each worker holds up to `depth` unfinished frames; the caller takes the next frame itself
-    when it would otherwise wait and has less work than every worker (its steps count: frames
-    measured so far give a frame's cost; before the first is measured, it takes one). With one worker every stage runs here, frame after frame.
-    A failed stage or worker raises (a worker's as WorkerError) once the other workers' answers are read.
+    (the inputs copied there once, when the frame is handed out; with one worker, in this process).
+    `step(k, head's value, frame k's arrays)` runs in the caller, for k = 0, 1, … in order, and
+    returns the value for frame k's tail. Each worker holds up to `depth` unfinished frames; the
+    caller takes the next frame itself when it would otherwise wait and has less work than every
+    worker (its steps count; the frames measured so far give a frame's cost; before the first is
+    measured, it takes one). With one worker every stage runs here, frame after frame. A failed
+    stage or worker raises (a worker's as WorkerError) once the other workers' answers are read.
     """
     n = len(frames)
     batch = f"{os.getpid()}.{next(_BATCHES)}"

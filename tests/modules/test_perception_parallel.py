@@ -52,11 +52,13 @@ def test_frames_over_two_and_three_workers_give_what_one_process_gives() -> None
     """`process_frames`: whole frames among the workers, the colour classes carried in the caller — the same outputs."""
     src = FrameSource("campus", seed=5)
     frames = list(eval_frames(src, 12, np.random.default_rng(5), (0.5, 2.0)))
-    jobs = [FrameJob(fr.sensor, fr.objects, fr.prior_pose) for fr in frames]
+    # every fourth frame predicts nothing of colour: range alone (no colour step)
+    jobs = [FrameJob(fr.sensor, tuple(o.model_copy(update={"colour": None}) for o in fr.objects) if k % 4 == 3 else fr.objects, fr.prior_pose)
+            for k, fr in enumerate(frames)]
     pipe = PerceptionPipeline(ResolutionTable(src.table.sensor, max_distance=src.table.max_distance))
-    alone = [_digest(pipe.process(colored_range_image(fr.sensor), fr.objects, fr.prior_pose, error_allowance=1.0, step=1)) for fr in frames]
+    alone = [_digest(pipe.process(colored_range_image(j.sensor), j.objects, j.prior_pose, error_allowance=1.0, step=1)) for j in jobs]
     methods = [d[0] for d in alone]
-    assert {Segmentation.COLOUR, Segmentation.COLORED_RANGE} <= set(methods), methods
+    assert {Segmentation.COLOUR, Segmentation.COLORED_RANGE, Segmentation.RANGE} <= set(methods), methods
     assert sum(d[6] is not None for d in alone) >= 6  # frames with a fix: the comparison covers the whole cycle
     # the colour classes carry from frame to frame: the same frames in another order give other labels
     pipe = PerceptionPipeline(ResolutionTable(src.table.sensor, max_distance=src.table.max_distance))

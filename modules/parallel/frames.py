@@ -77,7 +77,8 @@ def _tail_task(arrays: Mapping[str, np.ndarray], args: tuple) -> tuple[Any, floa
 
 
 def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
-               step: Callable[[int, Any, Mapping[str, np.ndarray]], Any], depth: int = 4) -> list:
+               step: Callable[[int, Any, Mapping[str, np.ndarray]], Any], depth: int = 4,
+               gather: Callable[[int, Any, Mapping[str, np.ndarray]], Any] | None = None) -> list:
     """Run every frame's head, step and tail; return the tails' results in frame order.
 
     Every stage of frame k sees its inputs and outputs (zeroed) by name, in the pool's shared frame
@@ -85,9 +86,12 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
     `step(k, head's value, frame k's arrays)` runs in the caller, for k = 0, 1, … in order, and
     returns the value for frame k's tail. Each worker holds up to `depth` unfinished frames; the
     caller takes the next frame itself when it would otherwise wait and has less work than every
-    worker (its steps count; the frames measured so far give a frame's cost; before the first is
-    measured, it takes one). With one worker every stage runs here, frame after frame. A failed
-    stage or worker raises (a worker's as WorkerError) once the other workers' answers are read.
+    worker: its time so far, all but the waiting, and the steps and tails it has still to run, against
+    the frames a worker has been given at the cost measured so far (before the first frame is
+    measured, it takes one). `gather(k, tail's result, frame k's arrays)`, run here once every frame
+    is done, returns what comes back for frame k (results that left arrays in the shared frame
+    collect them). With one worker every stage runs here, frame after frame. A failed stage or
+    worker raises (a worker's as WorkerError) once the other workers' answers are read.
     """
     n = len(frames)
     batch = f"{os.getpid()}.{next(_BATCHES)}"
@@ -101,6 +105,7 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
     measured: list[float] = []  # time of each finished frame [s]
     mine = 0  # frames the caller took
     steps_s = 0.0  # the caller's time in steps [s]
+    start, waited = time.perf_counter(), 0.0  # the caller's time waiting for workers [s]
     done = assigned = stepped = 0
 
     if pool.workers > 1:  # room for every frame at once; a frame's inputs are copied in when it is handed out
@@ -146,7 +151,11 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
         if not measured:
             return mine == 0  # one frame while the workers' first heads run: then a frame's cost is known
         cost = sum(measured) / len(measured)
-        return steps_s + mine * cost < min(given.values()) * cost
+        # the caller's work so far (everything but waiting), its steps to come and its frames' tails to come,
+        # against the frames the least loaded worker has been given
+        busy = time.perf_counter() - start - waited
+        to_come = (n - stepped) * steps_s / max(stepped, 1) + sum(owner[k] == 0 and results[k] is None for k in range(assigned)) * cost / 2
+        return busy + to_come <= min(given.values()) * cost
 
     try:
         while done < n:
@@ -180,11 +189,13 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
                 hand_out(k)
                 heads[k], spent[k] = _head_task(views(k), (stages.head, (batch, k), frames[k].args))
             elif done < n:
+                t0 = time.perf_counter()
                 answer(*pool.collect())
+                waited += time.perf_counter() - t0
     except BaseException:
         pool.drain()
         raise
     finally:
         for k in [k for k in _KEPT if k[0] == batch]:
             del _KEPT[k]
-    return results
+    return results if gather is None else [gather(k, r, views(k)) for k, r in enumerate(results)]

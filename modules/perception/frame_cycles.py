@@ -61,12 +61,27 @@ def _head(arrays: Mapping[str, np.ndarray], args: tuple) -> tuple[tuple, None]:
 
 
 def _tail(arrays: Mapping[str, np.ndarray], kept: tuple, step_s: float) -> PipelineOutput:
-    """Run one frame's cycle tail on the colour labels the colour step left in the shared frame."""
+    """Run one frame's cycle tail on the colour labels the colour step left in the shared frame.
+
+    The output's label and patch-id images go back through the shared frame (`_with_images` puts them
+    back), the rest pickled.
+    """
     head, setup, prior_pose, error_allowance, head_s = kept
     t0 = time.perf_counter()
     colour_lab = arrays["colour_lab"] if head.mask is not None else None
     out = cycle_tail(head, colour_lab, setup, prior_pose, error_allowance)
-    return replace(out, seconds=head_s + step_s + time.perf_counter() - t0)
+    seg = out.segmented
+    np.copyto(arrays["labels"], seg.labels, casting="no")
+    np.copyto(arrays["ids"], seg.patches.ids, casting="no")
+    seg = replace(seg, labels=None, patches=replace(seg.patches, ids=None))
+    return replace(out, segmented=seg, seconds=head_s + step_s + time.perf_counter() - t0)
+
+
+def _with_images(out: PipelineOutput, arrays: Mapping[str, np.ndarray]) -> PipelineOutput:
+    """Return a tail's output with its label and patch-id images copied out of the shared frame."""
+    seg = out.segmented
+    seg = replace(seg, labels=arrays["labels"].copy(), patches=replace(seg.patches, ids=arrays["ids"].copy()))
+    return replace(out, segmented=seg)
 
 
 _STAGES = FrameStages(_head, _tail)
@@ -74,12 +89,12 @@ _STAGES = FrameStages(_head, _tail)
 
 def _frame(job: FrameJob, setup: CycleSetup, error_allowance: float) -> Frame:
     """Return one frame of the run: the capture's arrays in, what passes through the colour step out."""
-    outputs: dict[str, tuple[tuple[int, ...], Any]] = {}
+    h, w = job.sensor.laser_range.shape
+    s = setup.plan.step
+    hw = (-(-h // s), -(-w // s)) if s > 1 else (h, w)
+    outputs: dict[str, tuple[tuple[int, ...], Any]] = {"labels": (hw, np.int32), "ids": (hw, np.int32)}
     if setup.types:
-        h, w = job.sensor.laser_range.shape
-        s = setup.plan.step
-        hw = (-(-h // s), -(-w // s)) if s > 1 else (h, w)
-        outputs = {"rgb": ((*hw, 3), np.float32), "mask": (hw, np.bool_), "training": (hw, np.int16), "colour_lab": (hw, np.int16)}
+        outputs.update({"rgb": ((*hw, 3), np.float32), "mask": (hw, np.bool_), "training": (hw, np.int16), "colour_lab": (hw, np.int16)})
     meta = {n: getattr(job.sensor, n) for n in _META}
     return Frame({n: np.asarray(getattr(job.sensor, n)) for n in _SENSOR}, outputs,
                  (meta, setup, job.objects, job.prior_pose, error_allowance))
@@ -119,7 +134,8 @@ def _batch(pipeline: PerceptionPipeline, jobs: list[FrameJob], error_allowance: 
         np.copyto(arrays["colour_lab"], lab)
         return time.perf_counter() - t0
 
-    outs = run_frames(pool, _STAGES, [_frame(j, su, error_allowance) for j, su in zip(jobs, setups)], colour_step)
+    outs = run_frames(pool, _STAGES, [_frame(j, su, error_allowance) for j, su in zip(jobs, setups)], colour_step,
+                      gather=lambda k, out, arrays: _with_images(out, arrays))
     for setup, out in zip(setups, outs):
         pipeline.table.record(setup.plan.step, out.seconds)
     return outs

@@ -28,7 +28,8 @@ def test_frames_over_workers_give_the_one_after_the_other_results_in_order(worke
     assert [v for v, _ in got] == sequential(xs)
     assert [v for v, _ in again] == sequential(xs[::-1])
     assert sequential(xs) != sequential(xs[::-1])  # the step's order shows in the results
-    assert len({p for _, p in got}) == workers, "every process ran some frames"
+    # the first `depth` frames go to each worker in turn; whether the caller takes some depends on timing
+    assert len({p for _, p in got} - {os.getpid()}) == workers - 1, "every worker ran some frames"
 
 
 def test_a_failing_or_dying_worker_is_a_worker_error_and_the_pool_serves_on() -> None:

@@ -46,11 +46,10 @@ class FrameStages:
 
 @dataclass(frozen=True)
 class Frame:
-    """One frame of a run: its `inputs` (name → array), the `outputs` its stages pass on (name → (shape, dtype)), the head's `args`."""
+    """One frame of a run: its `inputs` (name → array) and the `outputs` its stages pass on (name → (shape, dtype))."""
 
     inputs: Mapping[str, np.ndarray]
     outputs: Mapping[str, OutputSpec]
-    args: Any
 
 
 #: What heads keep for their tails in this process: (batch, frame) → kept.
@@ -76,11 +75,12 @@ def _tail_task(arrays: Mapping[str, np.ndarray], args: tuple) -> tuple[Any, floa
     return fn(arrays, _KEPT.pop(key), value), time.perf_counter() - t0
 
 
-def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
+def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame], head_args: Callable[[int], Any],
                step: Callable[[int, Any, Mapping[str, np.ndarray]], Any], depth: int = 4,
                gather: Callable[[int, Any, Mapping[str, np.ndarray]], Any] | None = None) -> list:
     """Run every frame's head, step and tail; return the tails' results in frame order.
 
+    `head_args(k)` gives frame k's head its args; it runs here, in frame order, as frame k is handed out.
     Every stage of frame k sees its inputs and outputs (zeroed) by name, in the pool's shared frame
     (the inputs copied there once, when the frame is handed out; with one worker, in this process).
     `step(k, head's value, frame k's arrays)` runs in the caller, for k = 0, 1, … in order, and
@@ -106,7 +106,9 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
     mine = 0  # frames the caller took
     steps_s = 0.0  # the caller's time in steps [s]
     start, waited = time.perf_counter(), 0.0  # the caller's time waiting for workers [s]
-    done = assigned = stepped = 0
+    to_post: dict[int, list[tuple[str, int, tuple]]] = {w: [] for w in load}  # each worker's tasks not yet sent
+    flying = {w: 0 for w in load}  # each worker's tasks sent, not answered
+    done = assigned = stepped = started = 0  # started: heads begun
 
     if pool.workers > 1:  # room for every frame at once; a frame's inputs are copied in when it is handed out
         refs = pool.share({}, {f"{k}.{a}": spec for k, f in enumerate(frames)
@@ -133,7 +135,22 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
         measured.append(spent[k])
         done += 1
 
+    def dispatch() -> None:
+        """Keep each worker at two tasks in flight, heads first while fewer than two frames are headed ahead of the step."""
+        nonlocal started
+        for w, todo in to_post.items():
+            while flying[w] < 2 and todo:
+                heads_next = [t for t in todo if t[0] == "head"]
+                tails_next = [t for t in todo if t[0] == "tail"]
+                task = heads_next[0] if heads_next and (not tails_next or started - stepped < 2) else (tails_next or heads_next)[0]
+                todo.remove(task)
+                kind, k, args = task
+                pool.post(w, _head_task if kind == "head" else _tail_task, shared[k], args, f"{kind} {k}")
+                flying[w] += 1
+                started += kind == "head"
+
     def answer(w: int, what: str, got: tuple[Any, float]) -> None:
+        flying[w] -= 1
         kind, k = what.split(" ")
         value, seconds = got
         if kind == "head":
@@ -159,16 +176,17 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
 
     try:
         while done < n:
-            for w in load:
+            for w in load:  # hand frames out in order: arguments drawn, inputs copied in
                 while load[w] < depth and assigned < n:
                     hand_out(assigned)
-                    pool.post(w, _head_task, shared[assigned], (stages.head, (batch, assigned), frames[assigned].args), f"head {assigned}")
+                    to_post[w].append(("head", assigned, (stages.head, (batch, assigned), head_args(assigned))))
                     owner[assigned] = w
                     load[w] += 1
                     given[w] += 1
                     assigned += 1
             while pool.unanswered() and (got := pool.collect(0.0)) is not None:
                 answer(*got)
+            dispatch()
             if stepped < n and stepped in heads:
                 k = stepped
                 t0 = time.perf_counter()
@@ -178,7 +196,7 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
                 if owner[k] == 0:
                     own_tails.append((k, value))
                 else:
-                    pool.post(owner[k], _tail_task, shared[k], (stages.tail, (batch, k), value), f"tail {k}")
+                    to_post[owner[k]].append(("tail", k, (stages.tail, (batch, k), value)))
             elif own_tails:
                 k, value = own_tails.popleft()
                 finish(k, *_tail_task(views(k), (stages.tail, (batch, k), value)))
@@ -187,7 +205,8 @@ def run_frames(pool: VisionPool, stages: FrameStages, frames: Sequence[Frame],
                 assigned += 1
                 mine += 1
                 hand_out(k)
-                heads[k], spent[k] = _head_task(views(k), (stages.head, (batch, k), frames[k].args))
+                started += 1
+                heads[k], spent[k] = _head_task(views(k), (stages.head, (batch, k), head_args(k)))
             elif done < n:
                 t0 = time.perf_counter()
                 answer(*pool.collect())

@@ -24,6 +24,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from modules.parallel import Frame, FrameStages, run_frames
+from modules.perception.patch_maker import Segmentation
 from modules.perception.pipeline import CycleSetup, PerceptionPipeline, PipelineOutput, cycle_head, cycle_tail
 from modules.perception.sensor_frame import SensorFrame, colored_range_image
 from modules.vocabulary import MapObject
@@ -87,17 +88,14 @@ def _with_images(out: PipelineOutput, arrays: Mapping[str, np.ndarray]) -> Pipel
 _STAGES = FrameStages(_head, _tail)
 
 
-def _frame(job: FrameJob, setup: CycleSetup, error_allowance: float) -> Frame:
-    """Return one frame of the run: the capture's arrays in, what passes through the colour step out."""
+def _frame(job: FrameJob, method: Segmentation, step: int) -> Frame:
+    """Return one frame of the run: the capture's arrays in; out, its images and what passes through the colour step."""
     h, w = job.sensor.laser_range.shape
-    s = setup.plan.step
-    hw = (-(-h // s), -(-w // s)) if s > 1 else (h, w)
+    hw = (-(-h // step), -(-w // step)) if step > 1 else (h, w)
     outputs: dict[str, tuple[tuple[int, ...], Any]] = {"labels": (hw, np.int32), "ids": (hw, np.int32)}
-    if setup.types:
+    if method is not Segmentation.RANGE:
         outputs.update({"rgb": ((*hw, 3), np.float32), "mask": (hw, np.bool_), "training": (hw, np.int16), "colour_lab": (hw, np.int16)})
-    meta = {n: getattr(job.sensor, n) for n in _META}
-    return Frame({n: np.asarray(getattr(job.sensor, n)) for n in _SENSOR}, outputs,
-                 (meta, setup, job.objects, job.prior_pose, error_allowance))
+    return Frame({n: np.asarray(getattr(job.sensor, n)) for n in _SENSOR}, outputs)
 
 
 def process_frames(pipeline: PerceptionPipeline, jobs: Sequence[FrameJob], *, error_allowance: float = 0.5,
@@ -121,7 +119,13 @@ def process_frames(pipeline: PerceptionPipeline, jobs: Sequence[FrameJob], *, er
 def _batch(pipeline: PerceptionPipeline, jobs: list[FrameJob], error_allowance: float, step: int | None) -> list[PipelineOutput]:
     pool = pipeline.pool
     assert pool is not None
-    setups = [pipeline.setup(j.objects, error_allowance, step=step) for j in jobs]
+    layout = [pipeline.method_and_plan(j.objects, error_allowance, step=step) for j in jobs]
+    setups: dict[int, CycleSetup] = {}
+
+    def head_args(k: int) -> tuple:  # as frame k is handed out, in frame order, as `process` would
+        job = jobs[k]
+        setups[k] = pipeline.setup(job.objects, error_allowance, step=step)
+        return {n: getattr(job.sensor, n) for n in _META}, setups[k], job.objects, job.prior_pose, error_allowance
 
     def colour_step(k: int, _: None, arrays: Mapping[str, np.ndarray]) -> float:
         setup = setups[k]
@@ -134,8 +138,8 @@ def _batch(pipeline: PerceptionPipeline, jobs: list[FrameJob], error_allowance: 
         np.copyto(arrays["colour_lab"], lab)
         return time.perf_counter() - t0
 
-    outs = run_frames(pool, _STAGES, [_frame(j, su, error_allowance) for j, su in zip(jobs, setups)], colour_step,
+    outs = run_frames(pool, _STAGES, [_frame(j, m, p.step) for j, (m, p) in zip(jobs, layout)], head_args, colour_step,
                       gather=lambda k, out, arrays: _with_images(out, arrays))
-    for setup, out in zip(setups, outs):
-        pipeline.table.record(setup.plan.step, out.seconds)
+    for k, out in enumerate(outs):
+        pipeline.table.record(setups[k].plan.step, out.seconds)
     return outs

@@ -272,14 +272,18 @@ class PerceptionPipeline:
     def setup(self, objects: tuple[MapObject, ...], error_allowance: float, method: Segmentation | None = None,
               step: int | None = None) -> "CycleSetup":
         """Return what the monitor decides for one cycle before it looks at the frame: method, view plan, parameters."""
+        method, plan = self.method_and_plan(objects, error_allowance, method, step)
+        types = () if method is Segmentation.RANGE else self._adapted_model(objects).types
+        return CycleSetup(method, plan, self.params_for(objects), types, self.table.sensor.x_offset)
+
+    def method_and_plan(self, objects: tuple[MapObject, ...], error_allowance: float, method: Segmentation | None = None,
+                        step: int | None = None) -> tuple[Segmentation, ViewPlan]:
+        """Return the segmentation method and the view plan (resolution step, distance) of one cycle."""
         method = method or select_segmentation(objects)
         if method is not Segmentation.RANGE and not any(o.colour is not None for o in objects):
             method = Segmentation.RANGE  # nothing predicted says what colour to look for: range alone
         plan = self.table.plan(error_allowance, self.speed)
-        if step is not None:
-            plan = replace(plan, step=step)
-        types = () if method is Segmentation.RANGE else self._adapted_model(objects).types
-        return CycleSetup(method, plan, self.params_for(objects), types, self.table.sensor.x_offset)
+        return method, plan if step is None else replace(plan, step=step)
 
     def colour_step(self, setup: "CycleSetup", objects: tuple[MapObject, ...], rgb: np.ndarray, mask: np.ndarray | None,
                     training: np.ndarray | None, *, striped: bool = True) -> np.ndarray | None:

@@ -14,8 +14,8 @@ pytestmark = pytest.mark.timeout(120)  # quiet run ~8 s (worker start-up is most
 
 
 def _run(pool: VisionPool, xs: list[np.ndarray], faults: dict[int, str] | None = None) -> list:
-    frames = [Frame({"x": x}, {"s": ((1,), np.float64)}, (k, (faults or {}).get(k, ""), os.getpid())) for k, x in enumerate(xs)]
-    return run_frames(pool, STAGES, frames, step_state([0.0]))
+    frames = [Frame({"x": x}, {"s": ((1,), np.float64)}) for x in xs]
+    return run_frames(pool, STAGES, frames, lambda k: (k, (faults or {}).get(k, ""), os.getpid()), step_state([0.0]))
 
 
 @pytest.mark.parametrize("workers", [2, 3])

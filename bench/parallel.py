@@ -7,15 +7,25 @@ machine's cores); a pool of each count is open throughout. After one warm-up rou
 the machine's load falls on all counts alike); the figure is the median over the rounds of
 a pass's wall time per frame [ms]:
 
-- `perception_cycle`: registration (`colored_range_image`) and one PERCEPTION cycle
-  (`PerceptionPipeline.process`, full resolution) on campus frames, half on the slope and stairs;
-  `identical` says whether every output (labels, patches, objects found, fix) equals one process's;
-- `registration`, `colour_classification`: PERCEPTION's two split stages alone;
+- `perception_cycle`: registration (`colored_range_image`) and one PERCEPTION cycle (full
+  resolution) per frame on campus frames, half on the slope and stairs, as one run of frames
+  (`modules.perception.process_frames`: whole frames among the workers, the colour step in the
+  caller in frame order), so the figure is throughput — wall time of the run over its frames —
+  not one frame's latency, which no worker count shortens; `identical` says whether every output
+  (labels, patches, objects found, fix) equals one process's;
+- `colour_step`: the cycle's one stage that carries state from frame to frame (colour classes
+  fitted, classified, adapted), alone: the serial part of the cycle;
+- `registration`, `colour_classification`: the per-pixel stages `PerceptionPipeline.process` splits
+  into stripes for a single frame (the live module's path), alone;
 - `scarf_frame`: SCARF with the texture operator and ISODATA on north_hills frames (`identical`
   likewise), and `scarf_look`, its split stages alone (reduction, texture, classification).
 
-`perception_split_share` is the share of one-process cycle time spent in the split stages, and
-`amdahl_bound` the speed-up the cycle could reach with it: 1 / (serial + split / N). Beside them,
+`perception_split_share` is the share of one-process cycle time that runs in the workers (all but
+the colour step), and `amdahl_bound` the speed-up the cycle could reach with it: 1 / (serial + split / N);
+`pipeline_bound` is the bound of frame partitioning itself, whose serial colour step overlaps
+the workers' frames: min(N, cycle / colour step). `stripe_split_share` and `stripe_amdahl_bound`
+are the share and bound for a single frame split into stripes (registration and colour
+classification alone, the live module's path). Beside them,
 the Warp's measured speed-ups (Navlab 1990 §4.3.2, §4.4.3). `load_avg_1min` says how busy the
 machine was: on a shared machine the figures are provisional.
 """
@@ -66,7 +76,8 @@ def run(world: str = "campus", frames: int = 12, rounds: int = 3, seed: int = 0,
     from modules.parallel import VisionPool
     from modules.perception.monitor import ResolutionTable
     from modules.perception.patch_maker.colour_stripes import classify
-    from modules.perception.pipeline import PerceptionPipeline
+    from modules.perception.frame_cycles import FrameJob, process_frames
+    from modules.perception.pipeline import PerceptionPipeline, cycle_head
     from modules.perception.sensor_frame import colored_range_image
     from modules.road_following import CameraGeometry, Scarf, ScarfConfig
     from modules.road_following.scarf_stripes import LookParams, look
@@ -97,12 +108,22 @@ def run(world: str = "campus", frames: int = 12, rounds: int = 3, seed: int = 0,
         model = PerceptionPipeline(src.table).colour_model_for(pframes[0].objects)
         imgs = [colored_range_image(fr.sensor) for fr in pframes]
 
+        jobs = [FrameJob(fr.sensor, fr.objects, fr.prior_pose) for fr in pframes]
+        ref = PerceptionPipeline(ResolutionTable(src.table.sensor, max_distance=src.table.max_distance))
+        setups = [ref.setup(fr.objects, 1.0, step=1) for fr in pframes]
+        heads = [cycle_head(im, su, fr.objects, fr.prior_pose, 1.0) for im, su, fr in zip(imgs, setups, pframes)]
+
         def algorithms(pool: VisionPool) -> dict[str, Callable[[], list]]:
             """Return each algorithm as one pass over the frames on `pool`, returning its outputs."""
-            def cycle() -> list:  # a fresh pipeline each pass: its colour classes adapt frame to frame
-                pipe = PerceptionPipeline(ResolutionTable(src.table.sensor, max_distance=src.table.max_distance), pool=pool)
-                return [_digest(pipe.process(colored_range_image(fr.sensor, pool=pool), fr.objects, fr.prior_pose, error_allowance=1.0, step=1))
-                        for fr in pframes]
+            def fresh() -> PerceptionPipeline:  # a fresh pipeline each pass: its colour classes adapt frame to frame
+                return PerceptionPipeline(ResolutionTable(src.table.sensor, max_distance=src.table.max_distance), pool=pool)
+
+            def cycle() -> list:
+                return [_digest(o) for o in process_frames(fresh(), jobs, error_allowance=1.0, step=1)]
+
+            def colour_step() -> list:
+                pipe = fresh()
+                return [pipe.colour_step(su, fr.objects, h.work.rgb, h.mask, h.training) for su, fr, h in zip(setups, pframes, heads)]
 
             def scarf() -> list:
                 s = Scarf(cam, scarf_cfg, pool=pool)
@@ -110,6 +131,7 @@ def run(world: str = "campus", frames: int = 12, rounds: int = 3, seed: int = 0,
 
             return {
                 "perception_cycle": cycle,
+                "colour_step": lambda: [None if lab is None else int(lab.sum()) for lab in colour_step()],
                 "registration": lambda: [int(colored_range_image(fr.sensor, pool=pool).valid.sum()) for fr in pframes],
                 "colour_classification": lambda: [int(classify(model, im.rgb, im.valid, pool)[0].sum()) for im in imgs],
                 "scarf_frame": scarf,
@@ -135,9 +157,13 @@ def run(world: str = "campus", frames: int = 12, rounds: int = 3, seed: int = 0,
         if name in ("perception_cycle", "scarf_frame"):
             a["identical"] = all(outputs[(name, n)] == outputs[(name, 1)] for n in counts)
     alg = out["algorithms"]
-    split = alg["registration"]["ms_per_frame"]["1"] + alg["colour_classification"]["ms_per_frame"]["1"]
-    share = min(1.0, split / max(alg["perception_cycle"]["ms_per_frame"]["1"], 1e-9))
-    out["perception_split_share"] = round(share, 3)
-    out["amdahl_bound"] = {str(n): round(1.0 / ((1.0 - share) + share / n), 3) for n in counts if n > 1}
+    cycle_ms = max(alg["perception_cycle"]["ms_per_frame"]["1"], 1e-9)
+    for key, split in (("", cycle_ms - alg["colour_step"]["ms_per_frame"]["1"]),
+                       ("stripe_", alg["registration"]["ms_per_frame"]["1"] + alg["colour_classification"]["ms_per_frame"]["1"])):
+        share = min(1.0, max(0.0, split / cycle_ms))
+        out[f"{key or 'perception_'}split_share"] = round(share, 3)
+        out[f"{key}amdahl_bound"] = {str(n): round(1.0 / ((1.0 - share) + share / n), 3) for n in counts if n > 1}
+    serial = max(alg["colour_step"]["ms_per_frame"]["1"], 1e-9)
+    out["pipeline_bound"] = {str(n): round(min(float(n), cycle_ms / serial), 3) for n in counts if n > 1}
     out["load_avg_1min"] = round(os.getloadavg()[0], 2)
     return out

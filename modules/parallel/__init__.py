@@ -5,10 +5,12 @@ processes), frames in shared memory (`SharedFrame`), input partitioning into str
 by the operator's width (`partition`), and `StripeOp`, the contract an operator meets to be split
 (a module-level function over a stripe's halo, the overlap it reads, how its arrays are cut).
 PERCEPTION's colored-range stages and SCARF use it; with one worker everything runs in the caller,
-exactly as before.
+exactly as before. For a cycle that does not split into stripes, `run_frames` partitions a run of
+frames instead (`frames`): whole frames among the workers, the stage carrying state in the caller.
 """
 
 from modules.parallel.errors import ParallelError, StripePlanError, WorkerError
+from modules.parallel.frames import Frame, FrameStages, run_frames
 from modules.parallel.pool import VisionPool
 from modules.parallel.shared_frame import ArrayRef, SharedFrame
 from modules.parallel.stripe_op import StripeOp, run_stripe
@@ -18,4 +20,5 @@ __all__ = [
     "ParallelError", "StripePlanError", "WorkerError",
     "VisionPool", "ArrayRef", "SharedFrame", "StripeOp", "run_stripe",
     "PIXEL_QUANTUM", "Stripe", "aligned_for", "partition",
+    "Frame", "FrameStages", "run_frames",
 ]

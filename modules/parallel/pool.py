@@ -6,7 +6,9 @@ caller, exactly as the single-process code. `run(op, inputs, outputs)` copies th
 the shared frame, cuts them into `workers` stripes overlapping by the operator's width
 (`stripes.partition`), has each worker run the operator on its stripe — the caller takes the first —
 and returns the assembled outputs. `map(fn, items)` splits a list into contiguous chunks the same way
-(features among cells, as FIDO's correlation was). Workers start with the pool and live until
+(features among cells, as FIDO's correlation was). `share` places arrays in the shared frame, and
+`post` / `collect` send one worker a task over them and take the answers as they come (what
+`frames.run_frames` schedules whole frames with). Workers start with the pool and live until
 `close()` (or the end of the `with` block, or the caller's exit).
 """
 
@@ -15,13 +17,14 @@ from __future__ import annotations
 import multiprocessing as mp
 import time
 import weakref
-from multiprocessing.connection import Connection
+from collections import deque
+from multiprocessing.connection import Connection, wait
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
 from modules.parallel.errors import StripePlanError, WorkerError
-from modules.parallel.shared_frame import SharedFrame
+from modules.parallel.shared_frame import ArrayRef, SharedFrame
 from modules.parallel.stripe_op import StripeOp, pixels_per_unit, run_stripe, stripe_length
 from modules.parallel.stripes import Stripe, aligned_for, partition
 from modules.parallel.worker import serve
@@ -105,6 +108,7 @@ class VisionPool:
         self._ctx = mp.get_context("spawn")  # never fork: the caller may hold Zenoh's threads
         self._procs: list[_Worker] = [_Worker(self._ctx, i + 1, self._warm) for i in range(workers - 1)]
         self._frame: list[SharedFrame | None] = [SharedFrame() if workers > 1 else None]
+        self._posted: dict[int, deque[str]] = {}  # worker index → what its unanswered tasks are, oldest first
         self._finalizer = weakref.finalize(self, _shutdown, self._procs, self._frame)
 
     # ---- life ------------------------------------------------------------------------------------
@@ -125,11 +129,11 @@ class VisionPool:
             w.wait_ready(max(0.0, deadline - time.monotonic()))
 
     def _live(self) -> list[_Worker]:
-        """Return the workers, replacing any that died since the last call."""
+        """Return the workers, replacing any that died since the last call (not one with unanswered tasks: `collect` reports it)."""
         if not self._finalizer.alive:
             raise WorkerError("vision pool: used after close()")
         for i, w in enumerate(self._procs):
-            if not w.proc.is_alive():
+            if not w.proc.is_alive() and not self._posted.get(w.index):
                 w.stop(0.1)
                 self._procs[i] = _Worker(self._ctx, w.index, self._warm)
         return self._procs
@@ -152,6 +156,7 @@ class VisionPool:
             if missing:
                 raise StripePlanError(f"stripe operator {op.fn.__name__}: returned no {missing[0]!r}")
             return {k: np.asarray(got[k]) for k in outputs}
+        self._idle(op.fn.__name__)
         live = self._live()
         frame = self._frame[0]
         assert frame is not None
@@ -185,6 +190,7 @@ class VisionPool:
             return list(fn(items, params))
         n = min(self.workers, len(items))
         cuts = [len(items) * i // n for i in range(n + 1)]
+        self._idle(fn.__name__)
         live = self._live()
         busy = []
         for i in range(1, n):
@@ -206,3 +212,73 @@ class VisionPool:
         if err is not None:
             raise err
         return out
+
+    # ---- tasks: one worker at a time, answers as they come ------------------------------------------
+    def _idle(self, what: str) -> None:
+        if any(self._posted.values()):
+            raise StripePlanError(f"vision pool: {what} asked while posted tasks are unanswered (collect or drain them first)")
+
+    def share(self, arrays: Mapping[str, np.ndarray], outputs: Mapping[str, OutputSpec]) -> dict[str, ArrayRef]:
+        """Copy `arrays` into the shared frame and reserve `outputs` (name → (shape, dtype)); return every array's ref.
+
+        The refs hold until the next `share` or `run`; StripePlanError on a one-worker pool (it has no shared frame).
+        """
+        self._idle("share")
+        frame = self._frame[0]
+        if frame is None:
+            raise StripePlanError("vision pool: one worker has no shared frame")
+        return frame.place({k: np.asarray(v) for k, v in arrays.items()}, outputs)
+
+    def views(self, refs: Mapping[str, ArrayRef]) -> dict[str, np.ndarray]:
+        """Return the shared arrays `refs` names as views of the shared frame (this process's own)."""
+        frame = self._frame[0]
+        if frame is None:
+            raise StripePlanError("vision pool: one worker has no shared frame")
+        return {k: frame.view(r) for k, r in refs.items()}
+
+    def post(self, worker: int, fn: Callable[[Mapping[str, np.ndarray], Any], Any], refs: Mapping[str, ArrayRef], args: Any, what: str) -> None:
+        """Send worker `worker` (1 … workers − 1) the task fn(views of `refs`, args); `what` names it in errors and in `collect`."""
+        if not 1 <= worker < self.workers:
+            raise StripePlanError(f"vision pool: no worker {worker} among {self.workers - 1}")
+        frame = self._frame[0]
+        assert frame is not None
+        w = self._live()[worker - 1]  # a worker that died while idle is replaced
+        w.wait_ready(self.start_timeout_s)
+        w.send(("task", fn, frame.name, dict(refs), args))
+        self._posted.setdefault(worker, deque()).append(what)
+
+    def unanswered(self) -> int:
+        """Return how many posted tasks have not been answered yet."""
+        return sum(len(q) for q in self._posted.values())
+
+    def collect(self, timeout_s: float | None = None) -> tuple[int, str, Any] | None:
+        """Return the next answer to a posted task as (worker, what, value), waiting up to `timeout_s` [s] wall
+        (default: the task time-out; None back only when `timeout_s` is given). WorkerError when a worker
+        failed or is gone, or when no answer comes within the task time-out."""
+        busy = {self._procs[i - 1].conn: i for i, q in self._posted.items() if q}
+        if not busy:
+            raise StripePlanError("vision pool: collect with no task posted")
+        limit = self.task_timeout_s if timeout_s is None else timeout_s
+        ready = wait(list(busy), limit)
+        if not ready:
+            if timeout_s is not None:
+                return None
+            names = ", ".join(f"worker {i}: {q[0]}" for i, q in self._posted.items() if q)
+            raise WorkerError(f"vision pool: no answer within {limit:g} s ({names})")
+        i = busy[ready[0]]
+        what = self._posted[i].popleft()
+        return i, what, self._procs[i - 1].reply(what)
+
+    def drain(self) -> None:
+        """Read and drop every unanswered posted task's answer (after a failure), so the pool can be used again."""
+        for i, q in self._posted.items():
+            w = self._procs[i - 1]
+            while q:
+                what = q.popleft()
+                try:
+                    w.reply(what, self.task_timeout_s)
+                except WorkerError:
+                    q.clear()  # a dead or stuck worker answers nothing more: end it, `_live` replaces it
+                    if w.proc.is_alive():
+                        w.proc.terminate()
+                        w.proc.join(self.start_timeout_s)

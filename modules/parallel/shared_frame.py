@@ -90,6 +90,12 @@ class SharedFrame:
             raise ParallelError("shared frame: used after close()")
         return view(self._shm.buf, self._refs[name])
 
+    def view(self, ref: ArrayRef) -> np.ndarray:
+        """Return the array `ref` (from the last `place`) describes as a view of the block."""
+        if self._shm is None:
+            raise ParallelError("shared frame: used after close()")
+        return view(self._shm.buf, ref)
+
     def close(self) -> None:
         """Release and remove the block (idempotent)."""
         if self._shm is not None:

@@ -2,7 +2,8 @@
 
 Messages over its pipe (host → worker): ("stripe", op, block name, input refs, output refs, params,
 stripe) runs `op` on that stripe of the shared frame and writes the output cores in place;
-("chunk", fn, items, params) returns fn(items, params); None ends the worker. Replies: ("ok", value)
+("chunk", fn, items, params) returns fn(items, params); ("task", fn, block name, refs, args) returns
+fn(the arrays `refs` names, as views of the shared frame, args); None ends the worker. Replies: ("ok", value)
 or ("error", one line). The worker also ends when the host's end of the pipe closes (the host died).
 """
 
@@ -53,18 +54,27 @@ def _close(blocks: dict[str, SharedMemory]) -> None:
     blocks.clear()
 
 
+def _block(name: str, blocks: dict[str, SharedMemory]) -> SharedMemory:
+    """Return the host's block `name`, mapped once (the host grew its block when the name changes: the old one is gone)."""
+    if name not in blocks:
+        _close(blocks)
+        blocks[name] = attach(name)
+    return blocks[name]
+
+
 def _do(msg: tuple, blocks: dict[str, SharedMemory]):
     kind = msg[0]
     if kind == "chunk":
         _, fn, items, params = msg
         return fn(items, params)
+    if kind == "task":
+        _, fn, name, refs, args = msg
+        buf = _block(name, blocks).buf
+        return fn({k: view(buf, r) for k, r in refs.items()}, args)
     if kind != "stripe":
         raise ValueError(f"unknown request {kind!r}")
     _, op, name, in_refs, out_refs, params, stripe = msg
-    if name not in blocks:
-        _close(blocks)  # the host grew its block: the old one is gone
-        blocks[name] = attach(name)
-    buf = blocks[name].buf
+    buf = _block(name, blocks).buf
     inputs = {k: view(buf, r) for k, r in in_refs.items()}
     outputs = {k: view(buf, r) for k, r in out_refs.items()}
     run_stripe(op, inputs, outputs, params, stripe)

@@ -2,7 +2,7 @@
 
 Layers (one common data interface between them): PERCEPTION MONITOR (`monitor`), PATCH MAKER
 (the `patch_maker` sub-package: colour, range and overlap segmentation, patches), OBJECT FINDER (`object_finder`),
-POSITION CALIBRATOR (`calibrator`); `pipeline` runs one cycle. The process on the blackboard is
+POSITION CALIBRATOR (`calibrator`); `pipeline` runs one cycle, `frame_cycles` a run of frames over vision workers. The process on the blackboard is
 `codger.perception`; EDDIE's modules run the same pipeline.
 """
 
@@ -18,6 +18,7 @@ from modules.perception.monitor import (
 )
 from modules.perception.object_finder import FoundObject, find_objects
 from modules.perception.pipeline import PerceptionPipeline, PipelineOutput
+from modules.perception.frame_cycles import FrameJob, process_frames
 from modules.perception.sensor_frame import SensorFrame, SensorFrameError, colored_range_image, decode_sensor_frame
 
 __all__ = [
@@ -28,4 +29,5 @@ __all__ = [
     "Segmentation", "SegmentationParams", "Segmented", "make_segmentation", "Patch", "PatchSet", "make_patches",
     "PerceptionPipeline", "PipelineOutput", "RangeSegParams", "SurfaceType", "segment_range",
     "SensorFrame", "SensorFrameError", "colored_range_image", "decode_sensor_frame",
+    "FrameJob", "process_frames",
 ]

@@ -17,7 +17,10 @@ from shapely.ops import unary_union
 
 from modules.perception.calibrator import CalibrationError, CalibrationResult, EdgeObservation, PointObservation, calibrate
 from modules.perception.column_mean import column_mean
-from modules.perception.patch_maker import ColourModel, Segmentation, SegmentationParams, Segmented, make_segmentation
+from modules.perception.patch_maker import (
+    ColourModel, Segmentation, SegmentationParams, Segmented, classify_colours, colour_mask, make_segmentation, patches_of, segment_range,
+)
+from modules.perception.patch_maker.range_seg import SurfaceFeatures
 from modules.perception.image import ColoredRangeImage
 from modules.perception.monitor import (
     ResolutionTable, ViewPlan, colour_model_for, colour_training, segmentation_params, select_segmentation,
@@ -27,7 +30,7 @@ from modules.perception.predicted import PredictedObject, class_key, predict, vi
 from modules.parallel import VisionPool
 from modules.vocabulary import MapObject
 
-__all__ = ["PipelineOutput", "PerceptionPipeline", "edge_observations"]
+__all__ = ["PipelineOutput", "PerceptionPipeline", "CycleSetup", "CycleHead", "cycle_head", "cycle_tail", "edge_observations"]
 
 
 @dataclass(frozen=True)
@@ -258,40 +261,115 @@ class PerceptionPipeline:
     ) -> PipelineOutput:
         """Segment, find the predicted objects and fix the pose (world←vehicle) for one frame."""
         t0 = time.perf_counter()
+        setup = self.setup(objects, error_allowance, method, step)
+        head = cycle_head(img, setup, objects, prior_pose, error_allowance)
+        colour_lab = self.colour_step(setup, objects, head.work.rgb, head.mask, head.training)
+        out = cycle_tail(head, colour_lab, setup, prior_pose, error_allowance)
+        dt = time.perf_counter() - t0
+        self.table.record(setup.plan.step, dt)
+        return replace(out, seconds=dt)
+
+    def setup(self, objects: tuple[MapObject, ...], error_allowance: float, method: Segmentation | None = None,
+              step: int | None = None) -> "CycleSetup":
+        """Return what the monitor decides for one cycle before it looks at the frame: method, view plan, parameters."""
+        method, plan = self.method_and_plan(objects, error_allowance, method, step)
+        types = () if method is Segmentation.RANGE else self._adapted_model(objects).types
+        return CycleSetup(method, plan, self.params_for(objects), types, self.table.sensor.x_offset)
+
+    def method_and_plan(self, objects: tuple[MapObject, ...], error_allowance: float, method: Segmentation | None = None,
+                        step: int | None = None) -> tuple[Segmentation, ViewPlan]:
+        """Return the segmentation method and the view plan (resolution step, distance) of one cycle."""
         method = method or select_segmentation(objects)
         if method is not Segmentation.RANGE and not any(o.colour is not None for o in objects):
             method = Segmentation.RANGE  # nothing predicted says what colour to look for: range alone
         plan = self.table.plan(error_allowance, self.speed)
-        if step is not None:
-            plan = replace(plan, step=step)
-        work = img.subsample(plan.step)
-        # the view frame: nothing beyond the perception distance
-        x = work.xyz[..., 0] if method is not Segmentation.COLOUR else work.ground_xy[..., 0]
-        inside = work.valid & np.isfinite(x) & (x <= plan.distance + self.table.sensor.x_offset)
-        work = replace(work, valid=inside)
-        predicted = predict(objects, prior_pose)
-        seg = self.segment(work, objects, prior_pose, method, error_allowance=error_allowance, predicted=predicted)
-        found, _ = find_objects(seg.patches, predicted, allowance=error_allowance + 0.5)
-        nav_parts = [f.outline for f in found if f.predicted.obj.role == "path"]
-        navigable = None
-        if nav_parts:
-            u = unary_union(nav_parts)
-            if u.geom_type == "MultiPolygon":
-                u = max(u.geoms, key=lambda g: g.area)
-            navigable = u if u.geom_type == "Polygon" and not u.is_empty else None
-        failure = ""
-        if not any(f.predicted.obj.role == "path" for f in found) and any(o.role == "path" for o in objects):
-            failure = f"no predicted path object found among {len(seg.patches.patches)} {method.value} patches"
-        cal = None
-        note = ""
-        edges, points = edge_observations(found, predicted, ids=seg.patches.ids, xyz=work.xyz, method=method)
-        if edges or points:
-            try:
-                cal = calibrate(edges, points, prior_pose, gate=error_allowance + 1.5, final_gate=max(0.4, error_allowance))
-            except CalibrationError as exc:
-                note = str(exc)
-        else:
-            note = "no object edges or landmarks to calibrate with"
-        dt = time.perf_counter() - t0
-        self.table.record(plan.step, dt)
-        return PipelineOutput(method, plan, seg, tuple(found), navigable, cal, failure, note, dt)
+        return method, plan if step is None else replace(plan, step=step)
+
+    def colour_step(self, setup: "CycleSetup", objects: tuple[MapObject, ...], rgb: np.ndarray, mask: np.ndarray | None,
+                    training: np.ndarray | None, *, striped: bool = True) -> np.ndarray | None:
+        """Classify one frame's colours with the classes kept for these objects, adapting them (None for range alone).
+
+        The one stage that carries state from frame to frame: frames must pass it in order. `striped`:
+        classify in row stripes over the pool's workers (the same labels as in this process).
+        """
+        if setup.method is Segmentation.RANGE:
+            return None
+        assert mask is not None
+        return classify_colours(setup.method, rgb, mask, setup.params, self._adapted_model(objects), training=training,
+                                pool=self.pool if striped else None)
+
+
+@dataclass(frozen=True)
+class CycleSetup:
+    """The monitor's decisions for one cycle: segmentation `method`, view `plan`, segmentation `params`,
+    the colour `types` a colour label indexes (1-based; empty for range alone) and the laser's `x_offset` [m]."""
+
+    method: Segmentation
+    plan: ViewPlan
+    params: SegmentationParams
+    types: tuple[str, ...]
+    x_offset: float
+
+
+@dataclass(frozen=True)
+class CycleHead:
+    """What a cycle knows before classifying colours: the view-frame image `work`, the `predicted` objects,
+    the colour `training` labels and `mask` (H, W) of the colour stage (None for range alone), and the
+    range segmentation `surface` (labels (H, W) uint8, features; None for colour alone)."""
+
+    work: ColoredRangeImage
+    predicted: list[PredictedObject]
+    training: np.ndarray | None
+    mask: np.ndarray | None
+    surface: tuple[np.ndarray, SurfaceFeatures] | None
+
+
+def cycle_head(img: ColoredRangeImage, setup: CycleSetup, objects: tuple[MapObject, ...], prior_pose: tuple[float, float, float],
+               error_allowance: float) -> CycleHead:
+    """Cut one frame to the view frame, predict the objects, label the colour training pixels and segment the range.
+
+    Depends on this frame alone (no state carried between frames).
+    """
+    method, plan = setup.method, setup.plan
+    work = img.subsample(plan.step)
+    # the view frame: nothing beyond the perception distance
+    x = work.xyz[..., 0] if method is not Segmentation.COLOUR else work.ground_xy[..., 0]
+    inside = work.valid & np.isfinite(x) & (x <= plan.distance + setup.x_offset)
+    work = replace(work, valid=inside)
+    predicted = predict(objects, prior_pose)
+    training = mask = None
+    if method is not Segmentation.RANGE:
+        xy = work.xyz[..., :2] if method is Segmentation.COLORED_RANGE else work.ground_xy
+        training = colour_training(predicted, xy, work.valid, setup.types, prior_pose, error_allowance)
+        mask = colour_mask(method, work)
+    surface = None if method is Segmentation.COLOUR else segment_range(work.xyz, work.range_m, work.valid, setup.params.range)
+    return CycleHead(work, predicted, training, mask, surface)
+
+
+def cycle_tail(head: CycleHead, colour_lab: np.ndarray | None, setup: CycleSetup, prior_pose: tuple[float, float, float],
+               error_allowance: float) -> PipelineOutput:
+    """Make the patches, find the predicted objects and fix the pose of one frame from its colour labels (`seconds` 0)."""
+    method, work, predicted = setup.method, head.work, head.predicted
+    seg = patches_of(method, work, setup.params, colour_lab, setup.types, head.surface)
+    found, _ = find_objects(seg.patches, predicted, allowance=error_allowance + 0.5)
+    nav_parts = [f.outline for f in found if f.predicted.obj.role == "path"]
+    navigable = None
+    if nav_parts:
+        u = unary_union(nav_parts)
+        if u.geom_type == "MultiPolygon":
+            u = max(u.geoms, key=lambda g: g.area)
+        navigable = u if u.geom_type == "Polygon" and not u.is_empty else None
+    failure = ""
+    if not any(f.predicted.obj.role == "path" for f in found) and any(p.obj.role == "path" for p in predicted):
+        failure = f"no predicted path object found among {len(seg.patches.patches)} {method.value} patches"
+    cal = None
+    note = ""
+    edges, points = edge_observations(found, predicted, ids=seg.patches.ids, xyz=work.xyz, method=method)
+    if edges or points:
+        try:
+            cal = calibrate(edges, points, prior_pose, gate=error_allowance + 1.5, final_gate=max(0.4, error_allowance))
+        except CalibrationError as exc:
+            note = str(exc)
+    else:
+        note = "no object edges or landmarks to calibrate with"
+    return PipelineOutput(method, setup.plan, seg, tuple(found), navigable, cal, failure, note, 0.0)

@@ -11,12 +11,14 @@ from modules.perception.patch_maker.colour import ColourClass, ColourModel, Colo
 from modules.perception.patch_maker.overlap import overlap_labels, split_label
 from modules.perception.patch_maker.patches import Patch, PatchSet, make_patches
 from modules.perception.patch_maker.range_seg import RangeSegParams, SurfaceType, segment_range, unwrap_range
-from modules.perception.patch_maker.segmentation import Segmentation, SegmentationParams, Segmented, make_segmentation
+from modules.perception.patch_maker.segmentation import (
+    Segmentation, SegmentationParams, Segmented, classify_colours, colour_mask, make_segmentation, patches_of,
+)
 
 __all__ = [
     "ColourClass", "ColourModel", "ColourModelError", "ColourPrior",
     "overlap_labels", "split_label",
     "Patch", "PatchSet", "make_patches",
     "RangeSegParams", "SurfaceType", "segment_range", "unwrap_range",
-    "Segmentation", "SegmentationParams", "Segmented", "make_segmentation",
+    "Segmentation", "SegmentationParams", "Segmented", "make_segmentation", "colour_mask", "classify_colours", "patches_of",
 ]

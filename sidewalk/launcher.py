@@ -253,6 +253,10 @@ def record_run(system: SystemRun, cfg: RunConfig, setup: RunSetup, mission_id: s
     end = terminal or (statuses[-1] if statuses else None)
     ended_wall = end.wall_s if end is not None else submitted_wall
     ended_sim = end.sim_s if end is not None and end.sim_s is not None else submitted_sim
+    if terminal is not None and terminal.status.finished_at is not None:
+        # the mission service's own stamp: the observer hears it a varying moment later (in lock-step too, being
+        # outside the barrier), and the record's window ends from it
+        ended_sim = terminal.status.finished_at
     if terminal is None and gave_up_at is not None:
         ended_wall, ended_sim = gave_up_at
     # what happened while the system started, or after the vehicle came to rest, is no part of the mission

@@ -54,7 +54,6 @@ class LocusParams:
     min_incidence: float = 0.035  # a facet the rays meet at less than this (sine; 2°) is seen edge-on: a shadow
     max_range: float = 20.0
     shadow_margin: float = 0.02  # a shadow facet this far [m] above the seen surface hides it
-    overhang_step: float = 0.5  # a return this much [m] (or its noise's `noise_k` times) horizontally nearer than one below it is an overhang
 
 
 def image_points(image: RangeImage, world_from_vehicle: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -216,7 +215,7 @@ def _lay(p: np.ndarray, d: np.ndarray, sr: np.ndarray, near: np.ndarray, zv: np.
 @njit(cache=True, nogil=True, boundscheck=False)
 def _locus(p: np.ndarray, d: np.ndarray, rng: np.ndarray, sr: np.ndarray, jv: np.ndarray, jh: np.ndarray, origin: np.ndarray,
            max_range: float, ox: float, oy: float, res: float, ny: int, nx: int, shadow_margin: float, noise_k: float,
-           min_step: float, min_incidence: float, overhang_step: float) -> tuple[np.ndarray, np.ndarray]:
+           min_step: float, min_incidence: float) -> tuple[np.ndarray, np.ndarray]:
     H, W = sr.shape
     zv = np.full((ny, nx), np.nan, np.float32)
     sv = np.full((ny, nx), np.inf, np.float32)
@@ -228,19 +227,6 @@ def _locus(p: np.ndarray, d: np.ndarray, rng: np.ndarray, sr: np.ndarray, jv: np
         for j in range(W):
             if p[i, j, 0] == p[i, j, 0]:
                 near[i, j] = (p[i, j, 0] - origin[0]) ** 2 + (p[i, j, 1] - origin[1]) ** 2 <= r2
-    # Overhangs: over a height field a higher ray never meets the surface horizontally nearer than a ray below it did
-    # (it passes above everything the lower ray passed above). A return that does lies over open space the lower ray
-    # saw: a crown, a branch, not the ground. It is left out, with its facets: the cells under it keep the ground the
-    # rays below saw (or stay unknown), and what holds it up (a trunk) is seen by those rays as a vertical surface.
-    for j in range(W):
-        far = -1.0
-        for i in range(H - 1, -1, -1):  # from the bottom row (the nearest ground) up
-            if not p[i, j, 0] == p[i, j, 0]:
-                continue
-            hd = np.sqrt((p[i, j, 0] - origin[0]) ** 2 + (p[i, j, 1] - origin[1]) ** 2)
-            if hd < far - max(overhang_step, noise_k * sr[i, j]):
-                near[i, j] = False
-            far = max(far, hd)
     for i in range(H - 1):
         for j in range(W - 1):
             if not (near[i, j] and near[i + 1, j + 1]):
@@ -275,5 +261,5 @@ def locus_map(image: RangeImage, world_from_vehicle: np.ndarray, spec: GridSpec,
     sr = image.sigma.astype(np.float64)
     z, sigma = _locus(p, d, image.range.astype(np.float64), sr, jv, jh, origin, params.max_range, spec.origin_x,
                       spec.origin_y, spec.resolution, spec.ny, spec.nx, params.shadow_margin, params.noise_k, params.min_step,
-                      params.min_incidence, params.overhang_step)
+                      params.min_incidence)
     return ElevationGrid(spec.origin_x, spec.origin_y, spec.resolution, z, sigma, spec.frame)

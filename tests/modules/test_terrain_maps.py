@@ -20,7 +20,6 @@ from modules.terrain.matching import match_maps
 from modules.terrain.range_image import RangeImage, unwrap_columns
 from modules.terrain.vehicle_pose import VehiclePose
 from tests.modules._terrain_scenes import box, centres, deg, grid, rough, shoot, terrain_world
-from vehicle_sim.worldfile import MapColour, TreeShape, WorldObject
 
 SPEC = GridSpec.around(0.0, 0.0, 0.0, ahead=21.0, behind=0.0, side=16.0, resolution=0.1)
 
@@ -150,27 +149,3 @@ def test_a_capture_without_the_laser_is_refused() -> None:
 
     with pytest.raises(TerrainError, match="laser_range"):
         RangeImage.from_capture(NoLaser())
-
-
-def _tree(x: float, crown_base: float) -> WorldObject:
-    """Return a tree at (x, 0) [m]: a 0.25 m trunk under a crown 3 m in radius whose lowest point is `crown_base` [m] up."""
-    return WorldObject(id="tree", kind="tree", role="obstacle", colour=MapColour(type="GREEN", nominal=(60.0, 90.0, 40.0)),
-                       shape=TreeShape(trunk_radius=0.25, crown_radius=3.0, height=8.0, crown_base=crown_base, z0=0.0),
-                       center=(x, 0.0), radius=0.25)
-
-
-@pytest.mark.timeout(120)  # quiet run ~5 s
-@pytest.mark.parametrize("seed", [4, 5])
-def test_a_crown_over_open_ground_is_no_plateau_and_its_trunk_stays_an_obstacle(seed: int) -> None:
-    xs, _ = grid()
-    world = terrain_world(np.zeros_like(xs), (_tree(8.0, 2.0),))  # the crown's underside just below the laser (2.3 m)
-    _, image, pose = shoot(world, 0.0, 0.0, 0.0, seed=seed)
-    m = locus_map(image, pose.world_from_vehicle(), SPEC)
-    X, Y = centres(SPEC)
-    r = np.hypot(X - 8.0, Y)
-    under = (r > 0.6) & (r < 2.5) & (X < 8.0)  # under the crown's near half, where the rays below it see the ground
-    assert m.known[under].mean() > 0.9
-    assert np.max(m.z[under & m.known]) < 0.15, "the crown's underside was laid as ground"
-    trunk = r < 0.4
-    behind = (X > 8.3) & (X < 9.5) & (np.abs(Y) < 0.15)  # the trunk's range shadow
-    assert (m.known[trunk] & (m.z[trunk] > 1.0)).any() and (~m.known[behind]).mean() > 0.8

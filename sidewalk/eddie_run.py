@@ -69,15 +69,14 @@ def eddie_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str,
     the road method and vision workers for road following (issues 13, 41); `obstacle_sensor`: `laser`
     (obstacle stop) or `fido` (`eddie.fido_stop`, run under obstacle stop's name, issue 41).
     """
-    out, vehicle, seed, map_file, perception = Path(cfg.out), setup.vehicle, cfg.seed, setup.map_file, cfg.perception
-    max_speed, secure, start_truth = cfg.max_speed, cfg.secure, setup.start_truth
+    out, vehicle, seed, map_file = Path(cfg.out), setup.vehicle, cfg.seed, setup.map_file
     road_method = road_method_flags(cfg, setup) + vision_flags(cfg)
-    cap = () if max_speed is None else ("--max-speed", str(max_speed))
-    sec = () if secure is None else ("--secure", str(secure))  # issue 14
+    cap = () if cfg.max_speed is None else ("--max-speed", str(cfg.max_speed))
+    sec = () if cfg.secure is None else ("--secure", str(cfg.secure))  # issue 14
     zflags = ("--ns", ns, "--connect", endpoint, *sec)
     sx, sy, syaw = setup.start_belief
-    sim_start = () if start_truth is None else (
-        f"--start={start_truth[0]},{start_truth[1]},{math.degrees(start_truth[2])}",)
+    truth = setup.start_truth
+    sim_start = () if truth is None else (f"--start={truth[0]},{truth[1]},{math.degrees(truth[2])}",)
     plans = [
         ProcessPlan("router", ("-m", "sidewalk", "up", "router", "--ns", ns, "--listen", endpoint, *sec)),
         *observer_plans(out, zflags, record=cfg.record, monitor_port=cfg.monitor_port, arch="eddie"),
@@ -91,7 +90,7 @@ def eddie_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str,
     # its state file in the run's out dir, which a manager restarted by a fault or the supervisor takes up
     plans.append(ProcessPlan("map_manager", ("-m", "sidewalk", "up", "map_manager", "--state", str(Path(out) / MAP_MANAGER_STATE),
                                              *zflags)))
-    if perception:
+    if cfg.perception:
         # obstacle stop sleeps until the route's `start_obstacles` triggers switch it on (issue 12)
         up = {"obstacle_stop": "fido_stop"} if cfg.obstacle_sensor == "fido" else {}
         plans += [ProcessPlan(name, ("-m", "sidewalk", "up", up.get(name, name), "--vehicle", vehicle, "--map", str(map_file),
@@ -101,8 +100,8 @@ def eddie_plans(cfg: RunConfig, setup: RunSetup, ns: str, endpoint: str,
                   for name in EDDIE_PERCEPTION_MODULES]
     plans.append(ProcessPlan("mission_service", (
         "-m", "sidewalk", "up", "mission_service", "--map", str(map_file),
-        *(() if annotated_map is None else ("--annotated-map", str(annotated_map))), "--vehicle", vehicle, f"--start-pose={sx},{sy},{syaw}", "--perception", "on" if perception else "off",
-        *(() if max_speed is None else ("--speed", str(max_speed))), *zflags)))
+        *(() if annotated_map is None else ("--annotated-map", str(annotated_map))), "--vehicle", vehicle, f"--start-pose={sx},{sy},{syaw}", "--perception", "on" if cfg.perception else "off",
+        *(() if cfg.max_speed is None else ("--speed", str(cfg.max_speed))), *zflags)))
     return plans
 
 

@@ -21,21 +21,27 @@ $(STAMP): pyproject.toml
 run: $(STAMP)
 	$(VENV)/bin/sidewalk run --world campus --mission campus-tour --out $(OUT)
 
-## The test suite (real Zenoh on loopback, real SQLite, real processes, a real browser).
+## pytest workers for the test targets (pytest-xdist; 0: one process). Two on a 2-core machine: the tests wait on
+## processes, sockets and sim time for half of their wall time, so two at once keep both cores busy.
+TEST_JOBS ?= 2
+XDIST := -n $(TEST_JOBS)
+
+## The test suite (real Zenoh on loopback, real SQLite, real processes, a real browser). Each test file runs on one
+## worker (`--dist loadfile`), so a file's module fixtures are built once; the files with the longest tests go first.
 test: $(STAMP) chromium
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(XDIST) --dist loadfile --longest-first
 
 ## Whole missions under a fault or a run mode (a killed PILOT, a restarted node, a wedged HELM, the compare
 ## faults, EDDIE under --secure, a walker in the lane, YARF on marked roads, EDDIE's monitor page; seeds 50-99 of the
 ## generated streets): tens of seconds each, so kept
-## out of `make test`'s ten minutes; CI runs them after it.
+## out of `make test`'s ten minutes; CI runs them after it, two at once, the longest first (tests/conftest.py).
 test-missions: $(STAMP)
-	$(PY) -m pytest -q -m missions
+	$(PY) -m pytest -q -m missions $(XDIST) --dist load --longest-first
 
 ## The multi-host tests (three and four hosts in network namespaces, a secure mission, a link pulled for 5 s):
 ## minutes each, so kept out of `make test`'s ten minutes; CI runs them after it.
 test-hosts: $(STAMP)
-	$(PY) -m pytest -q -m hosts
+	$(PY) -m pytest -q -m hosts $(XDIST) --dist load --longest-first
 
 ## Debian's chromium, which Playwright drives in the monitor's browser test (Playwright's own download cannot work here).
 chromium:

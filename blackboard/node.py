@@ -55,6 +55,7 @@ from blackboard.frames import FrameTree
 from blackboard.ops import FramesRequest, LookupRequest, MonitorCancel, RetrieveRequest, StatsRequest, parse_monitor
 from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import BlackboardKeys
+from wire.lifeline import dump_stacks_on_request
 from wire.lockstep import Participant, lockstep_enabled, participant_name
 from wire.network import NetworkConfig
 from blackboard.registry import TypeRegistry, default_registry
@@ -666,6 +667,7 @@ def serve(
         loop = asyncio.get_running_loop()
         for sig in (signal.SIGINT, signal.SIGTERM):
             loop.add_signal_handler(sig, node._stop.set)
+        dump_stacks_on_request()
 
         def ready() -> None:
             eps = ",".join(net.listen or net.connect) or "-"

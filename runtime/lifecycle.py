@@ -31,6 +31,7 @@ from runtime.heartbeat import ClockPayloadError, decode_clock
 from wire.aio import Link
 from wire.health import Heartbeat, encode_heartbeat, process_usage
 from wire.keys import ModuleKeys
+from wire.lifeline import dump_stacks_on_request
 from wire.lockstep import Participant, lockstep_enabled, participant_name
 from wire.network import NetworkConfig
 from wire.network import check_chunk as check_name
@@ -224,6 +225,7 @@ async def run_module_async(name: str, main: ModuleMain, net: NetworkConfig, *, p
                     installed.append(sig)
                 except (NotImplementedError, RuntimeError):  # not the main thread
                     pass
+            dump_stacks_on_request()
 
         async def body() -> None:
             # never say ready (or start a part) while connected to nothing: say so and keep trying

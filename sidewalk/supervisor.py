@@ -35,7 +35,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from sidewalk.errors import SidewalkError
 from sidewalk.health import WEDGED_AFTER_S
-from wire.lifeline import die_with_parent
+from wire.lifeline import STACKS_SIGNAL, catches, die_with_parent
 
 __all__ = ["ProcessPlan", "ManagedProcess", "Supervisor", "ProcessStartError", "READY_RE", "READY_TIMEOUT_S",
            "RestartPolicy", "Restart", "WedgeReport", "GiveUp", "BeatSource"]
@@ -320,7 +320,11 @@ class Supervisor:
         await mp.exited.wait()
 
     async def stop(self, name: str, *, grace: float = 8.0) -> int | None:
-        """Stop one process: SIGINT, then SIGTERM, then SIGKILL; return its exit code."""
+        """Stop one process: SIGINT, then SIGTERM, then SIGKILL; return its exit code.
+
+        Before each signal after SIGINT, a process that catches `STACKS_SIGNAL` is sent it: a process stuck at
+        its exit prints where each of its threads is into its log.
+        """
         mp = self.procs.get(name)
         if mp is None:
             return None
@@ -329,6 +333,11 @@ class Supervisor:
         for sig, wait in ((signal.SIGINT, grace), (signal.SIGTERM, grace / 2), (signal.SIGKILL, grace)):
             if mp.exited.is_set():
                 break
+            if sig != signal.SIGINT and catches(mp.proc.pid, STACKS_SIGNAL):  # say where it is stuck before forcing it
+                log.warning("%s did not stop within %.0f s of SIGINT: its threads' stacks are in its log; sending %s",
+                            name, grace, sig.name)
+                with contextlib.suppress(ProcessLookupError):
+                    mp.proc.send_signal(STACKS_SIGNAL)
             with contextlib.suppress(ProcessLookupError):
                 mp.proc.send_signal(sig)
             with contextlib.suppress(asyncio.TimeoutError):

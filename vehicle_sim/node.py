@@ -105,6 +105,7 @@ class SimNode:
         self._snapshot = (self.sim.t, self.sim.state)
         self._threads: list[threading.Thread] = []
         self._session: Session | None = None
+        self.session_closed = True  # False once a close did not finish in time (see `stop`)
         self._scene = None
         self._map_json: bytes | None = None
         self._world_json: bytes | None = None
@@ -184,7 +185,12 @@ class SimNode:
         self._wake.set()
 
     def stop(self, timeout: float = 5.0) -> None:
-        """Stop the loop and workers, then close the session (idempotent)."""
+        """Stop the loop and workers, then close the session (idempotent).
+
+        Each thread is waited for `timeout` [s wall], and so is the session's close: a Zenoh close can hang
+        (as the router's does, see `wire.router.serve_router`); `session_closed` then says False and the
+        process may exit without it (the simulator keeps no state).
+        """
         self._stop.set()
         self._wake.set()
         for _ in self._threads:
@@ -196,7 +202,10 @@ class SimNode:
             log.info("lock-step barrier: %s", self.barrier.stats.model_dump_json())
             self.barrier.close()
         if self._session is not None:
-            self._session.close()
+            closer = threading.Thread(target=self._session.close, name="sim-close", daemon=True)
+            closer.start()
+            closer.join(timeout)
+            self.session_closed = not closer.is_alive()
             self._session = None
 
     def wait(self, timeout: float | None = None) -> bool:

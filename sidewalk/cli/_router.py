@@ -1,7 +1,6 @@
 """`sidewalk router serve` (also `sidewalk up router`): the system's Zenoh router."""
 
 # No `from __future__ import annotations`: `with_network` copies the signature without evaluating it.
-import faulthandler
 import os
 import signal
 import sys
@@ -11,6 +10,7 @@ import typer
 
 from wire.errors import WireError
 from wire.flags import with_network
+from wire.lifeline import dump_stacks_on_request
 from wire.network import NetworkConfig
 
 __all__ = ["router_app"]
@@ -35,7 +35,7 @@ def serve(*, net: NetworkConfig) -> None:
         net = net.model_copy(update={"secure": net.secure.model_copy(update={"access_control": acl})})
     stop = threading.Event()
     old = {s: signal.signal(s, lambda *_: stop.set()) for s in (signal.SIGINT, signal.SIGTERM)}
-    faulthandler.register(signal.SIGUSR1, all_threads=True)  # `kill -USR1` prints where a stuck router is
+    dump_stacks_on_request()  # `kill -USR1` prints where a stuck router is
     try:
         if not serve_router(net, stop):
             print("router: its Zenoh session did not close within 5 s; exiting without it (a router keeps no state)",

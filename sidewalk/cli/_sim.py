@@ -2,6 +2,7 @@
 
 # No `from __future__ import annotations` here: `with_network` copies the signature without evaluating
 # string annotations, so Typer would lose each option's names and help.
+import os
 import signal
 import sys
 import threading
@@ -12,6 +13,7 @@ import typer
 from wire.errors import WireError
 from wire.network import NetworkConfig
 from wire.flags import with_network
+from wire.lifeline import dump_stacks_on_request
 
 __all__ = ["sim_app"]
 
@@ -72,6 +74,7 @@ def serve(
         node.request_stop()
 
     old = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    dump_stacks_on_request()
     try:
         try:
             node.start()
@@ -88,6 +91,12 @@ def serve(
             signal.signal(s, h)
     if node.error is not None:
         typer.echo(f"simulator stopped: {type(node.error).__name__}: {node.error}", err=True)
+    if not node.session_closed:
+        print("sim: its Zenoh session did not close within 5 s; exiting without it (the simulator keeps no state)",
+              file=sys.stderr, flush=True)
+        sys.stdout.flush()
+        os._exit(1 if node.error is not None else 0)  # an interpreter exit would wait for the session's threads
+    if node.error is not None:
         raise typer.Exit(1)
 
 

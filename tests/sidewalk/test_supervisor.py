@@ -76,6 +76,29 @@ async def test_stop_escalates_to_sigkill(tmp_path):
     assert codes["stubborn"] == -signal.SIGKILL
 
 
+# A stubborn child stuck in a function of its own that prints its stacks on request, as every process of a run does.
+STUCK = (
+    "import signal, threading\n"
+    "from wire.lifeline import dump_stacks_on_request\n"
+    "signal.signal(signal.SIGINT, signal.SIG_IGN)\n"
+    "signal.signal(signal.SIGTERM, signal.SIG_IGN)\n"
+    "dump_stacks_on_request()\n"
+    "def closing_a_session_that_never_closes():\n"
+    "    threading.Event().wait()\n"
+    "print('ready', flush=True)\n"
+    "closing_a_session_that_never_closes()\n"
+)
+
+
+async def test_a_process_that_does_not_stop_says_where_it_is_stuck_before_it_is_killed(tmp_path):
+    sup = Supervisor(tmp_path)
+    await sup.start(ProcessPlan("stuck", ("-c", STUCK)), ready_timeout=30)
+    codes = await sup.stop_all(grace=0.5)
+    assert codes["stuck"] == -signal.SIGKILL  # the stack dump did not end it (SIGUSR1 uncaught would have: -10)
+    log = (tmp_path / "stuck.log").read_text()
+    assert "closing_a_session_that_never_closes" in log and "Current thread" in log
+
+
 def _notices(sup: Supervisor) -> tuple[list[str], asyncio.Event]:
     """Collect the supervisor's notices; the event is set once it gave up on a process."""
     notices: list[str] = []

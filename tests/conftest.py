@@ -4,11 +4,19 @@
 each test sizes from its measured run time), longest first. With `-n 2 --dist load` (CI's mission and
 host stages) the two workers then take the long missions at once and finish on the short ones, instead
 of one worker meeting a 3-minute mission at the end while the other sits idle.
+
+Every command a test runs (in-process through Typer's runner, or as a subprocess) prints its errors at
+300 columns: at the console's default 80 a tmp path (longer under a pytest-xdist worker) wraps
+mid-word inside an error box, and a test looking for the file's name in the message fails for it.
 """
 
 from __future__ import annotations
 
+import os
+
 import pytest
+
+os.environ["COLUMNS"] = "300"
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

@@ -12,7 +12,8 @@ the vehicle's turning radius). Out come, in `world` [m]:
   restart both and cruise again;
 - `start_landmarks` at the start of each step listing the landmarks near its first straight, and
   `start_obstacles` there too (fast obstacle detection sleeps until the route switches it on);
-- a `stop_at_object` gate `STOP_LEAD_M` before each step's destination, naming the object there
+- a `stop_at_object` gate `STOP_LEAD_M` before each step's destination (on a shorter route, `FIRST_GATE_M` into
+  it, with the step's first gates), naming the object there
   (for amv-delivery the mailbox) and the step's action (stop / wait / continue); the stop point is
   beside that object (`eddie.missions.destination`), in the step's lane.
 
@@ -158,7 +159,10 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
         at = destination_point(goal, obj_xy, list(line.coords))  # beside the object, if any
         # a step kept to a side stops in its goal's lane: the kept side of the road the route arrives on
         stop_xy = lane_goal(route, at, step.constraints.keep) or at
-        out.append(trigger(f"{sp}.stop", "stop_at_object", gate(line, max(0.0, line.length - STOP_LEAD_M), width),
+        # on a route shorter than the lead, where the step's first gates are: a gate at the route's very start lies
+        # on the corner the vehicle turns from the previous step, which it may never cross (the campus tour's slope)
+        out.append(trigger(f"{sp}.stop", "stop_at_object", gate(line, max(min(FIRST_GATE_M, line.length / 2),
+                                                                           line.length - STOP_LEAD_M), width),
                            StopAtObject(object_id=obj, x=stop_xy[0], y=stop_xy[1], object_xy=obj_xy, tolerance=step.tolerance,
                                         action=step.trigger.action, wait_s=step.trigger.wait_s),
                            f"step {k + 1}: {step.trigger.action} at {obj}"))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import pytest
+import shapely
 
 from eddie.annotated_map import AnnotationDatabase, TriggerWalker
 from eddie.messages.map_manager import DeadReckonThrough, RouteSegment, SetSpeed, StopAtObject, open_trigger_data
@@ -58,6 +59,20 @@ def test_campus_tour_steps_and_limits() -> None:
     assert [s.action for s in stops] == ["continue", "continue", "wait", "stop"]
     slope = [open_trigger_data(a.data) for a in c.annotations if a.id.startswith("s3.") and a.type == "set_speed"]
     assert slope and all(isinstance(s, SetSpeed) and s.speed <= 0.8 for s in slope)
+
+
+def test_every_steps_stop_fires_on_a_drive_in_the_kept_lane_round_every_corner() -> None:
+    """The campus tour's slope step (slope_bottom → stairs_top, 15 m) is shorter than the stop's 20 m lead: its
+    gate lay at the route's start, on the corner from the quad's walk, which a vehicle keeping right turns inside
+    of without crossing: EDDIE never waited at the plaza (lock-step campus tours, sessions 28–29)."""
+    c = compile_mission_files("worlds/campus-tour.yaml", "worlds/campus.map.geojson")
+    points = [p for a in c.annotations if a.type == "route" for p in a.location.points]
+    lane = shapely.LineString(points).offset_curve(-0.8)  # the right-hand lane, one continuous track round each corner
+    n = int(lane.length / 0.25)
+    w = TriggerWalker(AnnotationDatabase(c.annotations))
+    fired = [e.annotation.id for i in range(n + 1) for e in w.advance(*lane.interpolate(i * lane.length / n).coords[0])
+             if e.kind == "fired"]
+    assert [f for f in fired if f.endswith(".stop")] == ["s1.stop", "s2.stop", "s3.stop", "s4.stop"]
 
 
 def test_bad_inputs_name_the_file(tmp_path) -> None:

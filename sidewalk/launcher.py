@@ -32,6 +32,7 @@ from sidewalk.lane_goal import judged_goals
 from sidewalk.map_error import measure_map_error
 from sidewalk.missions import mission_path
 from sidewalk.robot_map import map_beside
+from sidewalk.recorder import RECORD_LEAD_S
 from sidewalk.report import RunReport, build_report, plot_trajectory, write_report
 from sidewalk.run_record import FaultEvent, RecordedPlan, RunRecord, save_record
 from sidewalk.run_setup import LaunchError, RunConfig, RunSetup
@@ -49,9 +50,6 @@ __all__ = [
 
 #: The run record's file name in the output directory.
 RECORD_FILE = "run_record.json"
-
-#: How much sim time [s] before the submission and after the vehicle came to rest the record keeps.
-RECORD_LEAD_S = 1.0
 
 #: Processes a lock-step simulator does not wait for: nothing the run does depends on them (only their hash seed is fixed).
 LOCKSTEP_BYSTANDERS = ("router", "recorder", "monitor")

@@ -25,6 +25,11 @@ EstimateSource = Callable[[float], Awaitable[Optional[tuple[float, float, float]
 
 log = logging.getLogger(__name__)
 
+#: the record's window reaches this far [s sim] before the mission's submission and after its end (or rest)
+RECORD_LEAD_S = 1.0
+#: the estimate is looked up this long [s sim] before the truth sample that makes it due (the HELM's poses trail)
+ESTIMATE_LAG_S = 0.25
+
 
 @dataclass
 class Track:
@@ -145,7 +150,7 @@ class Recorder:
             while self._due:
                 stamp = self._due.popleft()
                 # a little in the past: the HELM's poses trail the simulator's truth by a publish period
-                at = max(0.0, stamp - 0.25)
+                at = max(0.0, stamp - ESTIMATE_LAG_S)
                 try:
                     pose = await self.estimator(at)
                 except (BlackboardError, asyncio.TimeoutError, TimeoutError) as exc:
@@ -186,9 +191,13 @@ class Recorder:
 
     async def wait_clock(self, timeout: float = 10.0) -> bool:
         """Wait until the simulator's clock and truth have been heard (submission is stamped by them); False on timeout [s] wall."""
+        return await self._until_truth(lambda: self.clock is not None and bool(self.truth.rows), timeout)
+
+    async def _until_truth(self, done: Callable[[], bool], timeout: float) -> bool:
+        """Wait, truth sample by truth sample, until `done()`; False after `timeout` [s] wall."""
         loop = asyncio.get_running_loop()
         end = loop.time() + timeout
-        while self.clock is None or not self.truth.rows:
+        while not done():
             if (left := end - loop.time()) <= 0:
                 return False
             self._new_truth.clear()
@@ -215,6 +224,24 @@ class Recorder:
             except (asyncio.TimeoutError, TimeoutError):
                 return names - {n for n, _pid in self.costs}
         return set()
+
+    async def wait_truth(self, until: float, *, max_wall_s: float = 20.0) -> bool:
+        """Wait until truth stamped `until` [s] sim or later was heard (False after `max_wall_s` [s] wall).
+
+        The estimate is looked up at each truth sample's stamp less `ESTIMATE_LAG_S`, so a record that is to hold
+        every estimate up to a time must have heard the truth that far and a little farther. The launcher stops the
+        simulator a varying wall moment after the mission's end (in lock-step too, being outside the barrier):
+        without this wait one lock-step run's record held an estimate sample the other's did not (session 30).
+        """
+        return await self._until_truth(lambda: self.sim_time >= until, max_wall_s)
+
+    async def hear_window(self, *ends: float | None) -> bool:
+        """Hear the truth (so look up the estimates) to the end of the record's window: `RECORD_LEAD_S` past the
+        latest of `ends` [s sim] (the vehicle's rest, the mission's end; None: unknown), and one estimate beyond."""
+        known = [t for t in ends if t is not None]
+        if not known:
+            return False
+        return await self.wait_truth(max(known) + RECORD_LEAD_S + ESTIMATE_LAG_S + self.estimate_period_s)
 
     async def wait_rest(self, *, still_s: float = 1.0, max_sim_s: float = 30.0, max_wall_s: float = 20.0) -> float | None:
         """Wait until the true vehicle has stood still for `still_s` [s] sim; return when it stopped [s] sim.

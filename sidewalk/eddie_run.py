@@ -211,10 +211,7 @@ class EddieSystemRun(SystemRun):
 
     async def finish(self, mission_id: str) -> None:
         """Wait until the vehicle has come to rest (call once the mission ended, before `close()`); take the route from the annotated map."""
-        assert self.recorder is not None
-        self.rest[mission_id] = rest = await self.recorder.wait_rest()
-        terminal = next((s.status for s in self.statuses.get(mission_id, []) if s.status.terminal), None)
-        await self.recorder.hear_window(rest, terminal.finished_at if terminal is not None else None)
+        await self._settle(mission_id)
         at = self.submitted.get(mission_id, (0.0, 0.0))[1]
         self.routes[mission_id] = [] if self.annotated_map is None else route_plans(self.annotated_map, stamp=at)
 

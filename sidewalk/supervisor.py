@@ -334,8 +334,7 @@ class Supervisor:
             if mp.exited.is_set():
                 break
             if sig != signal.SIGINT and catches(mp.proc.pid, STACKS_SIGNAL):  # say where it is stuck before forcing it
-                log.warning("%s did not stop within %.0f s of SIGINT: its threads' stacks are in its log; sending %s",
-                            name, grace, sig.name)
+                log.warning("%s has not stopped since SIGINT: its threads' stacks are in its log; sending %s", name, sig.name)
                 with contextlib.suppress(ProcessLookupError):
                     mp.proc.send_signal(STACKS_SIGNAL)
             with contextlib.suppress(ProcessLookupError):

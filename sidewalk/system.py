@@ -214,13 +214,17 @@ class SystemRun:
 
         Call it once the mission ended (or was given up), before `close()`.
         """
+        await self._settle(mission_id)
+        self.routes[mission_id] = await self.route_plans(mission_id)
+        stats = await self.blackboard_stats()
+        self.bb_stats = stats.model_dump() if stats is not None else None
+
+    async def _settle(self, mission_id: str) -> None:
+        """Wait until the vehicle has come to rest, then until the record's window has been heard to its end."""
         assert self.recorder is not None
         self.rest[mission_id] = rest = await self.recorder.wait_rest()
         terminal = next((s.status for s in self.statuses.get(mission_id, []) if s.status.terminal), None)
         await self.recorder.hear_window(rest, terminal.finished_at if terminal is not None else None)
-        self.routes[mission_id] = await self.route_plans(mission_id)
-        stats = await self.blackboard_stats()
-        self.bb_stats = stats.model_dump() if stats is not None else None
 
     async def blackboard_stats(self) -> NodeStats | None:
         """Return the blackboard node's counters (None if it does not answer)."""

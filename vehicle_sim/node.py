@@ -202,10 +202,7 @@ class SimNode:
             log.info("lock-step barrier: %s", self.barrier.stats.model_dump_json())
             self.barrier.close()
         if self._session is not None:
-            closer = threading.Thread(target=self._session.close, name="sim-close", daemon=True)
-            closer.start()
-            closer.join(timeout)
-            self.session_closed = not closer.is_alive()
+            self.session_closed = self._session.close_within(timeout, "sim")
             self._session = None
 
     def wait(self, timeout: float | None = None) -> bool:

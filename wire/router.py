@@ -51,7 +51,5 @@ def serve_router(net: NetworkConfig, stop: threading.Event, *, out: TextIO | Non
                 usage=process_usage(traffic(), barrier_traffic()))))
             stop.wait(heartbeat_period)
     finally:
-        closer = threading.Thread(target=s.close, name="router-close", daemon=True)
-        closer.start()
-        closer.join(close_timeout)
-    return not closer.is_alive()
+        closed = s.close_within(close_timeout, "router")
+    return closed

@@ -592,6 +592,17 @@ class Session:
         if last:
             self._z.close()
 
+    def close_within(self, timeout: float, name: str = "session") -> bool:
+        """Close (as `close`) on a daemon thread; return whether it finished within `timeout` [s] wall.
+
+        A Zenoh close can hang (seen in the router and the simulator at exit); a process that keeps no state may
+        then exit without it (`os._exit`: an interpreter exit would wait for the session's threads).
+        """
+        closer = threading.Thread(target=self.close, name=f"{name}-close", daemon=True)
+        closer.start()
+        closer.join(timeout)
+        return not closer.is_alive()
+
     def __enter__(self) -> "Session":
         return self
 

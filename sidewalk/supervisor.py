@@ -12,7 +12,10 @@ but the kill waits longer, so a short stall (a GC pause, a loaded machine, the c
 process (0.5 s, 1, 2, 4 … capped at 30 s; the count starts again once a life lasted `stable_s`),
 and after `give_up_after` failed lives in a row the supervisor gives up on that process and says so.
 A process the owner killed on purpose (`kill`, fault injection) is left to the owner until it
-starts it again.
+starts it again; one the owner stopped on purpose (`suspend`, the `wedge-*` faults) is reported wedged but
+not restarted for its silence until the owner `resume`s it, and its silence is judged again from then:
+a stop lasts as long as its owner says (5 s sim in lock-step can be tens of seconds of wall on a busy
+machine), not as long as the wall clock allows.
 """
 
 from __future__ import annotations
@@ -145,6 +148,8 @@ class ManagedProcess:
     cpu_s: float = 0.0
     exited: asyncio.Event = field(default_factory=asyncio.Event)
     expected_exit: bool = False
+    #: time.monotonic() [s] when the owner last continued it (`Supervisor.resume`; None: never stopped)
+    resumed_at: Optional[float] = None
     #: time.monotonic() [s] when it printed its ready line (None: not yet)
     ready_at: Optional[float] = None
     _ps: psutil.Process | None = None
@@ -189,6 +194,8 @@ class Supervisor:
         self._guard_t0 = 0.0
         self._guards: dict[str, _Guard] = {}
         self._held: set[str] = set()
+        #: processes their owner stopped on purpose (`suspend`): not restarted for their silence until `resume`
+        self._suspended: set[str] = set()
         self._wake = asyncio.Event()
         self._guard_task: asyncio.Task | None = None
         self._closing = False
@@ -319,6 +326,24 @@ class Supervisor:
             mp.proc.send_signal(sig)
         await mp.exited.wait()
 
+    def suspend(self, name: str) -> None:
+        """SIGSTOP one process on its owner's behalf (fault injection); the guard does not restart it for its silence.
+
+        It is still reported wedged (it is). A process that is gone already is left as it is.
+        """
+        self._suspended.add(name)
+        with contextlib.suppress(ProcessLookupError):
+            self.procs[name].proc.send_signal(signal.SIGSTOP)
+
+    def resume(self, name: str) -> None:
+        """SIGCONT a process `suspend` stopped; its silence is judged again from now."""
+        mp = self.procs[name]
+        with contextlib.suppress(ProcessLookupError):
+            mp.proc.send_signal(signal.SIGCONT)
+        mp.resumed_at = time.monotonic()
+        self._suspended.discard(name)
+        self._wake.set()
+
     async def stop(self, name: str, *, grace: float = 8.0) -> int | None:
         """Stop one process: SIGINT, then SIGTERM, then SIGKILL; return its exit code.
 
@@ -405,7 +430,7 @@ class Supervisor:
                         self._revive(name, g, f"exited with code {mp.proc.returncode}")
                     continue
                 last = self._last_sign(mp)
-                if last is None or pol.restart_wedged_after_s is None:
+                if last is None or pol.restart_wedged_after_s is None or name in self._suspended:
                     continue
                 silent = now - last
                 if silent >= pol.restart_wedged_after_s:
@@ -452,9 +477,8 @@ class Supervisor:
         if self._beats is None or mp.ready_at is None:
             return None
         beat = self._beats(mp.plan.name)
-        if beat is not None and beat[0] == mp.pid:
-            return beat[1]
-        return max(mp.ready_at, self._guard_t0)
+        last = beat[1] if beat is not None and beat[0] == mp.pid else max(mp.ready_at, self._guard_t0)
+        return last if mp.resumed_at is None else max(last, mp.resumed_at)
 
     def _revive(self, name: str, g: _Guard, reason: str, *, kill: ManagedProcess | None = None) -> None:
         g.reviving = asyncio.create_task(self._revive_task(name, g, reason, kill), name=f"revive-{name}")

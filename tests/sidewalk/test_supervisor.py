@@ -199,3 +199,39 @@ async def test_a_ready_life_never_heard_beating_is_reported_wedged_from_when_the
     finally:
         handle[0].cancel()
         await sup.stop_all(grace=10)
+
+
+async def test_a_process_its_owner_stopped_is_not_restarted_for_its_silence_until_the_owner_continues_it(tmp_path):
+    # the wedge faults stop a module for 5 s sim: in lock-step on a busy machine that outlasts the 10 s wall watch
+    from sidewalk.supervisor import RestartPolicy
+
+    sup = Supervisor(tmp_path)
+    held = await sup.start(ProcessPlan("held", ("-c", SERVER)), ready_timeout=30)
+    other = await sup.start(ProcessPlan("other", ("-c", SERVER)), ready_timeout=30)
+    notices: list[str] = []
+    restarted = {name: asyncio.Event() for name in ("held", "other")}
+
+    def note(text: str) -> None:
+        notices.append(text)
+        for name, event in restarted.items():
+            if text.startswith(f"{name} restarted"):
+                event.set()
+
+    sup.on_notice = note
+    heard: dict[str, tuple[int, float]] = {}  # neither beats: both are judged from when the watch began
+    sup.guard(["held", "other"], RestartPolicy(wedged_after_s=0.5, restart_wedged_after_s=1.5, backoff_s=0.05),
+              beats=heard.get)
+    sup.suspend("held")
+    other.proc.send_signal(signal.SIGSTOP)  # stopped behind the supervisor's back: restarted once silent for 1.5 s
+    try:
+        await asyncio.wait_for(restarted["other"].wait(), 30)
+        assert sup.procs["held"].pid == held.pid and sup.alive("held"), notices
+        assert any(n.startswith("held is wedged") for n in notices), notices  # reported all the same
+        resumed = time.monotonic()
+        sup.resume("held")
+        # still silent once continued (nothing beats here): restarted, its silence judged from the resume
+        await asyncio.wait_for(restarted["held"].wait(), 30)
+        (r,) = [r for r in sup.restarts if r.module == "held"]
+        assert sup.t0 + r.at_s - resumed >= 1.5, (r, resumed)
+    finally:
+        await sup.stop_all(grace=10)

@@ -161,10 +161,10 @@ def render_markdown(c: Comparison, command: str = "") -> str:
             f"{a} {('%g m/s' % v) if v is not None else 'none'}" for a, v in c.highest_speed.items()), ""]
     out += ["## Lines of glue", "",
             "Counted by `sidewalk.compare.glue.count_glue` over the files each architecture's processes reach by static "
-            "imports from its entry points (the `__main__.py` of every process its launch plans start, `sidewalk.processes`: "
-            "`codger.<name>` for CODGER, `eddie.<name>` for EDDIE; "
-            f"`wire/` excluded; a file is glue by its own imports, not its package's). *Substrate*: files importing the transport ({', '.join(TRANSPORT)}). *Glue*: substrate, or "
-            "files importing substrate. *Algorithm*: the rest. Lines are logical lines: no blanks, comments or docstrings.", ""]
+            "imports from its entry points (the `__main__.py` of every process its launch plans start, "
+            "`sidewalk.processes`: `codger.<name>` for CODGER, `eddie.<name>` for EDDIE; `wire/` excluded; a file is glue "
+            f"by its own imports, not its package's). *Substrate*: files importing the transport ({', '.join(TRANSPORT)}). "
+            "*Glue*: substrate, or files importing substrate. *Algorithm*: the rest. Lines are logical lines: no blanks, comments or docstrings.", ""]
     rows = [[g.architecture, str(g.glue_lines) if g.present else "absent", str(g.glue_files), str(g.substrate_lines),
              str(g.algorithm_lines), str(g.algorithm_files)] for g in c.glue]
     out += _table(["arch", "glue lines", "glue files", "of which substrate", "algorithm lines", "algorithm files"], rows) + [""]

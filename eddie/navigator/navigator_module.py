@@ -26,6 +26,8 @@ log = logging.getLogger(__name__)
 
 #: The ways world←local reaches a subscriber.
 DELIVERY_MODES = ("push", "request")
+#: refusals in a row at which the navigator first says its estimate and its fixes disagree (then at 2×, 4× …)
+DOUBT_SAY_AFTER = 10
 
 
 class NavigatorModule:
@@ -91,12 +93,22 @@ class NavigatorModule:
                     w: WorldFromLocal = self.nav.fix(inc.message, m.now() or inc.message.stamp)
                 except BadMessage as exc:
                     warn_limited(log, "bad-fix", "navigator: %.200s", exc)
+                    self._say_if_doubting()
                     continue
                 log.info("navigator: t=%.2f fix from %s (stamp %.2f): world←local (%.2f, %.2f, %.3f)",
                          m.clock.now_or(-1.0), inc.sender, inc.message.stamp, w.x, w.y, w.yaw)
                 self._push()
         finally:
             republish.cancel()
+
+    def _say_if_doubting(self) -> None:
+        """Say so, at 10, 20, 40 … refusals in a row, when the estimate and its fixes have disagreed for long."""
+        n = self.nav.refused_in_row
+        q, r = divmod(n, DOUBT_SAY_AFTER)
+        if q and not r and q & (q - 1) == 0:
+            log.warning("navigator: %d fixes in a row refused (the covariance doubled %d times since the last used fix, "
+                        "at places %.1f m apart): the estimate and its fixes disagree", n, self.nav.fix_gate.doubled,
+                        self.nav.fix_gate.doubt_step_m)
 
     async def _first_position(self) -> None:
         """Lock-step: take the first local pose from the controller's position service.

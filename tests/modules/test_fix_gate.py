@@ -7,8 +7,8 @@ import math
 import numpy as np
 
 from modules.pilot.config import PilotConfig
-from modules.pilot.fix_gate import DOUBT_SIGMA_YAW, FIX_GATE, FixGate
-from modules.pilot.kalman import FixRefused, LineFix, PoseFilter
+from modules.pilot.fix_gate import DOUBT_SIGMA_YAW, DOUBT_STEP_M, FIX_GATE, FixGate
+from modules.pilot.kalman import FixRefused, LineFix, PointFix, PoseFilter
 
 
 def _confident() -> PoseFilter:
@@ -42,10 +42,13 @@ def test_a_road_edge_fix_whose_heading_is_far_off_is_refused_and_leaves_the_esti
 
 
 def test_refusals_in_a_row_doubt_an_estimate_that_drifted_until_consistent_fixes_get_in():
-    # the estimate believes 1° but the road truly runs 0.12 rad off it: every true fix is refused at first
+    # the estimate believes 1° but the road truly runs 0.12 rad off it: every true fix is refused at first;
+    # the vehicle drives 1 m along the road between fixes
     f, gate = _confident(), FixGate()
     used_after = None
     for i in range(12):
+        if i:
+            f.predict(np.array([1.0, 0.0, 0.0]))
         try:
             f.update_line(_edge(0.12))
         except FixRefused:
@@ -58,3 +61,45 @@ def test_refusals_in_a_row_doubt_an_estimate_that_drifted_until_consistent_fixes
     assert gate.refused == used_after and gate.refused_in_row == 0
     assert abs(f.pose[2] - 0.12) < 0.05
     assert math.sqrt(f.cov[2, 2]) <= DOUBT_SIGMA_YAW + 1e-9
+
+
+def _wrong_point_fix(f: PoseFilter) -> PointFix:
+    # a landmark matched to the wrong object: 4 m off to the left and 8° off, claimed to 0.2 m / 1°
+    x, y, yaw = f.pose
+    c, s = math.cos(yaw), math.sin(yaw)
+    return PointFix(pose=np.array([x - 4.0 * s, y + 4.0 * c, yaw + math.radians(8.0)]),
+                    cov=np.diag([0.2**2, 0.2**2, math.radians(1.0) ** 2]))
+
+
+def _offer(f: PoseFilter, gate: FixGate, fix: PointFix) -> bool:
+    try:
+        f.update_point(fix)
+    except FixRefused:
+        gate.on_refused(f)
+        return False
+    gate.on_used()
+    return True
+
+
+def test_many_frames_of_one_scene_from_one_place_doubt_the_estimate_once():
+    # EDDIE on suburb_4: the vehicle crept up to a crossing and the same wrong match came several times a second;
+    # when every refusal doubled the covariance, the wrong fix got in within a few frames
+    f, gate = _confident(), FixGate()
+    before = f.pose.copy()
+    taken = [_offer(f, gate, _wrong_point_fix(f)) for _ in range(30)]
+    assert not any(taken), f"a wrong fix from one place got in at frame {taken.index(True)}"
+    assert gate.doubled == 1 and gate.refused_in_row == 30
+    assert np.array_equal(f.pose, before)
+
+
+def test_refusals_from_places_apart_go_on_doubting_until_the_fix_gets_in():
+    # the same fix seen again and again as the vehicle drives on is evidence that the estimate is wrong
+    f, gate = _confident(), FixGate()
+    for place in range(1, 20):
+        if any(_offer(f, gate, _wrong_point_fix(f)) for _ in range(3)):
+            break
+        assert gate.doubled == place  # three frames from one place, one doubling
+        f.predict(np.array([DOUBT_STEP_M + 0.05, 0.0, 0.0]))
+    else:
+        raise AssertionError("a fix seen from 19 places apart never got in")
+    assert gate.used == 1 and gate.doubled == 0 and place >= 2

@@ -85,6 +85,8 @@ class IntegratedController:
         self.record = PathRecord(self.cfg.record_spacing_m)
         self.odom: Odometry | None = None
         self.path: _Path | None = None
+        #: the newest path a client offered while another held control (see `ControllerPath.offered`)
+        self.offered: _Path | None = None
         self.mode: ControllerMode = "idle"
         self.speed_limit: float | None = None
         self.mission_speed: float | None = None
@@ -138,6 +140,9 @@ class IntegratedController:
             return self._refuse(now, "", type(msg).__name__, "not a controller command")
         ok, why = self.arbiter.request(msg.client, msg.priority)
         if not ok:
+            if isinstance(msg, PathCommand):
+                self.offered = _Path([tuple(p) for p in msg.points], [], msg.client, "tracking", msg.sensed_at)
+                self.path_changed = True
             return self._refuse(now, msg.client, type(msg).__name__, why)
         if isinstance(msg, SpeedLimit):
             self.speed_limit = msg.speed
@@ -166,6 +171,7 @@ class IntegratedController:
         except TrackerError as exc:
             return self._refuse(now, msg.client, type(msg).__name__, str(exc))
         self.path = new
+        self.offered = None
         self.mode = new.mode
         self.path_changed = True
         self._event(now, f"{msg.mode}_{new.mode}", msg.client, f"{len(new.points)} points")
@@ -250,9 +256,9 @@ class IntegratedController:
     def path_message(self, now: float) -> ControllerPath:
         """Return the tracked path for the `path` stream (clears the changed flag)."""
         self.path_changed = False
-        p = self.path
+        p, o = self.path, self.offered
         return ControllerPath(stamp=now, path=tuple(p.points) if p else (), client=p.client if p else "",
-                              mode=self.mode)
+                              mode=self.mode, offered=tuple(o.points) if o else (), offered_client=o.client if o else "")
 
     def take_events(self) -> list[ControllerEvent]:
         """Return and forget the events since the last call."""

@@ -19,6 +19,8 @@ import asyncio
 import logging
 import math
 
+import numpy as np
+
 from eddie.modules.errors import EddieModuleError
 from eddie.modules.sensing import CaptureError, _capture
 from eddie.obstacle_stop.obstacle_stop import ObstacleReport, ObstacleStopConfig, corridor_path, stop_verdict
@@ -55,6 +57,7 @@ class FidoStop(ObstacleStop):
                  start: tuple[float, float, float] = (0.0, 0.0, 0.0), watch: FidoWatchConfig = FidoWatchConfig()) -> None:
         super().__init__(m, awake=awake, cfg=cfg, start=start)
         self.watch = FidoObstacleWatch(watch)
+        self._seen = None
 
     async def capture(self) -> CaptureResult:
         """Ask the simulator for a stereo pair (no laser, no camera, no truth); raise CaptureError."""
@@ -67,9 +70,16 @@ class FidoStop(ObstacleStop):
             seen = await asyncio.to_thread(self.watch.step, pair, rig, pose)
         except FidoError as exc:
             raise FidoStopError(f"fido: {exc}") from None
+        self._seen = seen
         d = self.watch.corridor_distance(seen, corridor_path(self.cfg, self.path, pose), self.cfg.half_width_m)
         if math.isfinite(d):
             log.info("fido: t=%.2f an obstacle feature %.1f m along the path (%d obstacle features, %d new; %d features, %d tracked; %.0f ms)",
                      seen.stamp, d, len(seen.xyz), seen.new, seen.features, seen.tracked, seen.step_ms)
         return stop_verdict(d, seen.stamp, self.cfg, path_local=self.path, pose_local=pose, speed=self.belief.speed)
+
+    def along(self, path: np.ndarray, pose: tuple[float, float, float]) -> ObstacleReport:
+        """Return the verdict of the last step's obstacle features along another `path` (`local` [m]), seen at `pose`."""
+        seen = self._seen
+        d = self.watch.corridor_distance(seen, corridor_path(self.cfg, path, pose), self.cfg.half_width_m)
+        return stop_verdict(d, seen.stamp, self.cfg, path_local=path, pose_local=pose, speed=self.belief.speed)
 

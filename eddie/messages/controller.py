@@ -175,13 +175,20 @@ class ControllerState(PoseFields, Message):
 
 @message_type("controller.path")
 class ControllerPath(Message):
-    """The path the controller tracks (empty: none), as [x, y] pairs in `local` [m]."""
+    """The path the controller tracks (empty: none), as [x, y] pairs in `local` [m].
+
+    `offered` is the newest path a client offered while another held control (refused for its priority;
+    empty: none since the last accepted path), from `offered_client`: what the vehicle would drive if the
+    holder let go. Obstacle stop, holding, looks along it too.
+    """
 
     stamp: float
     path: tuple[XY, ...]
     frame: Literal["local"] = "local"
     client: str = ""
     mode: ControllerMode = "idle"
+    offered: tuple[XY, ...] = ()
+    offered_client: str = ""
 
 
 @message_type("controller.event")

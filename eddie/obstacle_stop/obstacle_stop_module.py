@@ -7,7 +7,10 @@ fast obstacle detection"). Awake, each cycle reads a range image (the simulator'
 no truth), and when an obstacle stands on the controller's path (its `path` stream, placed by the
 controller's pose at the capture) it sends `Stop` to the controller as
 the highest-priority client and holds control (a speed cap of 0); once the corridor is clear again
-it lifts the cap and releases control, so the driving module's next path is taken. A "stop at
+it lifts the cap and releases control, so the driving module's next path is taken. While it holds, the
+driving module's newer paths are refused by the controller, which shows the newest of them as its path
+stream's `offered`; a hold is also lifted when that path is clear, so a stop on a path that went wrong (an
+estimate that was off, a road seen wrongly) does not outlast the path that replaced it. A "stop at
 object" trigger (the mission's stop at the mailbox) stops the vehicle at its goal point and holds
 it (action `stop`) or waits and lets it go (`wait`). Each verdict goes out on its stream `seen`.
 """
@@ -62,9 +65,15 @@ class ObstacleStop:
         self._watch: asyncio.Task | None = None
         self.belief = Belief(m, start)
         self.path: np.ndarray | None = None
+        #: the newest path a driving module offered while this module held control (`local` [m]), and from whom
+        self.offered: np.ndarray | None = None
+        self.offered_client = ""
+        self._frame: LaserScan | None = None
         m.subscribe("controller", "path", ControllerPath, self._on_path)
 
     def _on_path(self, p: ControllerPath) -> None:
+        self.offered = np.asarray(p.offered, dtype=np.float64).reshape(-1, 2) if len(p.offered) >= 2 else None
+        self.offered_client = p.offered_client
         if not p.path and self.stopped:
             # the controller dropped its path because this module stopped it: keep watching the path it stopped
             # on (straight ahead instead would take in the kerb when the vehicle stands at an angle)
@@ -89,6 +98,13 @@ class ObstacleStop:
         if not seen.blocked and self.stopped:
             await self._release()
             return "released"
+        if seen.blocked and self.stopped and self.holding_at is None and self.offered is not None:
+            client = self.offered_client
+            if not self.along(self.offered, tuple(float(v) for v in poses[0])).blocked:
+                log.info("obstacle_stop: t=%.2f the path held is blocked %.1f m ahead, but %s's newer path is clear: released",
+                         self.m.clock.now_or(-1.0), seen.distance_m, client or "a client")
+                await self._release()
+                return "released for a newer path"
         return "blocked" if seen.blocked else "clear"
 
     async def capture(self) -> LaserScan:
@@ -97,7 +113,12 @@ class ObstacleStop:
 
     async def look(self, frame: LaserScan, pose: tuple[float, float, float]) -> ObstacleReport:
         """Return the verdict on `frame`, seen at the controller's `pose` (`local`), along the controller's path."""
+        self._frame = frame
         return obstacle_ahead(frame, self.cfg, path_local=self.path, pose_local=pose, speed=self.belief.speed)
+
+    def along(self, path: np.ndarray, pose: tuple[float, float, float]) -> ObstacleReport:
+        """Return the verdict of the last `look`'s frame along another `path` (`local` [m]), seen at `pose` (`local`)."""
+        return obstacle_ahead(self._frame, self.cfg, path_local=path, pose_local=pose, speed=self.belief.speed)
 
     async def _hold(self, reason: str) -> None:
         await self.m.send("controller", Stop(client=CLIENT, priority=PRIORITY, reason=reason))

@@ -51,6 +51,25 @@ def test_a_lower_priority_client_is_refused_while_a_higher_one_holds_control():
     assert any(e.kind == "refused" and e.client == "vision" for e in c.take_events())
 
 
+def test_a_path_refused_for_its_priority_is_shown_as_offered_until_a_path_is_taken():
+    c = _ctl()
+    c.odometry(_od(0.0, 0.0))
+    assert c.command(PathCommand(client="road_following", priority=2, points=((0.0, 0.0), (10.0, 0.0))), 0.0).accepted
+    assert c.command(Stop(client="obstacle_stop", priority=10, reason="obstacle 8 m ahead"), 0.1).accepted
+    assert c.command(SpeedLimit(client="obstacle_stop", priority=10, speed=0.0), 0.1).accepted
+    assert c.path_message(0.1).offered == ()
+    swerve = ((0.0, 0.0), (5.0, 1.5), (10.0, 1.5))
+    assert not c.command(PathCommand(client="road_following", priority=2, points=swerve), 0.2).accepted
+    assert c.path_changed
+    msg = c.path_message(0.2)
+    assert msg.path == () and msg.offered == swerve and msg.offered_client == "road_following"
+    assert c.command(SpeedLimit(client="obstacle_stop", priority=10, speed=None), 0.3).accepted
+    assert c.command(Release(client="obstacle_stop"), 0.3).accepted
+    assert c.command(PathCommand(client="road_following", priority=2, points=swerve), 0.4).accepted
+    msg = c.path_message(0.4)
+    assert msg.path == swerve and msg.offered == () and msg.offered_client == ""
+
+
 def test_speed_ramps_up_and_down_within_the_limits():
     c = _ctl("navlab")
     tr = c.cfg.tracker

@@ -11,6 +11,7 @@ from __future__ import annotations
 import asyncio
 import json
 import math
+from typing import Callable
 
 import numpy as np
 from shapely.geometry import Point, Polygon
@@ -100,6 +101,8 @@ class Belief:
         self.speed_limit: float | None = None
         self.fixes_used = 0
         self.history = LocalPoseBuffer(span_s=30.0)
+        #: called with each controller state, after the belief took it in
+        self.on_state: list[Callable[[ControllerState], None]] = []
         self._waiting: list[tuple[float, asyncio.Future[None]]] = []
         m.subscribe("controller", "state", ControllerState, self._on_state)
         m.subscribe("navigator", "world_from_local", WorldFromLocal, self._on_transform)
@@ -119,6 +122,8 @@ class Belief:
                 else:
                     still.append((stamp, fut))
             self._waiting = still
+        for call in self.on_state:
+            call(st)
 
     async def reached(self, stamp: float, timeout_s: float = POSE_WAIT_S) -> bool:
         """Wait until the controller's newest pose is at or past sim time `stamp` [s]; False after `timeout_s` [s wall].

@@ -28,12 +28,13 @@ import logging
 
 import numpy as np
 
-from eddie.messages.controller import DeadReckon, PathCommand
+from eddie.messages.controller import ControllerState, DeadReckon, PathCommand
 from eddie.messages.modules import MissionRoute, RouteQuery
 from eddie.errors import EddieError
 from eddie.modules.errors import NoRoadPath
 from eddie.landmark_matching.landmark_matching import calibration_fix, fix_message
 from eddie.missions.lane import KERB_MARGIN_M, kept_lane_offset, lane_offset, shift_into_lane
+from eddie.road_following.dead_reckoning import DeadReckoning
 from eddie.road_following.road_following import (RoadFollowingConfig, follower_path, map_road_at, plan_road_path, road_line_fix, route_ahead,
                                           route_lane_offset, route_to_local)
 from eddie.modules.sensing import Belief, capture_frame, objects_in_view
@@ -99,6 +100,19 @@ class RoadFollowing:
         self._was_found: bool | None = None
         self._lost_run = 0
         self.keep = keep  # the side of the road the mission keeps to (EDDIE's route is the road's centre line)
+        self.dead_reckoning = DeadReckoning(CLIENT)
+        self.belief.on_state.append(self._on_controller_state)
+
+    def _on_controller_state(self, st: ControllerState) -> None:
+        if self.switch.awake or not self.switch.mission_running:
+            self.dead_reckoning.ended()
+            return
+        cmd = self.dead_reckoning.again(st)
+        if cmd is not None:
+            log.warning("road_following: t=%.2f the controller drives nothing and nobody holds it (restarted, or a hold "
+                        "lifted) while dead reckoning through an intersection: the rest of the path sent again (%d points)",
+                        st.stamp, len(cmd.points or ()))
+            asyncio.ensure_future(self.m.send("controller", cmd)).add_done_callback(_log_send_failure)
 
     async def _route(self) -> MissionRoute | None:
         try:
@@ -275,9 +289,10 @@ class RoadFollowing:
                 route = route_to_local(np.asarray(self.route.points), tuple(inverse(self.belief.world_from_local)))
                 beyond = route_ahead(route, local[-1], DEAD_RECKON_BEYOND_M)
                 local = np.vstack([local, beyond[1:]]) if len(beyond) >= 2 else local
-            await self.m.send("controller", DeadReckon(client=CLIENT, priority=PRIORITY, mode="immediate",
-                                                       points=tuple((float(x), float(y)) for x, y in local),
-                                                       speed=float(data.speed)))  # type: ignore[attr-defined]
+            cmd = DeadReckon(client=CLIENT, priority=PRIORITY, mode="immediate",
+                             points=tuple((float(x), float(y)) for x, y in local), speed=float(data.speed))  # type: ignore[attr-defined]
+            await self.m.send("controller", cmd)
+            self.dead_reckoning.sent(cmd)
         elif kind == "map_manager.set_speed":
             self.cfg = self.cfg.model_copy(update={"speed_mps": max(float(data.speed), 0.1)})  # type: ignore[attr-defined]
 
@@ -288,3 +303,8 @@ class RoadFollowing:
         finally:
             if self.pipeline.pool is not None:
                 self.pipeline.pool.close()
+
+
+def _log_send_failure(task: asyncio.Future) -> None:
+    if not task.cancelled() and task.exception() is not None:
+        log.error("road_following: sending the dead-reckoned path again failed: %r", task.exception())

@@ -99,10 +99,9 @@ class ObstacleStop:
             await self._release()
             return "released"
         if seen.blocked and self.stopped and self.holding_at is None and self.offered is not None:
-            client = self.offered_client
             if not self.along(self.offered, tuple(float(v) for v in poses[0])).blocked:
                 log.info("obstacle_stop: t=%.2f the path held is blocked %.1f m ahead, but %s's newer path is clear: released",
-                         self.m.clock.now_or(-1.0), seen.distance_m, client or "a client")
+                         self.m.clock.now_or(-1.0), seen.distance_m, self.offered_client or "a client")
                 await self._release()
                 return "released for a newer path"
         return "blocked" if seen.blocked else "clear"

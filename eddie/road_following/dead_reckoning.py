@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from eddie.messages.controller import ControllerState, DeadReckon
+from modules.pilot.polyline import PathLine
 
 __all__ = ["DeadReckoning"]
 
@@ -60,12 +61,6 @@ class DeadReckoning:
 
 def _rest(points: np.ndarray, xy: np.ndarray) -> np.ndarray | None:
     """Return the polyline `points` (N, 2) [m] from the point on it nearest `xy` on, or None when less than `DONE_WITHIN_M` is left."""
-    a, b = points[:-1], points[1:]
-    ab = b - a
-    seg2 = np.maximum((ab**2).sum(axis=1), 1e-12)
-    t = np.clip(((xy - a) * ab).sum(axis=1) / seg2, 0.0, 1.0)
-    near = a + t[:, None] * ab
-    i = int(np.argmin(np.hypot(*(near - xy).T)))
-    rest = np.vstack([near[i], b[i:]])
-    left = float(np.hypot(*np.diff(rest, axis=0).T).sum())
-    return rest if left >= DONE_WITHIN_M else None
+    line = PathLine.from_points(points)
+    s, _ = line.project(xy)
+    return line.slice(s, line.length) if line.length - s >= DONE_WITHIN_M else None

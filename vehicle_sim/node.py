@@ -15,7 +15,8 @@ Keys under `sidewalk/<ns>/` (see `wire.keys.SimKeys`, docs/keys.md): sim/clock, 
 (published, msgpack), sim/cmd (subscribed: `DriveCommand`, msgpack or JSON), sim/slip (subscribed:
 `OdometrySlip`, the position-jump fault), sim/capture, sim/info,
 sim/map, sim/world (queryables), alive/sim (liveliness), heartbeat/sim (1 Hz wall clock).
-Threads: the physics loop, a capture worker; zenoh callbacks only enqueue.
+Threads: the physics loop, a capture worker (captures asked at one sim instant rendered once,
+`vehicle_sim.instant_captures`), the preview pump; zenoh callbacks only enqueue.
 """
 
 from __future__ import annotations
@@ -39,7 +40,9 @@ from wire.lockstep import Barrier, LockstepRelease, encode as encode_lockstep
 from wire.session import Query, Session, open_session, barrier_traffic, traffic
 from wire.drive import DriveCommand, OdometrySlip, SimEvent, SimHeartbeat, SimInfo, WireError, decode, encode
 from vehicle_sim.actors import ActorSet, load_actors
+from vehicle_sim.instant_captures import InstantCaptures
 from vehicle_sim.mapgen import map_for
+from vehicle_sim.preview_pump import PreviewPump
 from vehicle_sim.odometry import DEFAULT_ODOMETRY, OdometryModel
 from vehicle_sim.simulator import CommandRejected, SimConfig, Simulator
 from vehicle_sim.worldfile import World
@@ -116,7 +119,10 @@ class SimNode:
         self.step_time_total = 0.0
         self._error: BaseException | None = None
         self._hb_seq = 0
+        #: captures rendered (a capture asked again at the same sim instant is served from `instants`, not counted)
         self.captures_served = 0
+        self.instants = InstantCaptures()
+        self._previews: PreviewPump | None = None
         self._released = threading.Event()
         self.barrier: Barrier | None = None
 
@@ -157,6 +163,8 @@ class SimNode:
             self._pub_events = z.publisher(k.events)
             self._pub_hb = z.publisher(k.heartbeat, droppable=True)
             self._pub_preview = z.publisher(k.preview, droppable=True)  # monitor/recorder only: may drop, never blocks
+            self._previews = PreviewPump(self._pub_preview.put)
+            self._previews.start()
             z.subscribe_payload(k.cmd, self._on_cmd)
             z.subscribe_payload(k.slip, lambda _k, payload: self._slips.append(payload))
             z.queryable(k.capture, self._on_capture)
@@ -198,6 +206,10 @@ class SimNode:
         for t in self._threads:
             t.join(timeout)
         self._threads.clear()
+        if self._previews is not None:
+            self._previews.stop(timeout)
+        log.info("captures: %d rendered, %d served again (%d of an earlier instant)", self.instants.renders,
+                 self.instants.hits, self.instants.older)
         if self.barrier is not None:
             log.info("lock-step barrier: %s", self.barrier.stats.model_dump_json())
             self.barrier.close()
@@ -257,15 +269,19 @@ class SimNode:
             if item is None:
                 return
             q, t, state, truth = item
-            res = None
             try:
                 if self._stop.is_set():
                     q.reply_err(json.dumps({"error": "simulator is shutting down"}).encode(), as_json=True)
                     continue
                 req = decode(CaptureRequest, q.payload) if q.payload else CaptureRequest()
-                res = capture(self._scene.at_time(self.actors, t), (state.x, state.y, state.yaw), t, req, vehicle=self.config.vehicle)
+                scene = self._scene
+                res, rendered = self.instants.get(t, req, lambda r: capture(scene.at_time(self.actors, t), (state.x, state.y, state.yaw),
+                                                                            t, r, vehicle=self.config.vehicle))
                 # truth only on its own key, which access control can deny (it cannot see a payload's flag)
                 q.reply(encode_capture(res, truth=truth))
+                if rendered:
+                    self.captures_served += 1
+                    self._previews.offer(res, self.captures_served)
             except WireError as exc:
                 q.reply_err(json.dumps({"error": "bad capture request", "detail": str(exc)}).encode(), as_json=True)
             except Exception as exc:  # noqa: BLE001 - report any capture failure to the asker
@@ -273,19 +289,6 @@ class SimNode:
                 q.reply_err(json.dumps({"error": "capture failed", "detail": f"{type(exc).__name__}: {exc}"}).encode(), as_json=True)
             finally:
                 q.finish()
-            if res is not None:  # after the reply is finished: the asker never waits for the preview
-                self._publish_preview(res)
-
-    def _publish_preview(self, res) -> None:
-        """Publish a small camera / colored-range preview of a capture served (droppable; no pose, no truth)."""
-        from vehicle_sim.preview import make_preview
-        from wire.preview import encode_preview
-
-        self.captures_served += 1
-        try:
-            self._pub_preview.put(encode_preview(make_preview(res, self.captures_served)))
-        except Exception:  # noqa: BLE001 - a preview must never disturb the simulator
-            log.exception("preview failed")
 
     # ---- physics loop -------------------------------------------------------------------------
 

@@ -45,6 +45,9 @@ class CaptureRequest(BaseModel):
     stereo_size: int = Field(512, ge=64, le=2048, multiple_of=64)
     #: ignored by the simulator (kept for old senders): truth comes only from the `sim/truth_capture` key
     truth: bool = False
+    #: a capture of an earlier instant at most this old [s sim] will do: the newest the simulator still holds
+    #: that has every part asked for (rendered for another asker), else one rendered now (issue 39)
+    max_age_s: float = Field(0.0, ge=0.0, le=5.0)
 
 
 class CaptureDecodeError(PayloadError, ValueError):

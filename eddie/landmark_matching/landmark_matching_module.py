@@ -25,6 +25,10 @@ __all__ = ["LandmarkMatching"]
 
 log = logging.getLogger("eddie.landmark_matching.landmark_matching")
 
+#: a match may use a frame up to this old [s sim]: one the simulator rendered for road following (5 frames/s)
+#: serves, so an instant is rendered once (issue 39); the fix is of the pose at the frame's own stamp
+SHARED_FRAME_AGE_S = 0.2
+
 
 class LandmarkMatching:
     """The landmark matching loop on one module endpoint."""
@@ -40,7 +44,7 @@ class LandmarkMatching:
 
     async def cycle(self) -> str:
         """Match one frame; send the fix if there is one."""
-        frame = await capture_frame(self.m)
+        frame = await capture_frame(self.m, max_age_s=SHARED_FRAME_AGE_S)
         poses = await self.belief.at_capture(frame.stamp)
         if poses is None:
             return "no controller pose at the capture"

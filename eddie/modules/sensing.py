@@ -49,23 +49,28 @@ async def _capture(m: Module, request: dict, timeout: float) -> bytes:
     raise CaptureError(f"no simulator answered {key} within {timeout:.1f} s")
 
 
-async def capture_frame(m: Module, *, timeout: float = 15.0) -> SensorFrame:
-    """Ask the simulator for one laser + camera frame (no truth); raise CaptureError."""
-    payload = await _capture(m, {"laser": True, "camera": True}, timeout)
+async def capture_frame(m: Module, *, timeout: float = 15.0, max_age_s: float = 0.0) -> SensorFrame:
+    """Ask the simulator for one laser + camera frame (no truth); raise CaptureError.
+
+    With `max_age_s` [s sim] a frame of an earlier instant at most that old will do (one the simulator
+    rendered for another module; `wire.capture.CaptureRequest.max_age_s`): pair it with the pose at its stamp.
+    """
+    payload = await _capture(m, {"laser": True, "camera": True, "max_age_s": max_age_s}, timeout)
     try:
         return decode_sensor_frame(payload)
     except SensorFrameError as exc:
         raise CaptureError(f"{SimKeys(m.net.namespace).capture}: {exc}") from None
 
 
-async def capture_scan(m: Module, *, timeout: float = 15.0) -> LaserScan:
+async def capture_scan(m: Module, *, timeout: float = 15.0, max_age_s: float = 0.0) -> LaserScan:
     """Ask the simulator for one laser image alone (no camera, no truth); raise CaptureError.
 
     For a module that reads only the range (OBSTACLE STOP): the simulator skips the camera's render
     and its bytes. The scan is the one `capture_frame` would give to the bit (a capture's noise is
-    drawn from its stamp, the laser's first), and carries what a frame's does: no reflectance.
+    drawn from its stamp, the laser's first), and carries what a frame's does: no reflectance. `max_age_s` as
+    `capture_frame`'s.
     """
-    payload = await _capture(m, {"laser": True, "camera": False}, timeout)
+    payload = await _capture(m, {"laser": True, "camera": False, "max_age_s": max_age_s}, timeout)
     try:
         c = decode_capture(payload)
     except CaptureDecodeError as exc:

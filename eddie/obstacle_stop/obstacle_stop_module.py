@@ -50,6 +50,9 @@ STOP_AT_MARGIN_M, STOP_AT_NEAR_M = 0.3, 0.3
 STOP_LATENCY_S = 0.3
 #: the laser's frame period [s] sim (the ERIM's 2 frames/s): the check and the look for a stop's object each take one frame a period
 FRAME_PERIOD_S = 0.5
+#: a check may look at a scan up to this old [s sim]: one the simulator rendered for road following (5 frames/s)
+#: serves, so an instant is rendered once (issue 39); the verdict pairs it with the pose at its own stamp
+SHARED_SCAN_AGE_S = 0.2
 
 
 class ObstacleStop:
@@ -108,7 +111,7 @@ class ObstacleStop:
 
     async def capture(self) -> LaserScan:
         """Ask the simulator for the frame a check looks at (the laser's range image); raise CaptureError."""
-        return await capture_scan(self.m)
+        return await capture_scan(self.m, max_age_s=SHARED_SCAN_AGE_S)
 
     async def look(self, frame: LaserScan, pose: tuple[float, float, float]) -> ObstacleReport:
         """Return the verdict on `frame`, seen at the controller's `pose` (`local`), along the controller's path."""

@@ -7,6 +7,12 @@ machine's cores); a pool of each count is open throughout. After one warm-up rou
 the machine's load falls on all counts alike); the figure is the median over the rounds of
 a pass's wall time per frame [ms]:
 
+Every pool runs each of its processes with one library thread per operation (`intra_threads=1`:
+OpenCV's and BLAS's own threads off), so a count's speed-up is the partitioning's, as the Warp's
+cells' was; `perception_cycle` also gives one process with its libraries' own threads
+(`library_threads_ms_per_frame`, as the live module runs with one worker) and the speed-up of each
+count over that (`speedup_over_library_threads`).
+
 - `perception_cycle`: registration (`colored_range_image`) and one PERCEPTION cycle (full
   resolution) per frame on campus frames, half on the slope and stairs, as one run of frames
   (`modules.perception.process_frames`: whole frames among the workers, the colour step in the
@@ -101,14 +107,29 @@ def run(world: str = "campus", frames: int = 12, rounds: int = 3, seed: int = 0,
     look_params = LookParams(scarf_cfg.rows, scarf_cfg.cols, True, scarf_cfg.texture_alpha, scarf_cfg.texture_threshold, warm.classes)
     out: dict = {"world": world, "frames": frames, "rounds": rounds, "seed": seed, "cores": cores, "workers": counts,
                  "algorithms": {}, "warp": WARP}
+    jobs = [FrameJob(fr.sensor, fr.objects, fr.prior_pose) for fr in pframes]
+
+    def cycle_on(pool: VisionPool) -> list:
+        pipe = PerceptionPipeline(ResolutionTable(src.table.sensor, max_distance=src.table.max_distance), pool=pool)
+        return [_digest(o) for o in process_frames(pipe, jobs, error_allowance=1.0, step=1)]
+
+    # one process with its libraries' own threads (OpenCV's, BLAS's: as many as cores), before any pool limits them
+    with VisionPool(1, intra_threads=None) as own:
+        lib_ms = []
+        for r in range(rounds + 1):
+            t0 = time.perf_counter()
+            lib_out = cycle_on(own)
+            if r > 0:
+                lib_ms.append((time.perf_counter() - t0) * 1e3 / frames)
     with contextlib.ExitStack() as stack:
-        pools = {n: stack.enter_context(VisionPool(n, warm=("modules.perception", "modules.road_following"))) for n in counts}
+        # every count with one library thread per process: the speed-up is the partitioning's, as the Warp's cells
+        pools = {n: stack.enter_context(VisionPool(n, warm=("modules.perception", "modules.road_following"), intra_threads=1))
+                 for n in counts}
         for pool in pools.values():
             pool.wait_ready()
         model = PerceptionPipeline(src.table).colour_model_for(pframes[0].objects)
         imgs = [colored_range_image(fr.sensor) for fr in pframes]
 
-        jobs = [FrameJob(fr.sensor, fr.objects, fr.prior_pose) for fr in pframes]
         ref = PerceptionPipeline(ResolutionTable(src.table.sensor, max_distance=src.table.max_distance))
         setups = [ref.setup(fr.objects, 1.0, step=1) for fr in pframes]
         heads = [cycle_head(im, su, fr.objects, fr.prior_pose, 1.0) for im, su, fr in zip(imgs, setups, pframes)]
@@ -119,7 +140,7 @@ def run(world: str = "campus", frames: int = 12, rounds: int = 3, seed: int = 0,
                 return PerceptionPipeline(ResolutionTable(src.table.sensor, max_distance=src.table.max_distance), pool=pool)
 
             def cycle() -> list:
-                return [_digest(o) for o in process_frames(fresh(), jobs, error_allowance=1.0, step=1)]
+                return cycle_on(pool)
 
             def colour_step() -> list:
                 pipe = fresh()
@@ -156,6 +177,11 @@ def run(world: str = "campus", frames: int = 12, rounds: int = 3, seed: int = 0,
             a["speedup"][str(n)] = round(a["ms_per_frame"]["1"] / a["ms_per_frame"][str(n)], 3)
         if name in ("perception_cycle", "scarf_frame"):
             a["identical"] = all(outputs[(name, n)] == outputs[(name, 1)] for n in counts)
+    pc = out["algorithms"]["perception_cycle"]
+    pc["library_threads_ms_per_frame"] = round(statistics.median(lib_ms), 2)
+    pc["library_threads_identical"] = lib_out == outputs[("perception_cycle", 1)]
+    pc["speedup_over_library_threads"] = {str(n): round(pc["library_threads_ms_per_frame"] / pc["ms_per_frame"][str(n)], 3)
+                                          for n in counts[1:]}
     alg = out["algorithms"]
     cycle_ms = max(alg["perception_cycle"]["ms_per_frame"]["1"], 1e-9)
     for key, split in (("", cycle_ms - alg["colour_step"]["ms_per_frame"]["1"]),

@@ -24,6 +24,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from modules.parallel.errors import StripePlanError, WorkerError
+from modules.parallel.intra_threads import limit_intra_threads
 from modules.parallel.shared_frame import ArrayRef, SharedFrame
 from modules.parallel.stripe_op import StripeOp, pixels_per_unit, run_stripe, stripe_length
 from modules.parallel.stripes import Stripe, aligned_for, partition
@@ -38,10 +39,10 @@ OutputSpec = tuple[tuple[int, ...], Any]
 class _Worker:
     """One spawned worker process and the host's end of its pipe."""
 
-    def __init__(self, ctx, index: int, warm: Sequence[str]) -> None:
+    def __init__(self, ctx, index: int, warm: Sequence[str], intra_threads: int | None = None) -> None:
         self.index = index
         self.conn, child = ctx.Pipe(duplex=True)
-        self.proc = ctx.Process(target=serve, args=(child, tuple(warm)), name=f"vision-worker-{index}", daemon=True)
+        self.proc = ctx.Process(target=serve, args=(child, tuple(warm), intra_threads), name=f"vision-worker-{index}", daemon=True)
         self.proc.start()
         child.close()
         self.ready = False
@@ -84,7 +85,9 @@ class _Worker:
         self.conn.close()
 
 
-def _shutdown(workers: list[_Worker], frame: list[SharedFrame | None]) -> None:
+def _shutdown(workers: list[_Worker], frame: list[SharedFrame | None], restore: list[Callable[[], None]]) -> None:
+    while restore:
+        restore.pop()()
     for w in workers:
         w.stop()
     workers.clear()
@@ -97,19 +100,28 @@ class VisionPool:
     """Run stripe operators over `workers` processes (the caller included); see the module docstring."""
 
     def __init__(self, workers: int = 1, *, warm: Sequence[str] = (), start_timeout_s: float = 120.0,
-                 task_timeout_s: float = 120.0) -> None:
-        """Start `workers − 1` worker processes importing `warm` modules; time-outs [s] wall for start-up and for one call."""
+                 task_timeout_s: float = 120.0, intra_threads: int | None = None) -> None:
+        """Start `workers − 1` worker processes importing `warm` modules; time-outs [s] wall for start-up and for one call.
+
+        `intra_threads`: the threads each of the pool's processes (the caller's for the pool's life) lets its
+        libraries use inside one operation (`modules.parallel.intra_threads`); None: one with several workers,
+        the libraries' own choice with one.
+        """
         if not isinstance(workers, int) or workers < 1:
             raise StripePlanError(f"vision workers: expected an integer ≥ 1, got {workers!r}")
+        if intra_threads is not None and (not isinstance(intra_threads, int) or intra_threads < 1):
+            raise StripePlanError(f"intra-operation threads: expected an integer ≥ 1, got {intra_threads!r}")
         self.workers = workers
         self.start_timeout_s = start_timeout_s
         self.task_timeout_s = task_timeout_s
+        self.intra_threads = intra_threads if intra_threads is not None else (1 if workers > 1 else None)
         self._warm = tuple(warm)
         self._ctx = mp.get_context("spawn")  # never fork: the caller may hold Zenoh's threads
-        self._procs: list[_Worker] = [_Worker(self._ctx, i + 1, self._warm) for i in range(workers - 1)]
+        self._restore: list[Callable[[], None]] = [] if self.intra_threads is None else [limit_intra_threads(self.intra_threads)]
+        self._procs: list[_Worker] = [_Worker(self._ctx, i + 1, self._warm, self.intra_threads) for i in range(workers - 1)]
         self._frame: list[SharedFrame | None] = [SharedFrame() if workers > 1 else None]
         self._posted: dict[int, deque[str]] = {}  # worker index → what its unanswered tasks are, oldest first
-        self._finalizer = weakref.finalize(self, _shutdown, self._procs, self._frame)
+        self._finalizer = weakref.finalize(self, _shutdown, self._procs, self._frame, self._restore)
 
     # ---- life ------------------------------------------------------------------------------------
     def __enter__(self) -> "VisionPool":
@@ -135,7 +147,7 @@ class VisionPool:
         for i, w in enumerate(self._procs):
             if not w.proc.is_alive() and not self._posted.get(w.index):
                 w.stop(0.1)
-                self._procs[i] = _Worker(self._ctx, w.index, self._warm)
+                self._procs[i] = _Worker(self._ctx, w.index, self._warm, self.intra_threads)
         return self._procs
 
     # ---- work ------------------------------------------------------------------------------------

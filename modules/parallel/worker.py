@@ -16,17 +16,21 @@ from multiprocessing.connection import Connection
 from multiprocessing.shared_memory import SharedMemory
 from typing import Sequence
 
+from modules.parallel.intra_threads import limit_intra_threads
 from modules.parallel.shared_frame import attach, view
 from modules.parallel.stripe_op import run_stripe
 
 __all__ = ["serve"]
 
 
-def serve(conn: Connection, warm: Sequence[str] = ()) -> None:
-    """Serve the host on `conn` until told to stop or the host is gone; import `warm` modules first."""
+def serve(conn: Connection, warm: Sequence[str] = (), intra_threads: int | None = None) -> None:
+    """Serve the host on `conn` until told to stop or the host is gone; import `warm` modules first, then let the
+    libraries use `intra_threads` threads inside one operation (None: their own choice)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a Ctrl-C is the host's to handle; the host then closes the pipe
     for name in warm:
         importlib.import_module(name)
+    if intra_threads is not None:
+        limit_intra_threads(intra_threads)
     conn.send(("ready", os.getpid()))
     blocks: dict[str, SharedMemory] = {}
     try:

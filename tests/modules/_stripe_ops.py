@@ -7,7 +7,7 @@ import os
 import cv2
 import numpy as np
 
-__all__ = ["box_sum", "boom", "die_on_second", "squares"]
+__all__ = ["box_sum", "boom", "die_on_second", "squares", "library_threads"]
 
 
 def box_sum(arrays, k: int, stripe):
@@ -32,3 +32,10 @@ def die_on_second(arrays, params, stripe):
 def squares(items, offset):
     """Return each item squared plus `offset`, with the process that did it."""
     return [(i * i + offset, os.getpid()) for i in items]
+
+
+def library_threads(items, params):
+    """Return, per item, this process's pid and the threads its libraries use in one operation (OpenCV, each BLAS)."""
+    from threadpoolctl import threadpool_info
+
+    return [(os.getpid(), cv2.getNumThreads(), tuple(sorted(i["num_threads"] for i in threadpool_info()))) for _ in items]

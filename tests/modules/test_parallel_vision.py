@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from modules.parallel import StripeOp, StripePlanError, VisionPool, WorkerError, aligned_for, partition
-from tests.modules._stripe_ops import boom, box_sum, die_on_second, squares
+from tests.modules._stripe_ops import boom, box_sum, die_on_second, library_threads, squares
 
 pytestmark = pytest.mark.timeout(180)  # quiet run ~6 s (worker start-up is most of it)
 
@@ -51,6 +51,25 @@ def test_a_local_operator_over_workers_equals_the_whole_image_bit_for_bit(worker
         bad_rows = np.flatnonzero(~np.isclose(short, whole).all(axis=1))
         cuts = [s.core[0] for s in pool.stripes(StripeOp(box_sum, overlap=1), {"img": img.shape})[1:]]
         assert all(min(abs(r - c) for c in cuts) <= 1 for r in bad_rows)
+
+
+def test_a_pool_of_several_runs_each_process_with_one_library_thread_and_gives_the_caller_its_threads_back() -> None:
+    import cv2
+
+    cv2.setNumThreads(2)
+    caller_before = library_threads([0], None)[0][1:]
+    with VisionPool(2) as pool:
+        got = pool.map(library_threads, [0, 1], None)
+        assert {pid for pid, _, _ in got} - {os.getpid()}, "the second item ran in a worker"
+        assert all(cv == 1 and set(blas) <= {1} for _, cv, blas in got), got
+    assert library_threads([0], None)[0][1:] == caller_before
+    with VisionPool(1) as own:  # one process: the libraries' own choice, unless asked
+        assert own.map(library_threads, [0], None)[0][1] == 2
+    with VisionPool(1, intra_threads=1) as own:
+        assert own.map(library_threads, [0], None)[0][1] == 1
+    assert cv2.getNumThreads() == 2
+    with pytest.raises(StripePlanError, match="intra-operation threads"):
+        VisionPool(2, intra_threads=0)
 
 
 def test_map_keeps_the_order_and_uses_the_workers() -> None:

@@ -89,6 +89,8 @@ def serve(
         node.stop()
         for s, h in old.items():
             signal.signal(s, h)
+    ic = node.instants
+    typer.echo(f"sim: captures rendered {ic.renders}, served again {ic.hits} ({ic.older} of an earlier instant)")
     if node.error is not None:
         typer.echo(f"simulator stopped: {type(node.error).__name__}: {node.error}", err=True)
     if not node.session_closed:

@@ -22,11 +22,13 @@ WALKER_Y = -14.0  # where the walker stands on the dormitory walk (the actors fi
 @pytest.mark.missions
 @pytest.mark.e2e
 @pytest.mark.parametrize("arch", ["codger", "eddie"])
-@pytest.mark.timeout(960)  # lock-step: EDDIE 536 s wall at a load of 12 (session 29); real time at RTF 2 took 150-313 s
+# lock-step: EDDIE 406 s wall alone and quiet (session 32), 536 s at a load of 12 (session 29), 727 s beside the CODGER arm
+# in CI (session 33, when the run's own cap of 840 s was near); real time at RTF 2 took 150-313 s
+@pytest.mark.timeout(1800)
 def test_fido_stops_for_a_walker_in_the_lane_and_reaches_the_quad(tmp_path, arch):
     report, stderr = run_report(tmp_path, "--arch", arch, "--world", "campus", "--mission", str(DATA / "dorm-quad.yaml"),
                                 "--actors", str(DATA / "dorm-walker.actors.yaml"), "--obstacle-sensor", "fido", "--lockstep",
-                                "--seed", "1", "--max-wall-time", "840", wall_s=900)
+                                "--seed", "1", "--max-wall-time", "1600", wall_s=1700)
     assert report["architecture"] == arch
     logs = tmp_path / "logs"
     sensor_log = logs / ("fido_obstacles.log" if arch == "codger" else "obstacle_stop.log")

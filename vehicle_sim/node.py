@@ -119,14 +119,17 @@ class SimNode:
         self.step_time_total = 0.0
         self._error: BaseException | None = None
         self._hb_seq = 0
-        #: captures rendered (a capture asked again at the same sim instant is served from `instants`, not counted)
-        self.captures_served = 0
         self.instants = InstantCaptures()
         self._previews: PreviewPump | None = None
         self._released = threading.Event()
         self.barrier: Barrier | None = None
 
     # ---- lifecycle ---------------------------------------------------------------------------
+
+    @property
+    def captures_served(self) -> int:
+        """Return the captures rendered so far (one asked again at a sim instant already rendered is served, not counted)."""
+        return self.instants.renders
 
     def info(self) -> SimInfo:
         """Return what this node simulates."""
@@ -208,8 +211,6 @@ class SimNode:
         self._threads.clear()
         if self._previews is not None:
             self._previews.stop(timeout)
-        log.info("captures: %d rendered, %d served again (%d of an earlier instant)", self.instants.renders,
-                 self.instants.hits, self.instants.older)
         if self.barrier is not None:
             log.info("lock-step barrier: %s", self.barrier.stats.model_dump_json())
             self.barrier.close()
@@ -280,7 +281,6 @@ class SimNode:
                 # truth only on its own key, which access control can deny (it cannot see a payload's flag)
                 q.reply(encode_capture(res, truth=truth))
                 if rendered:
-                    self.captures_served += 1
                     self._previews.offer(res, self.captures_served)
             except WireError as exc:
                 q.reply_err(json.dumps({"error": "bad capture request", "detail": str(exc)}).encode(), as_json=True)

@@ -363,8 +363,10 @@ def test_monitor_page_draws_a_live_eddie_mission(browser, eddie_run):  # the bro
     st = page.evaluate("window.monitorState")
     assert st["arch"] == "eddie" and not st["replay"] and st["segment"]["id"].startswith("route.")
     assert st["units"]["count"] == 0 and st["plan"]["points"] == 0  # no blackboard: no driving units, no PILOT plan
-    listed = page.locator("#triggers li").first.inner_text()
-    assert st["triggers"]["last"]["type"] in listed and "→" in listed
+    # the list beside the map names the trigger the map drew last; the list follows each message and the map the
+    # next frame, and triggers go on firing, so both are read together, at a moment when the page is drawn
+    page.wait_for_function("""(() => { const li = document.querySelector('#triggers li'), last = window.monitorState.triggers.last;
+        return li && last && li.innerText.includes(last.type) && li.innerText.includes('→'); })()""", timeout=30_000)
     page.screenshot(path=str(eddie_run.out / "monitor.png"))
     page.close()
     assert (eddie_run.out / "monitor.png").stat().st_size > 20_000

@@ -58,8 +58,8 @@ def compare(
     max_wall_time: Annotated[float, typer.Option(help="Give each run up after this wall time (s); a lock-step EDDIE run takes 5-10 min here")] = 3600.0,
     resume: Annotated[bool, typer.Option("--resume", help="Reuse runs in --out whose report is of the same cell (architecture, mission, seed, fault, speed cap)")] = False,
     cluster: Annotated[Optional[str], typer.Option(help="Run the cells on this Dask scheduler's workers (tcp://HOST:8786), one run per worker, their run directories brought back into --out")] = None,
-    generated: Annotated[Optional[str], typer.Option(help="Generated layouts KIND:N[,KIND:N] (e.g. suburb:20, marked-road:10): seeds 0..N-1 of `sidewalk worldgen KIND`, written into OUT/layouts/, one mission each")] = None,
-    with_actors: Annotated[bool, typer.Option("--with-actors", help="Run each generated layout once more with its actors file (a walker in the lane, a parked car)")] = False,
+    generated: Annotated[Optional[str], typer.Option(help="Generated layouts KIND:N[,KIND:N] (e.g. suburb:20, marked-road:10, campus:10): seeds 0..N-1 of `sidewalk worldgen KIND`, written into OUT/layouts/, one mission each")] = None,
+    with_actors: Annotated[bool, typer.Option("--with-actors", help="Run each generated layout once more with its actors file (streets: a walker in the lane, a parked car; campus: a walker on the walk, another crossing the terrace walk)")] = False,
     road_method: Annotated[Optional[str], typer.Option(help="`sidewalk run --road-method` of every run: perception, scarf, yarf or alvinn (default: the run's)")] = None,
 ) -> None:
     """Run every mission × seed × architecture (and faults, speed sweep) as `sidewalk run` processes; write tables and plots."""

@@ -12,7 +12,7 @@ __all__ = ["register"]
 
 
 def worldgen(
-    kind: Annotated[str, typer.Argument(help="What to generate (cross-country, suburb, marked-road)")],
+    kind: Annotated[str, typer.Argument(help="What to generate (cross-country, suburb, marked-road, campus)")],
     seed: Annotated[int, typer.Option(help="Seed: the same seed writes identical files")] = 0,
     out: Annotated[Path, typer.Option(help="Directory to write into")] = Path("runs/worldgen"),
     name: Annotated[Optional[str], typer.Option(help="The world's name (files NAME.world.geojson, …; default: KIND_SEED)")] = None,

@@ -62,7 +62,7 @@ class Junction:
     xy: tuple[float, float]
     angle_deg: float
     turn: Turn
-    kind: Literal["cross", "T"]
+    kind: Literal["cross", "T", "Y"]  # Y: a fork (campus walks, `walkways`)
     arms: tuple[float, ...]  # headings [rad] of every street leaving the node, the incoming one included
 
 

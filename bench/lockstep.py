@@ -8,8 +8,10 @@ mission at one seed. Per run, from its `report.json`:
 - `msgs_per_sim_s` / `bytes_per_sim_s`: messages and payload bytes sent per sim second, the modules'
   traffic only, and `barrier_msgs_per_sim_s` apart: what lock-step itself costs (`sidewalk compare`'s own
   figures, `sidewalk.compare.measures`);
-- `barrier_waves`: the barrier's asks (one put per wave, `wire.lockstep`), and `waves_per_barrier`
-  over the two barriers of each published tick (`publish_hz` ticks per sim second);
+- `barrier_waves` and `waves_per_barrier`: the barrier's waves (`wire.lockstep`), from the figures the
+  simulator prints at exit (`BarrierStats`, in `logs/sim.log`), over its barriers (two per published
+  tick); `barrier_asks` the ask puts (one per wave to everyone, one per participant a wave asks alone),
+  and of the barriers, `quiet_by_channels` (one wave and the channel counts) and `targeted_waves`;
 - the verdict (`success`, `goal_error_m`), so a faster run that decides otherwise shows.
 
 `lockstep_rtf` (top level) is {architecture: {mission: rtf}}; `loadavg_1m` says how busy the machine was
@@ -18,6 +20,7 @@ mission at one seed. Per run, from its `report.json`:
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -27,14 +30,12 @@ from pathlib import Path
 
 from bench.errors import BenchError
 from sidewalk.compare.measures import measure_dir
-from vehicle_sim.node import NodeConfig
+from vehicle_sim.node import BARRIER_LINE
 
-__all__ = ["run", "DEFAULT_MISSIONS", "PUBLISH_HZ"]
+__all__ = ["run", "DEFAULT_MISSIONS"]
 
 #: The comparison's default missions.
 DEFAULT_MISSIONS = ("campus-tour", "amv-delivery")
-#: The simulator's clock publications per sim second (its default): two barriers each.
-PUBLISH_HZ = NodeConfig.model_fields["publish_hz"].default
 
 
 def _one(mission: str, arch: str, seed: int, out: Path, max_wall_s: float) -> dict:
@@ -48,16 +49,35 @@ def _one(mission: str, arch: str, seed: int, out: Path, max_wall_s: float) -> di
     report, m = measure_dir(out)  # the comparison's own figures of the run
     sim_s = report.sim_time_s or 1e-9
     sim = report.modules.get("sim")
-    waves = sim.barrier_msgs_out if sim is not None else 0
+    asks = sim.barrier_msgs_out if sim is not None else 0
+    stats = _barrier_stats(out / "logs" / "sim.log")
     return {
         "mission": mission, "arch": arch, "seed": seed, "success": report.success, "reason": report.reason,
         "goal_error_m": report.goal_error_m, "sim_time_s": report.sim_time_s, "wall_time_s": report.wall_time_s,
         "command_wall_s": round(wall, 1), "lockstep_rtf": report.rtf_achieved,
         "cpu_s": round(m.cpu_s, 1), "cpu_per_sim_s": round(m.cpu_s / sim_s, 3),
         "msgs_per_sim_s": m.messages_per_s, "bytes_per_sim_s": round(m.bytes_per_s),
-        "barrier_msgs_per_sim_s": m.barrier_messages_per_s, "barrier_waves": waves,
-        "waves_per_barrier": round(waves / (2 * PUBLISH_HZ * sim_s), 3), "run": str(out),
+        "barrier_msgs_per_sim_s": m.barrier_messages_per_s, "barrier_asks": asks,
+        "barrier_waves": stats.get("waves"), "barriers": stats.get("steps"),
+        "waves_per_barrier": round(stats["waves"] / stats["steps"], 3) if stats.get("steps") else None,
+        "quiet_by_channels": stats.get("by_channels"), "targeted_waves": stats.get("targeted_waves"),
+        "channel_fallbacks": stats.get("channel_fallbacks"), "run": str(out),
     }
+
+
+def _barrier_stats(log: Path) -> dict:
+    """Return the barrier's figures the simulator printed at exit ({} when its log has none)."""
+    try:
+        lines = log.read_text(errors="replace").splitlines()
+    except OSError:
+        return {}
+    for line in reversed(lines):
+        if line.startswith(BARRIER_LINE):
+            try:
+                return json.loads(line[len(BARRIER_LINE):])
+            except ValueError:
+                return {}
+    return {}
 
 
 def run(missions: tuple[str, ...] = DEFAULT_MISSIONS, archs: tuple[str, ...] = ("codger", "eddie"), seed: int = 0,

@@ -47,12 +47,14 @@ from vehicle_sim.odometry import DEFAULT_ODOMETRY, OdometryModel
 from vehicle_sim.simulator import CommandRejected, SimConfig, Simulator
 from vehicle_sim.worldfile import World
 
-__all__ = ["SimKeys", "NodeConfig", "SimNode"]  # SimKeys re-exported from wire.keys
+__all__ = ["SimKeys", "NodeConfig", "SimNode", "BARRIER_LINE"]  # SimKeys re-exported from wire.keys
 
 log = logging.getLogger("vehicle_sim.node")
 
 #: How often [s wall] a lock-step node held at its start publishes its clock, odometry and truth again.
 HOLD_REPUBLISH_S = 0.2
+#: How `sidewalk up sim` starts the line it prints at exit with the lock-step barrier's figures (`BarrierStats` JSON after it).
+BARRIER_LINE = "sim: lock-step barrier "
 
 
 class NodeConfig(BaseModel):

@@ -22,7 +22,15 @@ Two sides, over the process's one Zenoh session:
   own included (a message sent but not yet received changes a receiver's counter between the waves,
   so the barrier waits for it). One wave is enough when everyone answers idle and **no participant
   sent anything since the last step that ended quiet**: then the only messages that can be in flight
-  are the simulator's own, and those travel each link ahead of the ask (below), so nothing is. A
+  are the simulator's own, and those travel each link ahead of the ask (below), so nothing is.
+  Since session 34 the answers also carry the process's **channel counts** (`wire.channel_counts`: puts
+  per key, deliveries per subscription and key, read before the loop is found idle): when the last
+  step ended quiet, one wave in which everyone is idle and no channel is short of deliveries is quiet
+  (a message received after its receiver answered would need a send after its sender answered, and the
+  first such send a receipt no channel shows); a channel short of deliveries gets its receiver asked
+  again alone (an ask naming them: the others drop it on their Zenoh thread), not everyone; counts that cannot decide (a delivery nobody
+  counted as put: a put from outside the barrier, a subscription declared late) fall back to the
+  waves of counters above. A
   participant whose token went is dropped at once (a killed process); one that does not answer
   within `timeout_s` [s wall] (SIGSTOPped, a wedged loop) becomes *silent*: skipped for the rest of
   that step and not waited for in later steps either, only heard (every ask reaches it) until it
@@ -66,6 +74,9 @@ from typing import Any, Callable
 import msgpack
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+import zenoh
+
+from wire.channel_counts import ChannelCounts, SubCounts, registry as channel_registry, settle
 from wire.errors import PayloadError, WireError
 from wire.keys import LockstepKeys
 from wire.session import Session, gets_in_flight, own_traffic
@@ -73,7 +84,7 @@ from wire.timemode import LOCKSTEP_ENV, lockstep_enabled, lockstep_env
 
 __all__ = [
     "LOCKSTEP_ENV", "lockstep_enabled", "lockstep_env", "LockstepError", "LockstepPayloadError", "NotReleasedError",
-    "BarrierAsk", "ParticipantReport", "BarrierResult", "BarrierStats", "LockstepRelease",
+    "BarrierAsk", "ChannelReport", "ParticipantReport", "BarrierResult", "BarrierStats", "LockstepRelease",
     "Participant", "Barrier", "participant_name", "encode", "decode",
 ]
 
@@ -114,13 +125,36 @@ class BarrierAsk(BaseModel):
     step: int = Field(ge=0)
     wave: int = Field(ge=0)
     sim_time: float
+    #: the participants asked (empty: everyone); the others drop the ask unanswered
+    only: tuple[str, ...] = ()
+
+
+class ChannelReport(BaseModel):
+    """A process's channel counts (`wire.channel_counts`): its pid, its puts per key, each subscription's deliveries per key."""
+
+    model_config = _FROZEN
+
+    pid: int = Field(ge=0)
+    puts: dict[str, int] = {}
+    #: (subscription id, key expression, deliveries per concrete key)
+    subs: tuple[tuple[int, str, dict[str, int]], ...] = ()
+
+    @classmethod
+    def of(cls, c: ChannelCounts) -> "ChannelReport":
+        """Return the wire form of counts `c`."""
+        return cls(pid=c.pid, puts=dict(c.puts), subs=tuple((s.sid, s.expr, dict(s.delivered)) for s in c.subs))
+
+    def counts(self) -> ChannelCounts:
+        """Return the counts this report carries."""
+        return ChannelCounts(self.pid, self.puts, tuple(SubCounts(sid, expr, d) for sid, expr, d in self.subs))
 
 
 class ParticipantReport(BaseModel):
     """A participant's answer: idle or still busy, and its Zenoh counters without the barrier's traffic.
 
     `received`/`sent` count messages (samples, queries, replies) since the process started;
-    `waited_s` [s wall] is how long it held the answer back while busy; `seq` is the ask's.
+    `waited_s` [s wall] is how long it held the answer back while busy; `seq` is the ask's; `channels` are the
+    process's channel counts, read before it found its loop idle (None in a busy answer).
     """
 
     model_config = _FROZEN
@@ -133,6 +167,7 @@ class ParticipantReport(BaseModel):
     received: int = Field(ge=0)
     sent: int = Field(ge=0)
     waited_s: float = Field(ge=0.0)
+    channels: ChannelReport | None = None
 
 
 class BarrierResult(BaseModel):
@@ -156,6 +191,11 @@ class BarrierStats(BaseModel):
 
     steps: int = 0
     one_wave: int = 0
+    #: steps found quiet by their channel counts (`wire.channel_counts`), and waves that asked only some participants
+    by_channels: int = 0
+    targeted_waves: int = 0
+    #: steps whose channel counts could not decide (a put from outside the barrier, a late subscription): two equal waves
+    channel_fallbacks: int = 0
     waves: int = 0
     skips: int = 0
     silenced: int = 0
@@ -297,6 +337,12 @@ class Participant:
     # ---- Zenoh thread -----------------------------------------------------------------------
 
     def _on_ask(self, _key: str, payload: bytes) -> None:
+        try:  # an ask for others only is dropped here, without waking the loop
+            only = msgpack.unpackb(payload, raw=False).get("only")
+        except Exception:  # noqa: BLE001 - not an ask: `_take` says so
+            only = None
+        if only and self.name not in only:
+            return
         self._newest = (payload, time.monotonic())
         try:
             self._loop.call_soon_threadsafe(self._take, payload)
@@ -361,6 +407,9 @@ class Participant:
             return
         ask, t0, payload = self._pending
         waited = time.monotonic() - t0
+        # the counts first, then the loop: whatever they counted was handed to the loop before, so it shows as busy
+        sent, received = own_traffic()
+        channels = channel_registry.snapshot()
         busy = self._busy()
         if busy and waited < self._busy_reply_s:
             if getattr(self._loop, "_ready", None):
@@ -369,9 +418,9 @@ class Participant:
                 self._timer = self._loop.call_later(self._poll_s, self._check)
             return
         self._pending = None
-        sent, received = own_traffic()
         rep = ParticipantReport(name=self.name, seq=ask.seq, step=ask.step, wave=ask.wave, busy=busy,
-                                received=received, sent=sent, waited_s=waited)
+                                received=received, sent=sent, waited_s=waited,
+                                channels=None if busy else ChannelReport.of(channels))
         self._answered_payload = payload
         self.answered += 1
         self.busy_answers += int(busy)
@@ -390,6 +439,10 @@ class _Wave:
         self.reports: dict[str, ParticipantReport] = {}
         if not names:
             self.done.set()
+
+
+#: Waves that ask only the participants short of a delivery (with nobody busy), before everyone is asked again.
+TARGETED_WAVES = 4
 
 
 class Barrier:
@@ -418,6 +471,9 @@ class Barrier:
         self._seq = 0
         #: participant → messages sent when the last step ended quiet (None: that step was not quiet)
         self._baseline: dict[str, int] | None = None
+        #: every process's channel counts when the last step ended quiet, with its participants (None: not quiet)
+        self._channel_base: tuple[frozenset[str], tuple[ChannelCounts, ...]] | None = None
+        self._includes: dict[tuple[str, str], bool] = {}
         self._closed = False
         self._pub = session.publisher(self._keys.ask)
         self._reports = session.subscribe_payload(self._keys.report_all, self._on_report)
@@ -490,19 +546,60 @@ class Barrier:
                 self._silent.add(name)
                 self.stats.silenced += 1
 
-    def _wave(self, names: list[str], step: int, wave: int, sim_time: float) -> _Wave:
+    def _wave(self, names: list[str], step: int, wave: int, sim_time: float, *, only: bool = False) -> _Wave:
+        """Ask `names` (one broadcast put; with `only`, the others drop it unanswered) and collect their answers."""
         with self._lock:
             self._seq += 1
             w = self._wave_now = _Wave(self._seq, names)
-        self._pub.put(encode(BarrierAsk(seq=w.seq, step=step, wave=wave, sim_time=sim_time)))
+        self._pub.put(encode(BarrierAsk(seq=w.seq, step=step, wave=wave, sim_time=sim_time, only=tuple(names) if only else ())))
         w.done.wait(self.timeout_s)
         with self._lock:
             self._wave_now = None
         return w
 
+    def _key_includes(self, expr: str, key: str) -> bool:
+        hit = self._includes.get((expr, key))
+        if hit is None:
+            try:
+                hit = zenoh.KeyExpr(expr).includes(zenoh.KeyExpr(key))
+            except Exception:  # noqa: BLE001 - not a key expression: no channel (an excess falls back to two waves)
+                hit = False
+            self._includes[(expr, key)] = hit
+        return hit
+
+    @staticmethod
+    def _processes(latest: dict[str, ParticipantReport], own: ChannelCounts) -> tuple[tuple[ChannelCounts, ...], dict[int, list[str]]]:
+        """Return one set of channel counts per process (this one's `own`) and the participants of each pid."""
+        by_pid: dict[int, ChannelCounts] = {own.pid: own}
+        names: dict[int, list[str]] = {}
+        for n, r in latest.items():
+            assert r.channels is not None
+            c = r.channels.counts()
+            names.setdefault(c.pid, []).append(n)
+            if c.pid == own.pid:
+                continue
+            have = by_pid.get(c.pid)
+            if have is not None:  # two participants of one process: the newer counts (each is cumulative)
+                subs = {x.sid: x for x in have.subs}
+                for x in c.subs:
+                    old = subs.get(x.sid)
+                    subs[x.sid] = x if old is None else SubCounts(x.sid, x.expr, {k: max(v, old.delivered.get(k, 0)) for k, v in
+                                                                                  {**old.delivered, **x.delivered}.items()})
+                c = ChannelCounts(c.pid, {k: max(c.puts.get(k, 0), have.puts.get(k, 0)) for k in {*c.puts, *have.puts}},
+                                  tuple(subs.values()))
+            by_pid[c.pid] = c
+        return tuple(by_pid.values()), names
+
     def wait(self, step: int, sim_time: float, *, stop: threading.Event | None = None) -> BarrierResult:
-        """Return once every participant is idle: with the same counters in `quiet_waves` waves in a row, or in one
-        wave when none of them sent anything since the last quiet step.
+        """Return once every participant is idle and nothing between them is in flight.
+
+        The first wave asks everyone. When the last step ended quiet, the answers' channel counts
+        (`wire.channel_counts`) decide: every participant idle and no channel short of deliveries is
+        quiet after that one wave; otherwise the next wave asks only the participants still busy or
+        short of a delivery (the ask names them). When the counts cannot decide (a delivery without a
+        put, no quiet step before, a participant skipped) or have not settled after `TARGETED_WAVES`
+        such waves, every participant is asked until `quiet_waves` waves in a row find everyone idle
+        with the same counters (or one wave, when none of them sent anything since the last quiet step).
 
         `step` is the simulator's step count, `sim_time` [s sim] the time just published; `stop` (set)
         ends the wait at once.
@@ -516,10 +613,20 @@ class Barrier:
         quiet = False
         answered: tuple[str, ...] = ()
         reports: dict[str, ParticipantReport] = {}
+        latest: dict[str, ParticipantReport] = {}  # each participant's newest answer in this step
+        base = self._channel_base
+        by_channels = base is not None
+        only: list[str] | None = None  # the participants the next wave asks alone (None: everyone)
+        targeted = 0
+        own = channel_registry.snapshot()
         while not self._closed and not (stop is not None and stop.is_set()):
-            silent = set(self.silent())
-            names = [n for n in self.members() if n not in skipped and n not in silent]
-            w = self._wave(names, step, waves, sim_time)
+            if only is None:
+                silent = set(self.silent())
+                names = [n for n in self.members() if n not in skipped and n not in silent]
+            else:
+                names = only
+            was_only = only is not None
+            w = self._wave(names, step, waves, sim_time, only=was_only)
             waves += 1
             now = time.monotonic()
             alive = set(self.members())
@@ -539,6 +646,51 @@ class Barrier:
                         self._skip(n, skipped)
                         log.warning("lockstep: %s busy for %.1f s: skipped at step %d, not waited for until it answers idle",
                                     n, now - first, step)
+            # a wave asking only some that changed nothing for them: what they wait for is not coming soon (a dropped sample)
+            stuck = was_only and all(n in latest and not latest[n].busy and not r.busy and r.channels == latest[n].channels
+                                     for n, r in w.reports.items())
+            latest.update(w.reports)
+            if by_channels:
+                assert base is not None
+                own = channel_registry.snapshot()  # after every answer came in: what they sent here has arrived
+                members = set(self.members())
+                if skipped or set(latest) != members or set(latest) != base[0] or stuck:
+                    by_channels = False  # someone silent, new or gone: the counts cannot speak for everyone
+                else:
+                    busy = {n for n, r in latest.items() if r.busy or r.channels is None}
+                    verdict = None
+                    if not busy:
+                        procs, pid_names = self._processes(latest, own)
+                        verdict = settle(procs, base[1], self._key_includes)
+                    if verdict is not None and verdict.excess and not verdict.short:
+                        # a delivery with no put counted and nobody short: a put from outside the barrier, or a
+                        # subscription declared late (with someone short, it is a send that came after its
+                        # sender's answer, caused by a receipt it had not counted: asking the short ones settles it)
+                        by_channels = False
+                        log.debug("lockstep: step %d not decided by channel counts: %s", step, "; ".join(verdict.excess[:3]))
+                    elif verdict is not None and verdict.quiet:
+                        quiet = True
+                        self.stats.by_channels += 1
+                        answered = tuple(sorted(latest))
+                        reports = latest
+                        break
+                    elif targeted < TARGETED_WAVES:
+                        short = set() if verdict is None else {n for pid in verdict.short for n in pid_names.get(pid, [])}
+                        if verdict is not None and own.pid in verdict.short and not short:
+                            by_channels = False  # a put to this process still on its way: counters decide
+                        else:
+                            only = sorted(busy | short)
+                            targeted += verdict is not None  # waiting for a busy one is not undecided: it has no limit here
+                            self.stats.targeted_waves += 1
+                            continue
+                    else:
+                        by_channels = False
+                if not by_channels:  # from here on, everyone, as before
+                    self.stats.channel_fallbacks += 1
+                    only = None
+                    if was_only:
+                        prev, same = None, 0
+                        continue
             reports = w.reports
             answered = tuple(sorted(reports))
             if (waves == 1 and all_idle and self._baseline is not None and set(answered) == set(self._baseline)
@@ -556,8 +708,12 @@ class Barrier:
                 same = 1 if all_idle else 0
             prev = counters if all_idle else None
         silent_now = tuple(n for n in self.silent() if n not in skipped)
-        self._baseline = ({n: reports[n].sent for n in answered}
-                          if quiet and not skipped and not silent_now and set(answered) == set(self.members()) else None)
+        whole = quiet and not skipped and not silent_now and set(answered) == set(self.members())
+        self._baseline = {n: reports[n].sent for n in answered} if whole else None
+        self._channel_base = None
+        if whole and all(reports[n].channels is not None for n in answered):
+            procs, _ = self._processes({n: reports[n] for n in answered}, channel_registry.snapshot())
+            self._channel_base = (frozenset(answered), procs)
         wall = time.monotonic() - t0
         st = self.stats
         st.steps += 1

@@ -25,6 +25,7 @@ from typing import Any, Callable
 
 import zenoh
 
+from wire.channel_counts import registry as _channels
 from wire.errors import ConnectError, SessionClosedError
 from wire.network import NetworkConfig
 from wire.timemode import lockstep_enabled
@@ -248,6 +249,7 @@ class Publisher:
     def put(self, payload: bytes) -> None:
         """Publish one sample."""
         _traffic.out(len(payload), self._key)
+        _channels.put(self._key)
         self._p.put(payload)
 
     def undeclare(self) -> None:
@@ -347,6 +349,7 @@ class Session:
         self._z = shared.z
         self.net = shared.net
         self._keep: list[Any] = []
+        self._counted: dict[int, Any] = {}  # id(subscriber) → its channel counter (wire.channel_counts)
         self._closed = False
 
     # ---- identity and connectivity ---------------------------------------------------------
@@ -419,35 +422,53 @@ class Session:
     def subscribe(self, key: str, on_sample: Callable[[Sample], None]) -> Any:
         """Subscribe to `key`; `on_sample(Sample)` runs on a Zenoh thread. Return a handle for `undeclare`."""
         self._check()
-        sub = self._z.declare_subscriber(key, zenoh.handlers.Callback(lambda s: on_sample(Sample(s)), indirect=False))
-        self._keep.append(sub)
-        return sub
+        counter = _channels.open(key)
+
+        def cb(s: "zenoh.Sample") -> None:
+            sample = Sample(s)
+            try:
+                on_sample(sample)
+            finally:  # counted once handed over (see wire.channel_counts)
+                _channels.delivered(counter, sample.key)
+
+        return self._counted_sub(self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False)), counter)
 
     def subscribe_payload(self, key: str, on_payload: Callable[[str, bytes], None]) -> Any:
         """Subscribe to `key` where only puts are published; `on_payload(key, bytes)` on a Zenoh thread (hot path)."""
         self._check()
+        counter = _channels.open(key)
+
         def cb(s: "zenoh.Sample") -> None:
             data = s.payload.to_bytes()
             k = str(s.key_expr)
             _traffic.into(len(data), k)
-            on_payload(k, data)
+            try:
+                on_payload(k, data)
+            finally:
+                _channels.delivered(counter, k)
 
-        sub = self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False))
-        self._keep.append(sub)
-        return sub
+        return self._counted_sub(self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False)), counter)
 
     def subscribe_attached(self, key: str, on_payload: Callable[[str, bytes, bytes | None], None]) -> Any:
         """Like `subscribe_payload`, with each sample's attachment (None: none): `on_payload(key, bytes, attachment)` on a Zenoh thread."""
         self._check()
+        counter = _channels.open(key)
+
         def cb(s: "zenoh.Sample") -> None:
             data = s.payload.to_bytes()
             k = str(s.key_expr)
             _traffic.into(len(data), k)
             att = s.attachment
-            on_payload(k, data, None if att is None else att.to_bytes())
+            try:
+                on_payload(k, data, None if att is None else att.to_bytes())
+            finally:
+                _channels.delivered(counter, k)
 
-        sub = self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False))
+        return self._counted_sub(self._z.declare_subscriber(key, zenoh.handlers.Callback(cb, indirect=False)), counter)
+
+    def _counted_sub(self, sub: Any, counter: Any) -> Any:
         self._keep.append(sub)
+        self._counted[id(sub)] = counter
         return sub
 
     def publisher(self, key: str, *, droppable: bool = False, as_json: bool = False, express: bool = True) -> Publisher:
@@ -474,6 +495,7 @@ class Session:
         if self._closed:
             return
         _traffic.out(len(payload), key)
+        _channels.put(key)
         self._z.put(
             key, payload, encoding=_JSON if as_json else _MSGPACK,
             congestion_control=zenoh.CongestionControl.DROP if droppable else zenoh.CongestionControl.BLOCK,
@@ -567,6 +589,7 @@ class Session:
             self._keep.remove(handle)
         except ValueError:
             pass
+        _channels.close(self._counted.pop(id(handle), None))
         try:
             handle.undeclare()
         except Exception:  # noqa: BLE001 - already gone with the session
@@ -583,6 +606,9 @@ class Session:
             except Exception:  # noqa: BLE001 - already gone
                 pass
         self._keep.clear()
+        for counter in self._counted.values():
+            _channels.close(counter)
+        self._counted.clear()
         last = False
         with _lock:
             self._sh.handles -= 1

@@ -42,7 +42,7 @@ def serve(
     """Serve the simulator over Zenoh until SIGINT/SIGTERM; prints a "ready" line once serving."""
     from pydantic import ValidationError
 
-    from vehicle_sim.node import NodeConfig, SimNode
+    from vehicle_sim.node import BARRIER_LINE, NodeConfig, SimNode
     from vehicle_sim.worldfile import WorldFileError, load_world
 
     if vehicle not in _VEHICLES:
@@ -91,6 +91,8 @@ def serve(
             signal.signal(s, h)
     ic = node.instants
     typer.echo(f"sim: captures rendered {ic.renders}, served again {ic.hits} ({ic.older} of an earlier instant)")
+    if node.barrier is not None:  # one JSON object (wire.lockstep.BarrierStats): `sidewalk bench lockstep` reads it from the log
+        typer.echo(f"{BARRIER_LINE}{node.barrier.stats.model_dump_json()}")
     if node.error is not None:
         typer.echo(f"simulator stopped: {type(node.error).__name__}: {node.error}", err=True)
     if not node.session_closed:

@@ -3,7 +3,8 @@
 `python -m tests.wire.lockstep_participant NAME ENDPOINT NS [--work S] [--forward NAME] [--hold]`: connects to
 ENDPOINT, joins the barrier as NAME and prints `READY <participant name>`. Each sample on
 `sidewalk/<ns>/test/go/NAME` starts a handler: a worker-thread job of S seconds wall (what the barrier
-must wait for; with --hold, first holding the loop itself until a sample on `test/release/NAME`), then a put on `test/go/<forward>` when forwarding, else on `test/done/NAME`.
+must wait for; with --hold, first holding the loop itself until a sample on `test/release/NAME`), then a put on `test/go/<forward>` when forwarding, else on `test/done/NAME` (or `test/done/<the sample's payload>`
+when it is not `x`).
 """
 
 from __future__ import annotations
@@ -26,14 +27,14 @@ async def main(args: argparse.Namespace) -> None:
 
     release = threading.Event()  # set on a Zenoh thread by `test/release/NAME`
 
-    async def handle() -> None:
+    async def handle(reply: str) -> None:
         if args.hold:  # a synchronous computation that holds the loop itself, until the test releases it
             release.wait(60.0)
         await asyncio.to_thread(time.sleep, args.work)
-        link.put(f"{base}/go/{args.forward}" if args.forward else f"{base}/done/{args.name}", b"x")
+        link.put(f"{base}/go/{args.forward}" if args.forward else f"{base}/done/{reply or args.name}", b"x")
 
-    def on_go(_key: str, _data: bytes) -> None:
-        t = asyncio.get_running_loop().create_task(handle())
+    def on_go(_key: str, data: bytes) -> None:
+        t = asyncio.get_running_loop().create_task(handle("" if data == b"x" else data.decode()))
         tasks.add(t)
         t.add_done_callback(tasks.discard)
 

@@ -53,9 +53,9 @@ class Net:
         self.session.subscribe_payload(f"sidewalk/{NS}/test/done/{name}", lambda *_: ev.set())
         return ev
 
-    def go(self, name: str) -> None:
-        """Start participant `name`'s handler."""
-        self.session.put(f"sidewalk/{NS}/test/go/{name}", b"x")
+    def go(self, name: str, reply: str = "") -> None:
+        """Start participant `name`'s handler (with `reply`: it ends with a put on `test/done/<reply>`)."""
+        self.session.put(f"sidewalk/{NS}/test/go/{name}", reply.encode() or b"x")
 
     def close(self) -> None:
         for p in self.procs:
@@ -147,7 +147,7 @@ def test_after_a_quiet_step_one_wave_is_enough_unless_a_participant_sent_somethi
     first = net.barrier.wait(1, 0.05)
     assert first.waves >= 2, "the first step has no quiet step before it: it needs two waves"
     idle = net.barrier.wait(2, 0.10)
-    assert idle.waves == 1 and net.barrier.stats.one_wave == 1, idle
+    assert idle.waves == 1 and net.barrier.stats.one_wave + net.barrier.stats.by_channels == 1, idle
     done = net.done_event("b")
     net.go("a")
     res = net.barrier.wait(3, 0.15)
@@ -156,6 +156,38 @@ def test_after_a_quiet_step_one_wave_is_enough_unless_a_participant_sent_somethi
     assert res.waves >= 2 and res.skipped == (), res
     again = net.barrier.wait(4, 0.20)
     assert again.waves == 1, again
+
+
+@pytest.mark.timeout(60)  # quiet ~3 s
+def test_a_participant_answering_the_simulator_with_a_put_takes_one_wave(net: Net) -> None:
+    # what the controller does every tick (a drive command back to the simulator): its put reaches the simulator
+    # before its answer does, so the channel counts show nothing in flight after one wave (two equal waves before)
+    net.start("a", "--work", "0")
+    net.barrier.wait(1, 0.05)  # a quiet step: the counts' baseline
+    for k in range(3):
+        done = net.done_event(f"a{k}")
+        net.go("a", reply=f"a{k}")
+        res = net.barrier.wait(2 + k, 0.10 + 0.05 * k)
+        assert done.is_set(), f"the barrier returned before the answer's put arrived: {res}"
+        assert res.waves == 1, (res, net.barrier.stats)
+    assert net.barrier.stats.by_channels == 3 and net.barrier.stats.channel_fallbacks == 0, net.barrier.stats
+
+
+@pytest.mark.timeout(60)  # quiet ~4 s
+def test_a_message_still_on_its_way_is_waited_for_by_asking_only_its_receiver(net: Net) -> None:
+    net.start("c", "--work", "0.2")
+    net.start("b", "--work", "0.2", "--forward", "c")
+    net.start("a", "--work", "0.2", "--forward", "b")
+    net.barrier.wait(1, 0.05)
+    for k in range(3):
+        done = net.done_event("c")
+        net.go("a")
+        res = net.barrier.wait(2 + k, 0.10 + 0.05 * k)
+        # a → b → c → here, each after a worker-thread job: the step waits for the whole chain
+        assert done.is_set(), f"the barrier returned with a message still between participants: {res}"
+        assert res.skipped == () and len(res.participants) == 3, res
+    st = net.barrier.stats
+    assert st.by_channels >= 1 and st.targeted_waves >= 1, st
 
 
 @pytest.mark.timeout(60)

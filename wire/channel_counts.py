@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import secrets
 import threading
 from dataclasses import dataclass, field
 from typing import Callable, Mapping, Sequence
@@ -41,9 +42,9 @@ class SubCounts:
 
 @dataclass(frozen=True)
 class ChannelCounts:
-    """One process's counts at one instant: its `pid`, puts per concrete key, and its subscriptions' deliveries."""
+    """One process's counts at one instant: its `proc` id, puts per concrete key, and its subscriptions' deliveries."""
 
-    pid: int
+    proc: str
     puts: Mapping[str, int] = field(default_factory=dict)
     subs: Sequence[SubCounts] = ()
 
@@ -66,6 +67,16 @@ class Registry:
         self._puts: dict[str, int] = {}
         self._subs: dict[int, _Sub] = {}
         self._ids = itertools.count(1)
+        self._pid = -1
+        self._proc = ""
+
+    @property
+    def proc(self) -> str:
+        """Return this process's id among every host's: `<pid>-<random>` (drawn again in a forked child)."""
+        if self._pid != os.getpid():
+            self._pid = os.getpid()
+            self._proc = f"{self._pid}-{secrets.token_hex(4)}"
+        return self._proc
 
     def put(self, key: str) -> None:
         """Count one put on concrete `key` (before it is sent)."""
@@ -99,7 +110,7 @@ class Registry:
     def snapshot(self) -> ChannelCounts:
         """Return the counts now, read at once."""
         with self._lock:
-            return ChannelCounts(os.getpid(), dict(self._puts),
+            return ChannelCounts(self.proc, dict(self._puts),
                                  tuple(SubCounts(s.sid, s.expr, dict(s.delivered)) for s in self._subs.values()))
 
 
@@ -109,9 +120,9 @@ registry = Registry("/@lockstep/")
 
 @dataclass(frozen=True)
 class Settled:
-    """`settle`'s verdict: processes (pids) with a channel short of deliveries, and channels with more deliveries than puts."""
+    """`settle`'s verdict: processes (`proc` ids) with a channel short of deliveries, and channels with more deliveries than puts."""
 
-    short: frozenset[int]
+    short: frozenset[str]
     excess: tuple[str, ...]
 
     @property
@@ -123,21 +134,21 @@ class Settled:
 def settle(now: Sequence[ChannelCounts], base: Sequence[ChannelCounts], includes: Callable[[str, str], bool]) -> Settled:
     """Compare every process's channels since `base` (the counts when the last step ended quiet) with `now`.
 
-    `now` and `base` hold one entry per process (pid); a process missing from `base` counts from zero.
+    `now` and `base` hold one entry per process (`proc`); a process missing from `base` counts from zero.
     `includes(expr, key)` says whether a subscription on `expr` receives puts on concrete `key`.
     """
-    before = {c.pid: c for c in base}
+    before = {c.proc: c for c in base}
     sent: dict[str, int] = {}
     for c in now:
-        b = before.get(c.pid)
+        b = before.get(c.proc)
         for k, n in c.puts.items():
             d = n - (b.puts.get(k, 0) if b is not None else 0)
             if d:
                 sent[k] = sent.get(k, 0) + d
-    short: set[int] = set()
+    short: set[str] = set()
     excess: list[str] = []
     for c in now:
-        b = before.get(c.pid)
+        b = before.get(c.proc)
         base_subs = {s.sid: s.delivered for s in b.subs} if b is not None else {}
         for s in c.subs:
             was = base_subs.get(s.sid, {})
@@ -146,7 +157,7 @@ def settle(now: Sequence[ChannelCounts], base: Sequence[ChannelCounts], includes
                 got = s.delivered.get(k, 0) - was.get(k, 0)
                 want = sent.get(k, 0) if includes(s.expr, k) else 0
                 if got < want:
-                    short.add(c.pid)
+                    short.add(c.proc)
                 elif got > want:
-                    excess.append(f"pid {c.pid} subscription {s.expr!r} got {got} on {k!r}, {want} put")
+                    excess.append(f"process {c.proc} subscription {s.expr!r} got {got} on {k!r}, {want} put")
     return Settled(frozenset(short), tuple(excess))

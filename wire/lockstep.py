@@ -130,11 +130,11 @@ class BarrierAsk(BaseModel):
 
 
 class ChannelReport(BaseModel):
-    """A process's channel counts (`wire.channel_counts`): its pid, its puts per key, each subscription's deliveries per key."""
+    """A process's channel counts (`wire.channel_counts`): its id, its puts per key, each subscription's deliveries per key."""
 
     model_config = _FROZEN
 
-    pid: int = Field(ge=0)
+    proc: str
     puts: dict[str, int] = {}
     #: (subscription id, key expression, deliveries per concrete key)
     subs: tuple[tuple[int, str, dict[str, int]], ...] = ()
@@ -142,11 +142,11 @@ class ChannelReport(BaseModel):
     @classmethod
     def of(cls, c: ChannelCounts) -> "ChannelReport":
         """Return the wire form of counts `c`."""
-        return cls(pid=c.pid, puts=dict(c.puts), subs=tuple((s.sid, s.expr, dict(s.delivered)) for s in c.subs))
+        return cls(proc=c.proc, puts=dict(c.puts), subs=tuple((s.sid, s.expr, dict(s.delivered)) for s in c.subs))
 
     def counts(self) -> ChannelCounts:
         """Return the counts this report carries."""
-        return ChannelCounts(self.pid, self.puts, tuple(SubCounts(sid, expr, d) for sid, expr, d in self.subs))
+        return ChannelCounts(self.proc, self.puts, tuple(SubCounts(sid, expr, d) for sid, expr, d in self.subs))
 
 
 class ParticipantReport(BaseModel):
@@ -568,27 +568,27 @@ class Barrier:
         return hit
 
     @staticmethod
-    def _processes(latest: dict[str, ParticipantReport], own: ChannelCounts) -> tuple[tuple[ChannelCounts, ...], dict[int, list[str]]]:
-        """Return one set of channel counts per process (this one's `own`) and the participants of each pid."""
-        by_pid: dict[int, ChannelCounts] = {own.pid: own}
-        names: dict[int, list[str]] = {}
+    def _processes(latest: dict[str, ParticipantReport], own: ChannelCounts) -> tuple[tuple[ChannelCounts, ...], dict[str, list[str]]]:
+        """Return one set of channel counts per process (this one's `own`) and the participants of each."""
+        by_proc: dict[str, ChannelCounts] = {own.proc: own}
+        names: dict[str, list[str]] = {}
         for n, r in latest.items():
             assert r.channels is not None
             c = r.channels.counts()
-            names.setdefault(c.pid, []).append(n)
-            if c.pid == own.pid:
+            names.setdefault(c.proc, []).append(n)
+            if c.proc == own.proc:
                 continue
-            have = by_pid.get(c.pid)
+            have = by_proc.get(c.proc)
             if have is not None:  # two participants of one process: the newer counts (each is cumulative)
                 subs = {x.sid: x for x in have.subs}
                 for x in c.subs:
                     old = subs.get(x.sid)
                     subs[x.sid] = x if old is None else SubCounts(x.sid, x.expr, {k: max(v, old.delivered.get(k, 0)) for k, v in
                                                                                   {**old.delivered, **x.delivered}.items()})
-                c = ChannelCounts(c.pid, {k: max(c.puts.get(k, 0), have.puts.get(k, 0)) for k in {*c.puts, *have.puts}},
+                c = ChannelCounts(c.proc, {k: max(c.puts.get(k, 0), have.puts.get(k, 0)) for k in {*c.puts, *have.puts}},
                                   tuple(subs.values()))
-            by_pid[c.pid] = c
-        return tuple(by_pid.values()), names
+            by_proc[c.proc] = c
+        return tuple(by_proc.values()), names
 
     def wait(self, step: int, sim_time: float, *, stop: threading.Event | None = None) -> BarrierResult:
         """Return once every participant is idle and nothing between them is in flight.
@@ -660,7 +660,7 @@ class Barrier:
                     busy = {n for n, r in latest.items() if r.busy or r.channels is None}
                     verdict = None
                     if not busy:
-                        procs, pid_names = self._processes(latest, own)
+                        procs, proc_names = self._processes(latest, own)
                         verdict = settle(procs, base[1], self._key_includes)
                     if verdict is not None and verdict.excess and not verdict.short:
                         # a delivery with no put counted and nobody short: a put from outside the barrier, or a
@@ -675,8 +675,8 @@ class Barrier:
                         reports = latest
                         break
                     elif targeted < TARGETED_WAVES:
-                        short = set() if verdict is None else {n for pid in verdict.short for n in pid_names.get(pid, [])}
-                        if verdict is not None and own.pid in verdict.short and not short:
+                        short = set() if verdict is None else {n for p in verdict.short for n in proc_names.get(p, [])}
+                        if verdict is not None and own.proc in verdict.short and not short:
                             by_channels = False  # a put to this process still on its way: counters decide
                         else:
                             only = sorted(busy | short)

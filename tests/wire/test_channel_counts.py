@@ -11,61 +11,61 @@ def includes(expr: str, key: str) -> bool:
     return zenoh.KeyExpr(expr).includes(zenoh.KeyExpr(key))
 
 
-def proc(pid: int, puts: dict[str, int] | None = None, *subs: tuple[int, str, dict[str, int]]) -> ChannelCounts:
+def proc(pid: str, puts: dict[str, int] | None = None, *subs: tuple[int, str, dict[str, int]]) -> ChannelCounts:
     return ChannelCounts(pid, puts or {}, tuple(SubCounts(sid, expr, d) for sid, expr, d in subs))
 
 
-BASE = (proc(1, {"ns/sim/clock": 10}, (1, "ns/sim/cmd", {"ns/sim/cmd": 7})),
-        proc(2, {"ns/sim/cmd": 7, "ns/eddie/inbox/nav": 3}, (1, "ns/sim/clock", {"ns/sim/clock": 10})),
-        proc(3, {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3}), (2, "ns/sim/clock", {"ns/sim/clock": 10})))
+BASE = (proc("p1", {"ns/sim/clock": 10}, (1, "ns/sim/cmd", {"ns/sim/cmd": 7})),
+        proc("p2", {"ns/sim/cmd": 7, "ns/eddie/inbox/nav": 3}, (1, "ns/sim/clock", {"ns/sim/clock": 10})),
+        proc("p3", {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3}), (2, "ns/sim/clock", {"ns/sim/clock": 10})))
 
 
 def test_every_put_delivered_through_every_subscription_that_includes_its_key_is_quiet() -> None:
-    now = (proc(1, {"ns/sim/clock": 11}, (1, "ns/sim/cmd", {"ns/sim/cmd": 8})),
-           proc(2, {"ns/sim/cmd": 8, "ns/eddie/inbox/nav": 5}, (1, "ns/sim/clock", {"ns/sim/clock": 11})),
-           proc(3, {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 5}), (2, "ns/sim/clock", {"ns/sim/clock": 11})))
+    now = (proc("p1", {"ns/sim/clock": 11}, (1, "ns/sim/cmd", {"ns/sim/cmd": 8})),
+           proc("p2", {"ns/sim/cmd": 8, "ns/eddie/inbox/nav": 5}, (1, "ns/sim/clock", {"ns/sim/clock": 11})),
+           proc("p3", {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 5}), (2, "ns/sim/clock", {"ns/sim/clock": 11})))
     v = settle(now, BASE, includes)
     assert v.quiet and v.short == frozenset() and v.excess == ()
 
 
 def test_a_put_its_receiver_has_not_counted_yet_makes_that_receiver_short() -> None:
-    now = (proc(1, {"ns/sim/clock": 11}, (1, "ns/sim/cmd", {"ns/sim/cmd": 8})),
-           proc(2, {"ns/sim/cmd": 8, "ns/eddie/inbox/nav": 4}, (1, "ns/sim/clock", {"ns/sim/clock": 11})),
-           proc(3, {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3}), (2, "ns/sim/clock", {"ns/sim/clock": 11})))
+    now = (proc("p1", {"ns/sim/clock": 11}, (1, "ns/sim/cmd", {"ns/sim/cmd": 8})),
+           proc("p2", {"ns/sim/cmd": 8, "ns/eddie/inbox/nav": 4}, (1, "ns/sim/clock", {"ns/sim/clock": 11})),
+           proc("p3", {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3}), (2, "ns/sim/clock", {"ns/sim/clock": 11})))
     v = settle(now, BASE, includes)
-    assert not v.quiet and v.short == frozenset({3}) and v.excess == ()
+    assert not v.quiet and v.short == frozenset({"p3"}) and v.excess == ()
 
 
 def test_a_put_counted_by_one_of_two_subscriptions_that_include_its_key_is_still_on_its_way() -> None:
     # process 3 listens to the clock twice (two subscriptions): each delivery is its own channel
-    base = BASE[:2] + (proc(3, {}, (2, "ns/sim/clock", {"ns/sim/clock": 10}), (3, "ns/sim/*", {"ns/sim/clock": 10})),)
-    now = (proc(1, {"ns/sim/clock": 11}, (1, "ns/sim/cmd", {"ns/sim/cmd": 7})),
-           proc(2, {"ns/sim/cmd": 7, "ns/eddie/inbox/nav": 3}, (1, "ns/sim/clock", {"ns/sim/clock": 11})),
-           proc(3, {}, (2, "ns/sim/clock", {"ns/sim/clock": 11}), (3, "ns/sim/*", {"ns/sim/clock": 10})))
-    assert settle(now, base, includes).short == frozenset({3})
+    base = BASE[:2] + (proc("p3", {}, (2, "ns/sim/clock", {"ns/sim/clock": 10}), (3, "ns/sim/*", {"ns/sim/clock": 10})),)
+    now = (proc("p1", {"ns/sim/clock": 11}, (1, "ns/sim/cmd", {"ns/sim/cmd": 7})),
+           proc("p2", {"ns/sim/cmd": 7, "ns/eddie/inbox/nav": 3}, (1, "ns/sim/clock", {"ns/sim/clock": 11})),
+           proc("p3", {}, (2, "ns/sim/clock", {"ns/sim/clock": 11}), (3, "ns/sim/*", {"ns/sim/clock": 10})))
+    assert settle(now, base, includes).short == frozenset({"p3"})
 
 
 def test_one_message_missing_and_another_extra_on_different_channels_do_not_cancel() -> None:
     # totals balance (what two waves of totals could not tell apart from quiet); channels do not
-    now = (proc(1, {"ns/sim/clock": 10}, (1, "ns/sim/cmd", {"ns/sim/cmd": 8})),
-           proc(2, {"ns/sim/cmd": 7, "ns/eddie/inbox/nav": 4}, (1, "ns/sim/clock", {"ns/sim/clock": 10})),
-           proc(3, {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3}), (2, "ns/sim/clock", {"ns/sim/clock": 10})))
+    now = (proc("p1", {"ns/sim/clock": 10}, (1, "ns/sim/cmd", {"ns/sim/cmd": 8})),
+           proc("p2", {"ns/sim/cmd": 7, "ns/eddie/inbox/nav": 4}, (1, "ns/sim/clock", {"ns/sim/clock": 10})),
+           proc("p3", {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3}), (2, "ns/sim/clock", {"ns/sim/clock": 10})))
     v = settle(now, BASE, includes)
-    assert v.short == frozenset({3}) and len(v.excess) == 1 and "ns/sim/cmd" in v.excess[0]
+    assert v.short == frozenset({"p3"}) and len(v.excess) == 1 and "ns/sim/cmd" in v.excess[0]
 
 
 def test_a_delivery_nobody_counted_as_put_cannot_be_judged() -> None:
     # a put from outside the barrier (a person's tool): counts cannot say whether anything is still on its way
-    now = BASE[:2] + (proc(3, {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3, "ns/eddie/inbox/x": 1}),
+    now = BASE[:2] + (proc("p3", {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3, "ns/eddie/inbox/x": 1}),
                            (2, "ns/sim/clock", {"ns/sim/clock": 10})),)
     v = settle(now, BASE, includes)
     assert not v.quiet and v.excess and "ns/eddie/inbox/x" in v.excess[0]
 
 
 def test_a_process_or_subscription_new_since_the_base_counts_from_zero() -> None:
-    now = (*BASE[:2], proc(3, {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3}), (2, "ns/sim/clock", {"ns/sim/clock": 10}),
+    now = (*BASE[:2], proc("p3", {}, (1, "ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 3}), (2, "ns/sim/clock", {"ns/sim/clock": 10}),
                            (4, "ns/x/**", {"ns/x/y": 2})),
-           proc(4, {"ns/x/y": 2}))
+           proc("p4", {"ns/x/y": 2}))
     assert settle(now, BASE, includes).quiet
 
 

@@ -82,3 +82,25 @@ def test_the_registry_counts_puts_and_deliveries_but_not_the_barriers_keys() -> 
     assert [(s.expr, dict(s.delivered)) for s in snap.subs] == [("ns/eddie/inbox/*", {"ns/eddie/inbox/nav": 1})]
     r.close(sub)
     assert r.snapshot().subs == ()
+
+
+def _child_proc(q) -> None:
+    from wire.channel_counts import registry
+    q.put(registry.proc)
+
+
+def test_a_process_is_known_by_its_pid_and_a_token_drawn_again_in_a_forked_child() -> None:
+    import multiprocessing
+    import os
+
+    from wire.channel_counts import registry
+
+    mine = registry.proc
+    assert mine == registry.proc and mine.startswith(f"{os.getpid()}-")
+    ctx = multiprocessing.get_context("fork")
+    q = ctx.Queue()
+    p = ctx.Process(target=_child_proc, args=(q,))
+    p.start()
+    theirs = q.get(timeout=30)
+    p.join(30)
+    assert theirs != mine and theirs.startswith(f"{p.pid}-")

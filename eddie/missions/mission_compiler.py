@@ -58,6 +58,10 @@ LANDMARK_RADIUS_M = 12.0
 #: How far into a step its first gates sit [m] (a gate under the start would fire at the first cycle anyway).
 FIRST_GATE_M = 1.0
 _INTERSECTIONS = ("turn-at-intersection", "go-through-intersection")
+#: How far before stairs fast obstacle detection is switched off [m]: obstacle stop's reach along the path
+#: (`eddie.obstacle_stop.ObstacleStopConfig.stop_distance_m`, 15 m) and a margin. Risers are what the laser sees of
+#: stairs; without this the vehicle stood at their foot, held for "something 4.5 m ahead on the path" (issue 37).
+STAIRS_OBSTACLE_LEAD_M = 17.0
 
 
 class CompiledMission(BaseModel):
@@ -124,6 +128,7 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
         line = shapely.LineString(pts)
         width = max(p.width for p in plans)
         sp = f"s{k + 1}"
+        step_first = len(out)
         straights = [p for p in plans if p.mode not in _INTERSECTIONS]
         first_speed = slow if plans[0].mode in _INTERSECTIONS else cruise
         if speed_now != first_speed:
@@ -154,6 +159,7 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
                                                 vision=intersections == "vision"))
                 speed_now = cruise
             seg_index += 1
+        out[step_first:] = _stairs_without_obstacle_stop(sp, line, plans, starts, width, out[step_first:])
         goal = route.goal_xy
         obj, obj_xy = destination_object(m, step.destination.place, goal)
         at = destination_point(goal, obj_xy, list(line.coords))  # beside the object, if any
@@ -171,6 +177,32 @@ def compile_mission(mission: Mission, m: "MapData", *, vehicle: str | None = Non
                                     "next_id": routes[j + 1].id if j + 1 < len(routes) else None})
                for j, r in enumerate(routes)]
     return CompiledMission(mission=mission.name, map_name=m.name, vehicle=veh, annotations=tuple(chained + out))
+
+
+def _stairs_without_obstacle_stop(sp: str, line: shapely.LineString, plans, starts: list[float], width: float,
+                                  step: list[Annotation]) -> list[Annotation]:
+    """Return a step's triggers `step` with fast obstacle detection off from `STAIRS_OBSTACLE_LEAD_M` [m] before each
+    climb-stairs segment to its top: a stop gate there, a start gate at the top, and any start gate of the step in
+    between left out (an intersection just before the stairs would switch detection on again at its exit)."""
+    out = list(step)
+    for i, p in enumerate(plans):
+        if p.mode != "climb-stairs":
+            continue
+        s_entry = starts[i]
+        s_exit = s_entry + shapely.LineString(p.coords).length
+        s_off = min(max(s_entry - STAIRS_OBSTACLE_LEAD_M, FIRST_GATE_M + 0.5), s_entry)
+        out = [a for a in out if not (a.type == "start_obstacles" and s_off <= _gate_s(line, a) <= s_exit)]
+        out.append(trigger(f"{sp}.stairs{i + 1}.stop_obstacles", "stop_obstacles", gate(line, s_off, width), ObstacleDetection(on=False),
+                           "stop fast obstacle detection before the stairs (their risers are no obstacle)"))
+        out.append(trigger(f"{sp}.stairs{i + 1}.start_obstacles", "start_obstacles", gate(line, s_exit, width), ObstacleDetection(on=True),
+                           "restart fast obstacle detection at the top of the stairs"))
+    return out
+
+
+def _gate_s(line: shapely.LineString, a: Annotation) -> float:
+    """Return the arc length [m] along `line` of gate annotation `a`'s middle."""
+    pts = a.location.points
+    return float(line.project(shapely.Point(sum(x for x, _ in pts) / len(pts), sum(y for _, y in pts) / len(pts))))
 
 
 def compile_mission_files(mission_path: str | Path, map_path: str | Path, *, vehicle: str | None = None,

@@ -89,3 +89,31 @@ def test_vision_through_intersections_replaces_dead_reckoning() -> None:
     types = [a.type for a in c.annotations]
     assert types.count("vision_through_intersection") == 4
     assert "dead_reckon_intersection" not in types and "resume_vision" not in types
+
+
+def test_fast_obstacle_detection_is_off_from_well_before_the_stairs_to_their_top(tmp_path) -> None:
+    # a generated campus whose route climbs the stairs (issue 37): with detection on, EDDIE's obstacle stop held the
+    # vehicle at their foot for "something 4.5 m ahead on the path" (the risers) until the mission failed
+    from vehicle_sim.generated.campus import generate, write
+
+    write(generate(0), tmp_path)
+    cm = compile_mission_files(str(tmp_path / "campus_0.yaml"), str(tmp_path / "campus_0.map.geojson"))
+    segs = [open_trigger_data(a.data) for a in cm.annotations if a.type == "route"]
+    stairs = [s for s in segs if s.mode == "climb-stairs"]
+    assert len(stairs) == 1
+    db = AnnotationDatabase(cm.annotations)
+    w = TriggerWalker(db)
+    route = shapely.LineString([p for s in segs for p in s.points])
+    foot, top = (route.project(shapely.Point(*stairs[0].points[i])) for i in (0, -1))
+    on = False  # detection, as the walk fires its gates
+    state_at: list[tuple[float, bool]] = []
+    for d in [i * 0.25 for i in range(int(route.length / 0.25) + 1)]:
+        p = route.interpolate(d)
+        for e in w.advance(p.x, p.y):
+            if e.kind == "fired" and e.annotation.type in ("start_obstacles", "stop_obstacles"):
+                on = e.annotation.type == "start_obstacles"
+        state_at.append((d, on))
+    # off from obstacle stop's reach (15 m) before the foot to the top; on again after the top
+    assert all(not on for d, on in state_at if foot - 15.0 <= d <= top - 0.5), "detection on where it sees the risers"
+    assert any(on for d, on in state_at if d > top + 1.0)
+    assert any(on for d, on in state_at if d < foot - 20.0)

@@ -74,12 +74,10 @@ from typing import Any, Callable
 import msgpack
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-import zenoh
-
 from wire.channel_counts import ChannelCounts, SubCounts, registry as channel_registry, settle
 from wire.errors import PayloadError, WireError
 from wire.keys import LockstepKeys
-from wire.session import Session, gets_in_flight, own_traffic
+from wire.session import Session, gets_in_flight, key_includes, own_traffic
 from wire.timemode import LOCKSTEP_ENV, lockstep_enabled, lockstep_env
 
 __all__ = [
@@ -561,7 +559,7 @@ class Barrier:
         hit = self._includes.get((expr, key))
         if hit is None:
             try:
-                hit = zenoh.KeyExpr(expr).includes(zenoh.KeyExpr(key))
+                hit = key_includes(expr, key)
             except Exception:  # noqa: BLE001 - not a key expression: no channel (an excess falls back to two waves)
                 hit = False
             self._includes[(expr, key)] = hit

@@ -32,7 +32,7 @@ from wire.timemode import lockstep_enabled
 
 __all__ = [
     "Session", "Query", "Reply", "Sample", "Publisher", "open_session", "secure_hint", "session_stats", "traffic", "barrier_traffic", "is_json_payload",
-    "gets_in_flight", "lockstep_topology", "own_traffic",
+    "gets_in_flight", "key_includes", "lockstep_topology", "own_traffic",
 ]
 
 _JSON = zenoh.Encoding.APPLICATION_JSON
@@ -114,6 +114,11 @@ class _InFlight:
 
 
 _in_flight = _InFlight()
+
+
+def key_includes(expr: str, key: str) -> bool:
+    """Return whether key expression `expr` includes key `key` (a subscription on `expr` receives puts on `key`)."""
+    return zenoh.KeyExpr(expr).includes(zenoh.KeyExpr(key))
 
 
 def gets_in_flight() -> int:

@@ -2,13 +2,8 @@
 
 from __future__ import annotations
 
-import zenoh
-
 from wire.channel_counts import ChannelCounts, Registry, SubCounts, settle
-
-
-def includes(expr: str, key: str) -> bool:
-    return zenoh.KeyExpr(expr).includes(zenoh.KeyExpr(key))
+from wire.session import key_includes as includes
 
 
 def proc(pid: str, puts: dict[str, int] | None = None, *subs: tuple[int, str, dict[str, int]]) -> ChannelCounts:

@@ -10,7 +10,8 @@ OUT    ?= runs/latest
 venv: $(STAMP)
 
 $(STAMP): pyproject.toml
-	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	@# a venv cut short (no pip: its creation was interrupted) is made again, not reused
+	$(PY) -m pip --version >/dev/null 2>&1 || $(PYTHON) -m venv --clear $(VENV)
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[dev]'
 	@# compile the simulator's ray caster once into numba's on-disk cache (else the first capture of each new build pays seconds)

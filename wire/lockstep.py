@@ -616,7 +616,7 @@ class Barrier:
         by_channels = base is not None
         only: list[str] | None = None  # the participants the next wave asks alone (None: everyone)
         targeted = 0
-        own = channel_registry.snapshot()
+        settled: tuple[ChannelCounts, ...] | None = None  # the counts a quiet verdict by channels was drawn from
         while not self._closed and not (stop is not None and stop.is_set()):
             if only is None:
                 silent = set(self.silent())
@@ -668,6 +668,7 @@ class Barrier:
                         log.debug("lockstep: step %d not decided by channel counts: %s", step, "; ".join(verdict.excess[:3]))
                     elif verdict is not None and verdict.quiet:
                         quiet = True
+                        settled = procs
                         self.stats.by_channels += 1
                         answered = tuple(sorted(latest))
                         reports = latest
@@ -710,8 +711,9 @@ class Barrier:
         self._baseline = {n: reports[n].sent for n in answered} if whole else None
         self._channel_base = None
         if whole and all(reports[n].channels is not None for n in answered):
-            procs, _ = self._processes({n: reports[n] for n in answered}, channel_registry.snapshot())
-            self._channel_base = (frozenset(answered), procs)
+            if settled is None:
+                settled, _ = self._processes({n: reports[n] for n in answered}, channel_registry.snapshot())
+            self._channel_base = (frozenset(answered), settled)
         wall = time.monotonic() - t0
         st = self.stats
         st.steps += 1
